@@ -1,0 +1,33 @@
+# trimd: every target creates/reuses .venv with the machine's python3.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test bench lint install clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+# The full trim procedure on the simulated Sabertooth with 10 kg at AftSB: the terminal UI
+# when a terminal is attached, headless progress otherwise.
+demo: $(STAMP)
+	$(BIN)/trimd demo
+
+lint: $(STAMP)
+	$(BIN)/ruff check trimd drivers replay tests bench
+	$(BIN)/mypy
+
+test: lint
+	$(BIN)/python -m pytest
+
+bench: $(STAMP)
+	$(BIN)/python -m bench
+
+clean:
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,100 @@
+"""Dynamic identification on the simulated vehicle: fit time per stage on 10 min of 50 Hz
+data beside one forward simulation of the same data, the accuracy of every parameter of
+method.md §5 against the simulator's truth (beside the thesis's estimate for the
+Sabertooth), and the validation NRMSE per output on 2 held-out minutes."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import time
+
+import numpy as np
+
+from drivers.sim.config import SimConfig
+from drivers.sim.link import SimLink
+from drivers.sim.vehicle import SimVehicle
+from trimd.cmd_identify import run_experiment
+from trimd.excitation import design_signal
+from trimd.excite import Excite
+from trimd.identify import fit_stage, validate
+from trimd.identify_data import Experiment, experiments_from_samples
+from trimd.identify_model import STAGES, prior_values
+from trimd.profile import Profile, load_profile
+
+FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
+VALIDATE_S = 120.0
+
+#: method.md §5: thesis estimates of the Sabertooth parameters (simulation).
+THESIS = {"X_u": -117.8, "Y_v": -289.1, "X_u|u|": -280.7, "Y_v|v|": -979.3,
+          "X_udot": 416.4, "Y_vdot": 307.5, "N_r": -4356, "N_r|r|": -2417,
+          "I_z+N_rdot": 1534.3, "Z_w": -0.91, "Z_w|w|": -5320, "M_q": -245.5,
+          "M_q|q|": -105040, "Z_wdot": 828.7, "I_y+M_qdot": 3314.8, "K_p": -1065,
+          "K_p|p|": -1054, "I_x+K_pdot": 376.2}
+#: method.md §5: which stage the thesis assigns each parameter to.
+TABLE = {"uvr": ("X_u", "Y_v", "X_u|u|", "Y_v|v|", "X_udot", "Y_vdot", "N_r", "N_r|r|",
+                 "I_z+N_rdot"),
+         "uwq": ("Z_w", "Z_w|w|", "Z_wdot", "M_q", "M_q|q|", "I_y+M_qdot"),
+         "uvwpqr": ("K_p", "K_p|p|", "I_x+K_pdot")}
+THESIS_NRMSE = {"uvr": "u 95, v 87, r 77", "uwq": "u 57, w 69, q 84",
+                "uvwpqr": "u 52, v 41, w -25, p 82, q 81, r 80"}
+
+
+def _record(profile: Profile, stage: str, duration: float, seed: int) -> list[Experiment]:
+    sig = design_signal(profile, stage, duration_s=duration, seed=seed,
+                        depth_excursion_m=50.0)
+    vehicle = SimVehicle(profile, SimConfig(seed=seed, dvl=True, depth_m=100.0,
+                                            attitude_hz=50.0, thrusters_hz=50.0,
+                                            velocity_hz=50.0, depth_hz=50.0))
+    excite = Excite(profile, sig, confirmed=True, depth_excursion_m=50.0)
+    result, samples = asyncio.run(run_experiment(SimLink(vehicle), profile, excite))
+    if not result.phase.final or result.cause:
+        raise RuntimeError(f"excitation failed: {result.reason}")
+    return experiments_from_samples(samples, profile, label=f"{stage} seed {seed}")
+
+
+def _stage(profile: Profile, stage: str) -> None:
+    fit_data = _record(profile, stage, FIT_S, 11)
+    val_data = _record(profile, stage, VALIDATE_S, 12)
+    t0 = time.perf_counter()
+    fit = fit_stage(fit_data, profile, stage)
+    t_fit = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    validate(fit.values(), fit_data, profile, stage)
+    t_sim = time.perf_counter() - t0
+    n = sum(len(e.t_s) for e in fit_data)
+    print(f"  {stage}: fit {t_fit:6.1f} s on {n * fit_data[0].h_s / 60:.1f} min "
+          f"({fit.nfev} simulations); one forward simulation of the same data "
+          f"{t_sim:5.2f} s; ratio {t_fit / t_sim:5.1f}")
+    truth = prior_values(profile)
+    shown = TABLE[stage] if profile.name.startswith("sabertooth") else STAGES[stage].free_names
+    for name in shown:
+        p = fit[name]
+        tv = truth[name]
+        err = (f"{100 * (p.value - tv) / tv:+7.2f} %" if tv else "   (zero)")
+        share = abs(p.value - tv) * fit.share.get(name, np.nan)
+        thesis = f"  thesis {THESIS[name]:>9.5g}" if name in THESIS and \
+            profile.name.startswith("sabertooth") else ""
+        print(f"    {name:<12} truth {tv:>10.5g}  estimate {p.value:>10.5g} ± "
+              f"{p.std:8.2g}  error {err}  share of DOF {100 * share:5.2f} %{thesis} "
+              f"{p.note}")
+    for w in fit.warnings:
+        print(f"    warning: {w}")
+    for v in validate(fit.values(), val_data, profile, stage):
+        fits = ", ".join(f"{o} {x:.1f}" for o, x in zip(v.outputs, v.nrmse, strict=True))
+        print(f"    validation NRMSE %: {fits}   (thesis: {THESIS_NRMSE[stage]})")
+
+
+def main() -> None:
+    for name in ("sabertooth-dh2", "bluerov2-heavy"):
+        profile = load_profile(name)
+        print(f"{name}: {FIT_S:g} s of 50 Hz data per stage, default noise, DVL on")
+        for stage in STAGES:
+            try:
+                _stage(profile, stage)
+            except RuntimeError as exc:   # an experiment the envelope stopped
+                print(f"  {stage}: {exc}")
+
+
+if __name__ == "__main__":
+    main()

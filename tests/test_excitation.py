@@ -1,0 +1,92 @@
+"""Excitation signal design and the excite state machine's safety rules."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from trimd.excitation import design_signal
+from trimd.excite import Excite
+from trimd.identify_model import STAGES
+from trimd.procedure import Abort, Confirm, Phase, Tick
+from trimd.profile import Profile
+from trimd.samples import Attitude, Depth, Health, OpenLoop, Release
+
+
+@pytest.mark.parametrize("stage", list(STAGES))
+@pytest.mark.parametrize("kind", ["multistep", "prbs", "doublet"])
+def test_signal_moves_only_the_stage_axes_within_limits(sabertooth: Profile, stage: str,
+                                                       kind: str) -> None:
+    sig = design_signal(sabertooth, stage, kind=kind, duration_s=120.0, seed=4)
+    assert np.all(np.abs(sig.levels) <= 1.0)
+    moving = {i for i in range(6) if np.ptp(sig.levels[:, i]) > 0}
+    assert moving == set(STAGES[stage].axes)
+    assert sig.at(500.0) == sig.offsets
+
+
+def test_velocity_axes_have_a_nonzero_mean_and_several_levels(sabertooth: Profile) -> None:
+    sig = design_signal(sabertooth, "uvr", duration_s=600.0, seed=1)
+    durations = np.diff(np.r_[sig.t_s, sig.duration_s])
+    for axis in (0, 1, 5):
+        x = sig.levels[:, axis]
+        mean = float(np.sum(x * durations) / sig.duration_s)
+        assert mean > 0.1 * np.max(np.abs(x))
+        assert len(np.unique(np.round(np.abs(x), 6))) >= 3
+
+
+def test_doublets_keep_position_axes_balanced(bluerov: Profile) -> None:
+    sig = design_signal(bluerov, "uwq", duration_s=300.0, seed=2)
+    durations = np.diff(np.r_[sig.t_s, sig.duration_s])
+    heave = sig.levels[:, 2] - sig.offsets[2]
+    # each doublet returns: the net impulse is a small part of the total
+    assert abs(np.sum(heave * durations)) < 0.1 * np.sum(np.abs(heave) * durations)
+
+
+def _ready(e: Excite, t: float = 0.0) -> list[object]:
+    out: list[object] = []
+    for k in range(200):
+        s = t + 0.02 * k
+        out += e.step(Health(s, True, "MANUAL", True))
+        out += e.step(Depth(s, 10.0))
+        out += e.step(Attitude(s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    return out
+
+
+def test_no_command_before_confirmation_then_inputs(sabertooth: Profile) -> None:
+    sig = design_signal(sabertooth, "uvr", duration_s=10.0, seed=0)
+    e = Excite(sabertooth, sig)
+    out = _ready(e)
+    assert e.phase is Phase.CONFIRM
+    assert not [o for o in out if isinstance(o, OpenLoop | Release)]
+    started = e.step(Confirm())
+    assert e.progress.phase is Phase.COLLECT
+    assert isinstance(started[-1], OpenLoop)
+    assert started[-1].axes == sig.at(0.0)
+
+
+@pytest.mark.parametrize("event, cause", [
+    (Attitude(5.0, math.radians(31.0), 0.0, 0.0, 0.0, 0.0, 0.0), "envelope"),
+    (Depth(5.0, 16.0), "envelope"),
+    (Health(5.0, False, "", False), "link"),
+    (Tick(10.0), "link"),
+    (Abort("stop"), "operator"),
+])
+def test_every_failure_releases(sabertooth: Profile, event: object, cause: str) -> None:
+    sig = design_signal(sabertooth, "uwq", duration_s=60.0, seed=0)
+    e = Excite(sabertooth, sig, confirmed=True, depth_excursion_m=5.0)
+    _ready(e, 0.0)
+    assert e.phase is Phase.COLLECT
+    out = e.step(event)  # type: ignore[arg-type]
+    assert e.phase.final and e.cause == cause
+    assert isinstance(out[0], Release)
+
+
+def test_completes_and_releases(sabertooth: Profile) -> None:
+    sig = design_signal(sabertooth, "uvr", duration_s=2.0, seed=0)
+    e = Excite(sabertooth, sig, confirmed=True)
+    out = _ready(e)
+    out += e.step(Attitude(10.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    assert e.phase is Phase.DONE
+    assert any(isinstance(o, Release) for o in out)

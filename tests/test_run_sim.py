@@ -1,0 +1,108 @@
+"""Integration: the full procedure headless against the in-process simulated vehicle.
+
+Accuracy targets of the procedure issue, with the simulator's default noise; and the
+`milp` proposal, put on the simulated vehicle, must leave it level with thrusters off.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivers import open_link
+from drivers.sim.config import SimConfig
+from drivers.sim.vehicle import SimVehicle
+from trimd.ballast import Proposal, propose_ballast
+from trimd.cli import main
+from trimd.estimate import StaticEstimate
+from trimd.procedure import Phase
+from trimd.profile import Profile, load_profile
+from trimd.session import Session, SessionResult
+
+# (profile, payload, seed, |x_g|/|y_g| limit [m], z_g limit [m], m_ext limit [kg])
+CASES = [
+    ("sabertooth-dh2", "10@AftSB", 0, 1e-3, 3e-3, 0.2),
+    ("sabertooth-dh2", "6@0.5,-0.45,0.25", 1, 1e-3, 3e-3, 0.2),
+    ("bluerov2-heavy", "0.4@W-aft-stbd", 2, 3e-3, 5e-3, 0.1),
+    ("bluerov2-heavy", "0.3@0.05,0.1,-0.1", 3, 3e-3, 5e-3, 0.1),
+]
+
+
+def trim(profile: Profile, payload: str, seed: int) -> tuple[SessionResult, SimVehicle]:
+    async def go() -> tuple[SessionResult, SimVehicle]:
+        link = await open_link(f"sim:payload={payload},seed={seed}", profile)
+        session = Session(link, profile, recorder=None, presenters=[], confirmed=True,
+                          propose=lambda est: propose_ballast(est, profile, method="milp"))
+        return await session.run(), link.vehicle  # type: ignore[attr-defined]
+    return asyncio.run(go())
+
+
+def ballast_payload(proposal: Proposal, profile: Profile) -> str:
+    """The proposal as simulator payload items: net kg down at each slot (negative: lift)."""
+    items = [f"{s.net_down_N / profile.gravity_m_s2:.6f}@{s.name}" for s in proposal.slots
+             if abs(s.net_down_N) > 0]
+    return "+".join(items)
+
+
+def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
+    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling."""
+    vehicle = SimVehicle(profile, SimConfig(payload=payload, armed=False, mode="MANUAL",
+                                            noise=0.0, depth_m=20.0))
+    vehicle.run_for(150.0)
+    angles = []
+    for _ in range(300):
+        vehicle.run_for(0.1)
+        angles.append(vehicle.truth.eta[3:5])
+    return np.degrees(np.mean(angles, axis=0))
+
+
+@pytest.mark.parametrize(("name", "payload", "seed", "xy_tol", "z_tol", "m_tol"), CASES)
+def test_trim_on_the_simulated_vehicle(name: str, payload: str, seed: int, xy_tol: float,
+                                       z_tol: float, m_tol: float) -> None:
+    profile = load_profile(name)
+    result, vehicle = trim(profile, payload, seed)
+    assert result.phase is Phase.DONE, result.reason
+    est: StaticEstimate = result.estimate  # type: ignore[assignment]
+    truth = vehicle.truth
+    err = est.r_g_m - np.asarray(truth.mass.r_g)
+    assert np.all(np.abs(err[:2]) < xy_tol), err
+    assert abs(err[2]) < z_tol, err
+    assert abs(est.m_ext_kg - truth.m_ext_kg) < m_tol
+    proposal: Proposal = result.proposal
+    assert proposal.method == "milp"
+    before = passive_attitude_deg(profile, payload)
+    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
+    assert np.max(np.abs(before)) > 1.0  # the payload really tilted it
+    assert np.all(np.abs(after) < 0.5), (before, after)
+
+
+def test_demo_headless_prints_estimate_proposal_and_truth(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "demo.tlog"
+    assert main(["demo", "--headless", "--record", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert "extra mass m_ext" in out and "ballast by milp" in out
+    assert "simulator truth: payload 10@AftSB" in out
+    assert log.stat().st_size > 10_000
+
+
+def test_run_json_lines(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["run", "--link", "sim:payload=0.4@W-front-stbd,seed=9", "--profile",
+                 "bluerov2-heavy", "--headless", "--yes", "--json", "--no-record"])
+    assert code == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    result = lines[-1]
+    assert result["type"] == "result"
+    assert abs(result["estimate"]["m_ext_kg"] - 0.4) < 0.1
+    assert result["proposal"]["method"] == "milp"
+
+
+def test_unknown_link_is_a_link_error(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["run", "--link", "udp:127.0.0.1:14550", "--profile", "bluerov2-heavy",
+                 "--headless", "--yes", "--no-record"])
+    assert code == 3
+    assert "did you mean 'mavlink:udp:127.0.0.1:14550'" in capsys.readouterr().err

@@ -1,0 +1,167 @@
+"""The session: procedure + link + recorder + presenters, with a fake in-process link."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import json
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+
+from tests.conftest import payload_truth
+from tests.fake_vehicle import FakeLink, FakeVehicle
+from trimd.headless import HeadlessPresenter
+from trimd.procedure import Notice, Output, Phase, Progress
+from trimd.profile import Profile
+from trimd.samples import Command, HoldAttitude, Release, Sample
+from trimd.session import Session
+
+
+class ListRecorder:
+    path = "memory"
+
+    def __init__(self) -> None:
+        self.samples: list[Sample] = []
+        self.commands: list[tuple[float, Command]] = []
+        self.notices: list[Notice] = []
+        self.closed = False
+
+    def sample(self, sample: Sample) -> Sample:
+        self.samples.append(sample)
+        return sample
+
+    def raw(self, t_s: float, packet: bytes) -> None:
+        raise AssertionError("a fake link has no raw packets")
+
+    def command(self, t_s: float, command: Command) -> None:
+        self.commands.append((t_s, command))
+
+    def notice(self, notice: Notice) -> None:
+        self.notices.append(notice)
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class Exploding:
+    def output(self, out: Output, progress: Progress) -> None:
+        raise RuntimeError("presenter bug")
+
+    def sample(self, sample: Sample, progress: Progress) -> None:
+        raise RuntimeError("presenter bug")
+
+
+@pytest.fixture
+def link(sabertooth: Profile) -> FakeLink:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    return FakeLink(FakeVehicle(sabertooth, W, r_g))
+
+
+def run(session: Session, *, after: float | None = None, then: Any = None) -> Any:
+    async def main() -> Any:
+        task = asyncio.create_task(session.run())
+        if after is not None:
+            await asyncio.sleep(after)
+            then()
+        return await task
+    return asyncio.run(main())
+
+
+def test_session_runs_to_a_result_and_cleans_up(sabertooth: Profile, link: FakeLink) -> None:
+    recorder = ListRecorder()
+    out = io.StringIO()
+    session = Session(link, sabertooth, recorder=recorder, confirmed=True,
+                      presenters=[Exploding(), HeadlessPresenter(out, json_lines=True)])
+    result = run(session)
+    assert result.phase is Phase.DONE, result.reason
+    assert abs(result.estimate.m_ext_kg - 10.0) < 0.05
+    assert isinstance(link.sent[0], HoldAttitude) and isinstance(link.sent[-1], Release)
+    assert link.closed and recorder.closed
+    assert recorder.samples[0].t_s == 0.0  # session time starts at the first sample
+    lines = [json.loads(line) for line in out.getvalue().splitlines()]
+    assert lines[-1]["type"] == "result"
+    assert lines[-1]["estimate"]["m_ext_kg"] == pytest.approx(result.estimate.m_ext_kg)
+    assert {"state", "progress", "command"} <= {line["type"] for line in lines}
+
+
+def test_operator_abort_releases(sabertooth: Profile, link: FakeLink) -> None:
+    link.vehicle.stuck_at_deg = 5.0  # keeps the session running until the abort
+    session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)
+    result = run(session, after=0.5, then=session.abort)
+    assert result.phase is Phase.ABORTED
+    assert isinstance(link.sent[-1], Release)
+
+
+def test_link_that_goes_quiet_is_lost_and_released(sabertooth: Profile, link: FakeLink) -> None:
+    link.hang_at = 40.0
+    session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)
+    result = run(session)
+    assert result.phase is Phase.FAILED and "link lost" in result.reason
+    assert isinstance(link.sent[-1], Release) and link.closed
+
+
+def test_link_that_ends_fails_the_session(sabertooth: Profile, link: FakeLink) -> None:
+    link.end_at = 20.0
+    session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)
+    result = run(session)
+    assert result.phase is Phase.FAILED and "the link closed" in result.reason
+    assert isinstance(link.sent[-1], Release)
+
+
+def test_waits_for_confirmation_then_commands(sabertooth: Profile, link: FakeLink) -> None:
+    session = Session(link, sabertooth, recorder=None, presenters=[])
+
+    async def main() -> Any:
+        task = asyncio.create_task(session.run())
+        while session.procedure.phase is not Phase.CONFIRM:
+            await asyncio.sleep(0.01)
+        assert link.sent == []
+        session.confirm()
+        return await task
+    result = asyncio.run(main())
+    assert result.phase is Phase.DONE
+
+
+def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None:
+    from dataclasses import replace
+
+    from trimd.samples import Attitude
+
+    class Silent:
+        description = "silent"
+        sent: ClassVar[list[Command]] = []
+
+        async def samples(self) -> Any:
+            await asyncio.sleep(0.05)
+            yield Attitude(0.0, 0, 0, 0, 0, 0, 0)  # no heartbeat: the session never starts
+            await asyncio.sleep(3600)
+
+        async def send(self, command: Command) -> None:
+            self.sent.append(command)
+
+        async def close(self) -> None:
+            return None
+
+    quick = replace(sabertooth, procedure=replace(sabertooth.procedure, connect_timeout_s=0.5))
+    result = run(Session(Silent(), quick, recorder=None, presenters=[], confirmed=True))
+    assert result.phase is Phase.FAILED and result.cause == "link"
+    assert "no heartbeat from the vehicle within 0.5 s" in result.reason
+    assert Silent.sent == []
+
+
+def test_headless_prints_each_link_warning_once() -> None:
+    from trimd.procedure import Procedure
+    from trimd.profile import load_profile
+    from trimd.samples import Health
+
+    out = io.StringIO()
+    presenter = HeadlessPresenter(out)
+    progress = Procedure(load_profile("bluerov2-heavy")).progress
+    for t in (1.0, 2.0):
+        presenter.sample(Health(t, True, "MANUAL", True, detail="MOT_1_DIRECTION is -1; x"),
+                         progress)
+    lines = out.getvalue().splitlines()
+    assert lines == ["[     1.0 s] warning: MOT_1_DIRECTION is -1",
+                     "[     1.0 s] warning: x"]

@@ -1,0 +1,143 @@
+"""The TUI driven by Textual's pilot over a session on FakeLink: the whole procedure,
+method switching, the report, abort mid-hold, quitting."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+from textual.message import Message
+
+from drivers import open_link
+from tests.fake_vehicle import FakeLink
+from tests.tui_helpers import app_for, never_times_out, thesis_vehicle, until
+from trimd.ballast import METHODS, propose_ballast
+from trimd.procedure import Phase
+from trimd.profile import Profile
+from trimd.samples import HoldAttitude, Release
+from trimd.tui.help_screen import HelpScreen
+from trimd.tui.messages import NoticeReceived, TelemetryChanged
+from trimd.tui.quit_screen import QuitScreen
+from trimd.tui.result_panel import ResultPanel
+from trimd.tui.stepper import Stepper
+
+
+def _phase(app: object) -> Phase | None:
+    progress = app.query_one(Stepper).progress  # type: ignore[attr-defined]
+    return None if progress is None else progress.phase
+
+
+@pytest.mark.asyncio
+async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path: Path) -> None:
+    link = FakeLink(thesis_vehicle(sabertooth))
+    app = app_for(sabertooth, link, confirmed=False, tmp_path=tmp_path)
+    seen: list[Message] = []
+    async with app.run_test(size=(80, 24), message_hook=seen.append) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        assert link.sent == []  # nothing commanded before the operator confirms
+        await pilot.press("s")
+        await until(pilot, lambda: app.result is not None, timeout_s=40)
+        result = app.result
+        assert result is not None and result.phase is Phase.DONE, result
+        assert isinstance(link.sent[0], HoldAttitude) and isinstance(link.sent[-1], Release)
+        panel = app.query_one(ResultPanel)
+        assert panel.estimate is result.estimate
+        assert panel.method == "milp" and panel.proposal is result.proposal
+        assert app.has_class("-result")  # the result replaces the live view
+
+        for method in (*METHODS[:-1], "milp"):  # lp, line, general, back to milp
+            await pilot.press("m")
+            await until(pilot, lambda m=method: panel.method == m and not panel.busy)
+            assert panel.proposal is not None and panel.proposal.method == method
+            expected = propose_ballast(result.estimate, sabertooth, method=method)
+            got = [(s.name, s.weight_kg, s.float_kg) for s in panel.proposal.slots]
+            assert got == [(s.name, s.weight_kg, s.float_kg) for s in expected.slots]
+        assert panel.proposal is result.proposal  # milp again: the kept one, not recomputed
+
+        await pilot.press("r")
+        await pilot.pause()
+        md, js = tmp_path / "trimd-sabertooth-dh2.md", tmp_path / "trimd-sabertooth-dh2.json"
+        report = json.loads(js.read_text())
+        assert report["estimate"]["m_ext_kg"] == pytest.approx(result.estimate.m_ext_kg)
+        assert report["proposal"]["method"] == "milp"
+        assert report["status"].startswith("done")
+        assert any("release control" in e["text"] for e in report["events"])
+        assert "## Ballast proposal (milp)" in md.read_text()
+
+        await pilot.press("q")  # the session is over: quits without asking
+        await pilot.pause()
+    assert app.return_value is result
+    notices = [m.notice.kind for m in seen if isinstance(m, NoticeReceived)]
+    assert notices.count("result") == 1 and "state" in notices
+    assert sum(isinstance(m, TelemetryChanged) for m in seen) > 100
+
+
+@pytest.mark.asyncio
+async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile) -> None:
+    link = await open_link("sim:payload=10@AftSB,seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=False)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        await pilot.press("s")
+        await until(pilot, lambda: app.result is not None, timeout_s=60)
+        result = app.result
+        assert result is not None and result.phase is Phase.DONE, result
+        assert abs(result.estimate.m_ext_kg - 10.0) < 0.2  # issue 6's tolerance
+        panel = app.query_one(ResultPanel)
+        assert panel.proposal is result.proposal and result.proposal.feasible
+        await pilot.press("m")
+        await until(pilot, lambda: panel.method == "lp" and not panel.busy)
+        assert panel.proposal is not None and panel.proposal.method == "lp"
+
+
+@pytest.mark.asyncio
+async def test_abort_mid_hold_from_the_help_screen_releases_at_once(
+        sabertooth: Profile) -> None:
+    profile = never_times_out(sabertooth)
+    link = FakeLink(thesis_vehicle(profile, stuck_at_deg=5.0))  # hold 2 never settles
+    app = app_for(profile, link, confirmed=True)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.SETTLE and len(link.sent) == 2)
+        await pilot.press("question_mark")
+        assert isinstance(app.screen, HelpScreen)
+        pressed_at = link.t
+        await pilot.press("a")  # abort is available on every screen
+        await until(pilot, lambda: app.result is not None)
+        assert app.result is not None and app.result.phase is Phase.ABORTED
+        assert app.result.reason == "aborted by the operator"
+        t_release, last = link.vehicle.commands[-1]
+        assert isinstance(last, Release) and t_release - pressed_at < 0.5  # sample time
+        assert _phase(app) is Phase.ABORTED
+
+
+@pytest.mark.asyncio
+async def test_quit_while_running_asks_and_aborts_first(sabertooth: Profile) -> None:
+    profile = never_times_out(sabertooth)
+    link = FakeLink(thesis_vehicle(profile, stuck_at_deg=5.0))  # runs until aborted
+    app = app_for(profile, link, confirmed=True)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.SETTLE)
+        await pilot.press("q")
+        assert isinstance(app.screen, QuitScreen)
+        await pilot.press("n")
+        assert not isinstance(app.screen, QuitScreen) and app.result is None
+        await pilot.press("q")
+        await pilot.press("y")
+        await until(pilot, lambda: app.result is not None)
+        await pilot.pause()
+    assert app.return_value is not None and app.return_value.phase is Phase.ABORTED
+    assert isinstance(link.sent[-1], Release)
+
+
+@pytest.mark.asyncio
+async def test_closing_the_app_mid_hold_still_releases(sabertooth: Profile) -> None:
+    link = FakeLink(thesis_vehicle(sabertooth, stuck_at_deg=5.0))
+    app = app_for(sabertooth, link, confirmed=True)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.SETTLE)
+        app.exit()
+    assert isinstance(link.sent[-1], Release) and link.closed
+    assert app.result is not None and app.result.reason == "the terminal UI closed"
+    assert not math.isnan(app.state.t_s)

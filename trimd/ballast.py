@@ -1,0 +1,326 @@
+"""Ballast proposal: what to put in which slot so the vehicle floats level, unpowered.
+
+Four methods (method.md §4, ``docs/ballast.md``), all working from the net quantities
+the measurement determines, q = [W − B, W·r_g − B·r_b]:
+
+* ``lp`` — ideal weights only, least added mass, exactly level (thesis eq. 3.4/3.5);
+* ``line`` — the thesis's geometric method (:mod:`trimd.ballast_line`);
+* ``general`` — ideal weights and floats, slot limits, buoyancy ≥ weight (eq. 3.6/3.7);
+* ``milp`` — the profile's real pieces, slot capacities, inventory counts, the
+  net-buoyancy window; level within a tolerance with the fewest pieces, then the least
+  added mass (:mod:`trimd.ballast_lp`).
+
+When the requirement cannot be met the proposal is the best achievable one (the window
+first, then the least residual moment) with ``feasible`` False and the limits that bind
+named. Every proposal is checked by physics (:mod:`trimd.ballast_check`): combined
+weight, buoyancy and centres, and the passive equilibrium attitude with its uncertainty.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from trimd.ballast_check import SlotLoad, Trim, check_trim
+from trimd.ballast_line import line_split
+from trimd.ballast_lp import (
+    Item,
+    build_programme,
+    ideal_items,
+    piece_items,
+    solve_programme,
+)
+from trimd.errors import DataError, ProfileError
+from trimd.estimate import StaticEstimate
+from trimd.profile import Profile
+
+__all__ = [
+    "METHODS",
+    "Proposal",
+    "SlotLoad",
+    "Trim",
+    "format_proposal",
+    "proposal_to_dict",
+    "propose_ballast",
+]
+
+FloatArray = NDArray[np.float64]
+METHODS = ("lp", "line", "general", "milp")
+#: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
+_EXACT_RAD = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Proposal:
+    """A ballast proposal and its physics check (scipy OptimizeResult-like).
+
+    Attributes
+    ----------
+    method : ``lp``, ``line``, ``general`` or ``milp``.
+    success : False only when the solver itself failed (then nothing is proposed).
+    feasible : the proposal meets the method's requirement: level (within
+        ``level_tol_deg``) and net buoyancy inside ``window_pct`` where enforced.
+    message : a plain statement of the result, and of what limits it when not feasible.
+    binding : the limits that are active (a full slot, a used-up piece, a window edge)
+        or, when the vehicle cannot be levelled and none is, the cause.
+    slots : what goes in every slot of the profile, in profile order.
+    trim : the vehicle with the ballast added (combined W, B, centres, passive attitude).
+    level_tol_deg : the level requirement (0: exactly level).
+    window_pct : the enforced net-buoyancy window [% of weight], None when not enforced.
+    """
+
+    method: str
+    success: bool
+    feasible: bool
+    message: str
+    binding: tuple[str, ...]
+    slots: tuple[SlotLoad, ...]
+    trim: Trim
+    level_tol_deg: float
+    window_pct: tuple[float, float] | None
+
+    @property
+    def added_mass_kg(self) -> float:
+        """Dry mass of everything added [kg]."""
+        return sum(s.mass_kg for s in self.slots)
+
+    @property
+    def trim_std_deg(self) -> tuple[float, float]:
+        """1σ of the predicted passive (roll, pitch) [deg] from the estimate's covariance."""
+        return (self.trim.roll_std_deg, self.trim.pitch_std_deg)
+
+
+def _setup(method: str, profile: Profile, level_tol_deg: float
+           ) -> tuple[list[Item], float, tuple[float, float] | None]:
+    """Items, level tolerance [deg] and net-buoyancy window [%] of a method."""
+    if method in ("lp", "line"):
+        return ideal_items(profile, floats=False), 0.0, None
+    if method == "general":
+        return ideal_items(profile, floats=True), 0.0, (0.0, math.inf)
+    if method == "milp":
+        return piece_items(profile), level_tol_deg, profile.net_buoyancy_pct
+    raise ValueError(f"unknown ballast method {method!r} (methods: {', '.join(METHODS)})")
+
+
+def _check_inputs(estimate: StaticEstimate, profile: Profile) -> None:
+    """DataError for a non-finite estimate, ProfileError for another vehicle's estimate."""
+    if not (np.all(np.isfinite(estimate.q)) and np.all(np.isfinite(estimate.q_cov))):
+        raise DataError("the estimate's net force, moments or covariance are not finite")
+    same = (math.isclose(estimate.buoyancy_N, profile.buoyancy_N, rel_tol=1e-6)
+            and math.isclose(estimate.gravity_m_s2, profile.gravity_m_s2, rel_tol=1e-9)
+            and np.allclose(estimate.r_b_m, profile.r_b_m, rtol=0.0, atol=1e-9))
+    if not same:
+        raise ProfileError(
+            f"{profile.source}: the estimate was solved with B = {estimate.buoyancy_N:.2f} N at "
+            f"r_b = {np.round(estimate.r_b_m, 4).tolist()} m, g = {estimate.gravity_m_s2}; "
+            f"profile '{profile.name}' has B = {profile.buoyancy_N:.2f} N at r_b = "
+            f"{list(profile.r_b_m)} m, g = {profile.gravity_m_s2}: wrong profile?")
+
+
+def _line_amounts(estimate: StaticEstimate, profile: Profile, items: list[Item]
+                  ) -> tuple[FloatArray | None, str]:
+    """Item amounts of the line method, or None and why it cannot be used."""
+    amounts = np.zeros(len(items))
+    xy = np.array([profile.slots[it.slot].position_m[:2] for it in items]).reshape(-1, 2)
+    split = line_split(estimate.q[1:3], xy, profile.gravity_m_s2)
+    if split is None:
+        if np.hypot(*estimate.q[1:3]) == 0.0:
+            return amounts, ""
+        return None, ("line: no segment between two weight slots lies opposite the centre of "
+                      "gravity; best weights-only proposal (as lp) instead. ")
+    for k, kg in zip(split.slots, split.masses_kg, strict=True):
+        room = profile.slots[items[k].slot].max_weight_kg
+        if kg > room * (1 + 1e-9):
+            return None, (f"line: the lever rule needs {kg:.3f} kg at "
+                          f"{profile.slots[items[k].slot].name} (capacity {room:g} kg); best "
+                          "weights-only proposal (as lp) instead. ")
+        amounts[k] = kg
+    return amounts, ""
+
+
+def _slot_loads(profile: Profile, items: list[Item], amounts: FloatArray
+                ) -> tuple[SlotLoad, ...]:
+    g = profile.gravity_m_s2
+    loads = []
+    for i, s in enumerate(profile.slots):
+        mine = [(it, float(u)) for it, u in zip(items, amounts, strict=True) if it.slot == i]
+        mass = sum(it.mass_kg * u for it, u in mine)
+        buoyancy = sum(it.buoyancy_N * u for it, u in mine)
+        loads.append(SlotLoad(
+            s.name, s.position_m,
+            weight_kg=sum(it.capacity_kg * u for it, u in mine if it.kind == "weight"),
+            float_kg=sum(it.capacity_kg * u for it, u in mine if it.kind == "float"),
+            mass_kg=mass, buoyancy_N=buoyancy, net_down_N=mass * g - buoyancy,
+            pieces=tuple((it.piece, round(u)) for it, u in mine
+                         if it.piece is not None and u > 0)))
+    return tuple(loads)
+
+
+def _active_limits(profile: Profile, items: list[Item], amounts: FloatArray) -> list[str]:
+    """Slot capacities with no room left for another unit, and used-up inventory."""
+    out = []
+    for i, s in enumerate(profile.slots):
+        for kind, room, unit in (("weight", s.max_weight_kg, "kg"),
+                                 ("float", s.max_float_kg, "kgf")):
+            mine = [(it, u) for it, u in zip(items, amounts, strict=True)
+                    if (it.slot, it.kind) == (i, kind)]
+            if not mine:
+                continue
+            step = min(it.capacity_kg if it.count is not None else 1e-6 for it, _ in mine)
+            if room - sum(it.capacity_kg * u for it, u in mine) < step - 1e-9:
+                out.append(f"{s.name} {kind} capacity ({room:g} {unit})")
+    for p in profile.inventory:
+        used = sum(u for it, u in zip(items, amounts, strict=True) if it.piece == p.name)
+        if p.count > 0 and used >= p.count:
+            out.append(f"inventory: all {p.count} × {p.name} used")
+    return out
+
+
+def _window_state(trim: Trim, window: tuple[float, float] | None) -> tuple[bool, list[str]]:
+    """Whether the net buoyancy is inside the window, and the edges that bind."""
+    if window is None:
+        return True, []
+    pct, (lo, hi) = trim.net_buoyancy_pct, window
+    low = "buoyancy ≥ weight" if lo == 0 and math.isinf(hi) else f"net buoyancy ≥ {lo:g} %"
+    edges = [name for name, hit in ((low, pct <= lo + 1e-6), (f"net buoyancy ≤ {hi:g} %",
+                                                             pct >= hi - 1e-6)) if hit]
+    return lo - 1e-6 <= pct <= hi + 1e-6, edges
+
+
+def _level_cause(method: str, trim: Trim, items: list[Item]) -> str:
+    """Why the vehicle cannot be levelled when no slot, piece or window limit is active."""
+    if trim.net_moment_Nm[2] <= 0:
+        return "static stability: the centre of gravity is not below the centre of buoyancy"
+    if not items:
+        return "no slot takes the ballast this method uses"
+    if method in ("lp", "line"):
+        return "weights only: the counter-moment needs weight where no slot is (or a float)"
+    if method == "milp":
+        return "piece sizes: no combination of the inventory's pieces levels closer"
+    return "slot positions: no slot combination gives the counter-moment"
+
+
+def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list[Item],
+            amounts: FloatArray, level_tol_deg: float, window: tuple[float, float] | None,
+            note: str = "", success: bool = True) -> Proposal:
+    """Physics check, feasibility, binding limits and the message of a proposal."""
+    loads = _slot_loads(profile, items, amounts)
+    trim = check_trim(estimate, loads, profile.gravity_m_s2)
+    m = trim.net_moment_Nm
+    t = math.tan(math.radians(level_tol_deg)) + _EXACT_RAD
+    level = bool(m[2] > 0 and max(abs(m[0]), abs(m[1])) <= t * m[2])
+    in_window, edges = _window_state(trim, window)
+    binding = _active_limits(profile, items, amounts) + edges
+    if not level and not binding:
+        binding.append(_level_cause(method, trim, items))
+    feasible = success and level and in_window
+    result = (f"passive roll {trim.roll_deg:+.3f}° ± {trim.roll_std_deg:.3f}°, pitch "
+              f"{trim.pitch_deg:+.3f}° ± {trim.pitch_std_deg:.3f}°, net buoyancy "
+              f"{trim.net_buoyancy_N:+.2f} N ({trim.net_buoyancy_pct:+.2f} % of weight)")
+    if feasible:
+        message = f"{note}{method}: {result}"
+    else:
+        unmet = [w for w, ok in (("level", level), ("the net-buoyancy window", in_window))
+                 if not ok]
+        message = (f"{note}{method}: cannot meet {' and '.join(unmet) or 'the requirement'}; "
+                   f"best achievable: {result}; limited by: {'; '.join(binding)}")
+    return Proposal(method, success, feasible, message, tuple(binding), loads, trim,
+                    level_tol_deg, window)
+
+
+def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "milp", *,
+                    level_tol_deg: float = 0.25) -> Proposal:
+    """Propose ballast for ``estimate`` on ``profile`` by ``method`` (see :data:`METHODS`).
+
+    Parameters
+    ----------
+    estimate : the static estimate (its net quantities q and covariance q_cov are used).
+    profile : the vehicle the estimate was made on: slots, inventory, window.
+    method : ``lp``, ``line``, ``general`` or ``milp``.
+    level_tol_deg : for ``milp``, the largest passive roll or pitch accepted [deg]; the
+        continuous methods level exactly.
+
+    Returns
+    -------
+    Proposal : never raises for infeasible or degenerate physics: the best achievable
+        proposal comes back with ``feasible`` False and the binding limits named.
+
+    Raises
+    ------
+    ValueError : unknown method.  DataError : non-finite estimate.
+    ProfileError : the estimate was made with another profile's buoyancy or gravity.
+    """
+    items, tol, window = _setup(method, profile, level_tol_deg)
+    _check_inputs(estimate, profile)
+    note, amounts = "", None
+    if method == "line":
+        amounts, note = _line_amounts(estimate, profile, items)
+    if amounts is None:
+        prog = build_programme(estimate, profile, items, level_tol_deg=tol, window_pct=window)
+        sol = solve_programme(prog)
+        if not sol.success:
+            return _assess(method, estimate, profile, items, sol.amounts, tol, window,
+                           f"{sol.message}; nothing proposed. ", success=False)
+        amounts = sol.amounts
+    return _assess(method, estimate, profile, items, amounts, tol, window, note)
+
+
+def proposal_to_dict(p: Proposal) -> dict[str, Any]:
+    """JSON-ready dict (the ``trimd ballast --json`` shape; units in the key names).
+
+    ``predicted_trim_std_deg`` is [roll, pitch] 1σ; ``pieces`` maps piece name to count.
+    """
+    t = p.trim
+    return {
+        "method": p.method,
+        "slots": [{"name": s.name, "position_m": list(s.position_m), "weight_kg": s.weight_kg,
+                   "float_kg": s.float_kg, "mass_kg": s.mass_kg, "pieces": dict(s.pieces),
+                   "net_down_N": s.net_down_N} for s in p.slots],
+        "added_mass_kg": p.added_mass_kg,
+        "net_buoyancy_N": t.net_buoyancy_N,
+        "net_buoyancy_pct": t.net_buoyancy_pct,
+        "net_buoyancy_std_N": t.net_buoyancy_std_N,
+        "predicted_roll_deg": t.roll_deg,
+        "predicted_pitch_deg": t.pitch_deg,
+        "predicted_trim_std_deg": list(p.trim_std_deg),
+        "weight_N": t.weight_N,
+        "buoyancy_N": t.buoyancy_N,
+        "cg_m": t.r_g_m.tolist(),
+        "cb_m": t.r_b_m.tolist(),
+        "net_moment_Nm": t.net_moment_Nm.tolist(),
+        "level_tol_deg": p.level_tol_deg,
+        "net_buoyancy_window_pct": None if p.window_pct is None else list(p.window_pct),
+        "feasible": p.feasible,
+        "success": p.success,
+        "binding": list(p.binding),
+        "message": p.message,
+    }
+
+
+def format_proposal(p: Proposal) -> str:
+    """A readable table: the loaded slots, added mass, net buoyancy, passive attitude."""
+    status = "feasible" if p.feasible else "NOT FEASIBLE: best achievable"
+    lines = [f"ballast by {p.method}: {status}",
+             f"{'slot':<14}{'x m':>8}{'y m':>8}{'z m':>8}{'weight kg':>11}{'float kgf':>11}"
+             f"{'net down N':>12}  pieces"]
+    for s in p.slots:
+        if s.mass_kg or s.buoyancy_N:
+            pieces = ", ".join(f"{n} × {name}" for name, n in s.pieces)
+            lines.append(f"{s.name:<14}{s.position_m[0]:8.3f}{s.position_m[1]:8.3f}"
+                         f"{s.position_m[2]:8.3f}{s.weight_kg:11.3f}{s.float_kg:11.3f}"
+                         f"{s.net_down_N:12.2f}  {pieces}")
+    t = p.trim
+    lines += [
+        f"added mass        {p.added_mass_kg:.3f} kg",
+        f"net buoyancy      {t.net_buoyancy_N:+.2f} ± {t.net_buoyancy_std_N:.2f} N "
+        f"({t.net_buoyancy_pct:+.2f} % of weight)",
+        f"passive roll      {t.roll_deg:+.3f} ± {t.roll_std_deg:.3f}°",
+        f"passive pitch     {t.pitch_deg:+.3f} ± {t.pitch_std_deg:.3f}°",
+        f"binding           {'; '.join(p.binding) or 'none'}",
+        p.message,
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,54 @@
+"""``trimd ballast --profile P --estimate EST.json [--method M] [--json]``: propose ballast."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
+from trimd.errors import DataError
+from trimd.estimate import StaticEstimate
+from trimd.estimate_io import estimate_from_dict
+from trimd.profile import load_profile
+
+__all__ = ["read_estimate", "register", "run"]
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "ballast", help="propose ballast from an estimate (trimd solve --json)",
+        description="Propose what to put in which ballast slot so the vehicle floats level "
+        "and slightly positive with no thruster effort, and check it by physics "
+        "(see docs/ballast.md).")
+    p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--estimate", required=True, help="EST.json written by trimd solve --json")
+    p.add_argument("--method", choices=METHODS, default="milp",
+                   help="lp, line, general or milp (default: milp, the real pieces)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def read_estimate(path: str | Path) -> StaticEstimate:
+    """The estimate in ``path``; DataError naming the file for anything unusable."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
+    try:
+        return estimate_from_dict(json.loads(text), str(path))
+    except DataError:
+        raise
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: not valid JSON ({exc})") from None
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
+                        "the output of trimd solve --json") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    profile = load_profile(args.profile)
+    proposal = propose_ballast(read_estimate(args.estimate), profile, args.method)
+    print(json.dumps(proposal_to_dict(proposal)) if args.json else format_proposal(proposal))
+    return 0

@@ -1,0 +1,157 @@
+"""``trimd excite`` (an open-loop excitation experiment, recorded) and ``trimd identify``
+(the grey-box fit of recorded experiments, :mod:`trimd.identify`).
+
+Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error, 3 link error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import signal
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from trimd.errors import DataError
+from trimd.excitation import KINDS, design_signal
+from trimd.excite import Excite
+from trimd.identify import FitOptions, StageFit, Validation, fit_stage, validate
+from trimd.identify_data import Experiment, experiments_from_samples
+from trimd.identify_model import STAGES
+from trimd.identify_report import best_values, format_fit, profile_fragment, summary_dict
+from trimd.procedure import Notice, Output, Phase, Progress
+from trimd.profile import Profile, load_profile
+from trimd.samples import Sample
+from trimd.session import Session, SessionResult
+
+__all__ = ["SampleCollector", "read_log", "register", "run_excite", "run_identify"]
+
+
+def register(sub: Any) -> None:
+    e: argparse.ArgumentParser = sub.add_parser(
+        "excite", help="run an open-loop excitation experiment for identification",
+        description="Drive the axes of one identification stage open loop with a designed "
+        "signal (docs/identification.md), recorded like any session. Commands the vehicle "
+        "only after confirmation; releases it on any failure.")
+    e.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | …")
+    e.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    e.add_argument("--stage", required=True, choices=tuple(STAGES))
+    e.add_argument("--signal", choices=KINDS, default="multistep")
+    e.add_argument("--amplitude", type=float, default=0.6, help="largest input (0, 1]")
+    e.add_argument("--duration", type=float, default=120.0, help="seconds of excitation")
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--max-depth-excursion", type=float, default=5.0, metavar="M",
+                   help="abort beyond this depth change from the start [m]")
+    e.add_argument("--yes", action="store_true", help="confirm up front")
+    e.add_argument("--record", metavar="PATH", help="session log (.tlog)")
+    e.set_defaults(func=run_excite)
+    i: argparse.ArgumentParser = sub.add_parser(
+        "identify", help="fit the dynamic model to recorded excitation experiments",
+        description="Grey-box output-error fit of one stage (docs/identification.md).")
+    i.add_argument("logs", nargs="+", metavar="LOG", help="recorded sessions (.tlog)")
+    i.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    i.add_argument("--stage", choices=tuple(STAGES), default="uvwpqr")
+    i.add_argument("--validate", nargs="+", default=[], metavar="LOG",
+                   help="held-out sessions for the NRMSE fit")
+    i.add_argument("--segment", type=float, default=FitOptions.segment_s, metavar="S",
+                   help="simulation horizon of each segment [s]")
+    i.add_argument("--out", metavar="DIR", help="write fragment.yaml and summary.json here")
+    i.set_defaults(func=run_identify)
+
+
+class SampleCollector:
+    """A session presenter that keeps every sample (as recorded) and prints state notices."""
+
+    def __init__(self, quiet: bool = False) -> None:
+        self.samples: list[Sample] = []
+        self.quiet = quiet
+
+    def output(self, out: Output, progress: Progress) -> None:
+        if isinstance(out, Notice) and not self.quiet:
+            print(f"[{out.t_s:8.1f} s] {out.text}", flush=True)
+
+    def sample(self, sample: Sample, progress: Progress) -> None:
+        self.samples.append(sample)
+
+
+async def run_experiment(link: Any, profile: Profile, excite: Excite, *,
+                         recorder: Any = None, quiet: bool = True
+                         ) -> tuple[SessionResult, list[Sample]]:
+    """Run ``excite`` over ``link`` in a :class:`Session`; the result and every sample."""
+    collector = SampleCollector(quiet)
+    session = Session(link, profile, recorder=recorder, presenters=[collector],
+                      procedure=excite)
+    return await session.run(), collector.samples
+
+
+def run_excite(args: argparse.Namespace) -> int:
+    from drivers import open_link
+    from replay.recorder import TlogRecorder
+
+    profile = load_profile(args.profile)
+    if not args.yes:
+        raise DataError("trimd excite drives the vehicle open loop: pass --yes to confirm")
+    sig = design_signal(profile, args.stage, kind=args.signal, amplitude=args.amplitude,
+                        duration_s=args.duration, seed=args.seed,
+                        depth_excursion_m=args.max_depth_excursion)
+    excite = Excite(profile, sig, confirmed=True, depth_excursion_m=args.max_depth_excursion)
+
+    async def go() -> SessionResult:
+        link = await open_link(args.link, profile)
+        recorder = (TlogRecorder(args.record, profile,
+                                 Path(profile.source).read_text(encoding="utf-8"))
+                    if args.record else None)
+        collector = SampleCollector()
+        session = Session(link, profile, recorder=recorder, presenters=[collector],
+                          procedure=excite)
+        loop = asyncio.get_running_loop()
+        for sig_no in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig_no, session.abort, f"stopped by {sig_no.name}")
+        return await session.run()
+
+    result = asyncio.run(go())
+    if result.phase is not Phase.DONE:
+        print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+    if result.log_path:
+        print(f"session log: {result.log_path}", file=sys.stderr)
+    return 0 if result.phase is Phase.DONE else (3 if result.cause == "link" else 1)
+
+
+def read_log(path: str, profile: Profile) -> list[Experiment]:
+    """The experiments of a recorded ``.tlog`` (replay.tlog + drivers.mavlink_decode)."""
+    from drivers.mavlink_decode import MavlinkDecoder
+    from replay.tlog import TlogReader
+
+    try:
+        reader = TlogReader.open(path)
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
+    samples = list(reader.samples(MavlinkDecoder.for_profile(profile)))
+    return experiments_from_samples(samples, profile, label=Path(path).name)
+
+
+def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
+    return [e for p in paths for e in read_log(p, profile)]
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    profile = load_profile(args.profile)
+    fit: StageFit = fit_stage(_load(args.logs, profile), profile, args.stage,
+                              FitOptions(segment_s=args.segment))
+    validations: list[Validation] = []
+    for e in _load(args.validate, profile):
+        validations += validate(fit.values(), [e], profile, args.stage)
+    print(format_fit(fit, validations))
+    fragment = profile_fragment(best_values([fit]), profile)
+    print("\n" + fragment)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
+        (out / "summary.json").write_text(json.dumps(
+            summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
+        print(f"wrote {out / 'fragment.yaml'} and {out / 'summary.json'}", file=sys.stderr)
+    return 0

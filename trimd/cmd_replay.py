@@ -1,0 +1,136 @@
+"""``trimd replay PATH``: feed a recording through the same pipeline as a live session.
+
+* A trimd recording carries its profile; replaying it runs the same procedure over the
+  recorded samples and reproduces the live estimate and proposal exactly.
+* A foreign log (QGroundControl / MAVProxy ``.tlog``, ArduSub DataFlash ``.bin``) needs
+  ``--profile``; trimd reports what the log holds and estimates from the steady attitude
+  holds it finds. A log without holds ends with that statement and exit code 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from replay.link import ReplayLink, recorded_profile_yaml
+from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
+from trimd.cmd_inspect import format_report, inspect_log
+from trimd.cmd_solve import format_estimate
+from trimd.errors import DataError, EstimationError
+from trimd.estimate import StaticEstimate, estimate_static
+from trimd.headless import HeadlessPresenter
+from trimd.holdfile import TAU_COLUMNS, HoldFile, holds_from_table
+from trimd.model import tau_from_pwm
+from trimd.procedure import Phase
+from trimd.profile import Profile, load_profile, parse_profile
+from trimd.resample import zoh_align
+from trimd.samples import Attitude, Battery, Sample, Thrusters
+from trimd.session import Session, SessionResult
+
+__all__ = ["register", "replay_session", "run"]
+
+#: Thruster outputs older than this [s] are not held onto an attitude sample.
+MAX_OUTPUT_AGE_S = 1.0
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "replay", help="replay a recorded session or analyse a vehicle log",
+        description="Replay a trimd recording through the procedure (same result as live), "
+        "or find steady attitude holds in a foreign .tlog / DataFlash .bin log.")
+    p.add_argument("path", help="a .tlog or DataFlash .bin file")
+    p.add_argument("--profile", help="vehicle profile (a trimd recording carries its own)")
+    pace = p.add_mutually_exclusive_group()
+    pace.add_argument("--speed", type=float, help="pace at this many times real time")
+    pace.add_argument("--fast", action="store_true", help="as fast as possible (default)")
+    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+    p.set_defaults(func=run)
+
+
+def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
+    """The profile to use and whether the log is a trimd recording."""
+    text = recorded_profile_yaml(path)
+    if name:
+        return load_profile(name), text is not None
+    if text is None:
+        raise DataError(f"{path}: not a trimd recording, so it carries no profile: "
+                        "pass --profile")
+    return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
+
+
+async def replay_session(path: str, profile: Profile, *, speed: float | None,
+                         presenters: list[Any], method: str) -> tuple[SessionResult, ReplayLink]:
+    """Run the trim procedure over a recording; return its result and the link."""
+    link = ReplayLink(path, profile, speed=speed)
+
+    def propose(estimate: StaticEstimate) -> Any:
+        return propose_ballast(estimate, profile, method=method)
+
+    session = Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
+                      propose=propose)
+    return await session.run(), link
+
+
+def _table(samples: list[Sample], profile: Profile, name: str) -> HoldFile:
+    """Attitude with τ from the zero-order-held thruster outputs, as a hold table."""
+    att = [s for s in samples if isinstance(s, Attitude)]
+    thr = [s for s in samples if isinstance(s, Thrusters)]
+    if not att or not thr:
+        raise DataError(f"{name}: no attitude or no thruster outputs to estimate from")
+    t = np.array([a.t_s for a in att])
+    pwm = zoh_align(t, [s.t_s for s in thr], [s.pwm_us for s in thr],
+                    max_age_s=MAX_OUTPUT_AGE_S)
+    batt = [s for s in samples if isinstance(s, Battery)]
+    volts = (zoh_align(t, [b.t_s for b in batt], [b.voltage_V for b in batt]).values
+             if batt else np.full(len(t), np.nan))
+    ok = pwm.valid
+    tau = np.array([tau_from_pwm(profile, p, v if np.isfinite(v) else None)
+                    for p, v in zip(pwm.values[ok], volts[ok], strict=True)]).reshape(-1, 6)
+    columns = {"time_s": t[ok], "roll_deg": np.degrees([a.phi for a in att])[ok],
+               "pitch_deg": np.degrees([a.theta for a in att])[ok]}
+    columns |= {c: tau[:, k] for k, c in enumerate(TAU_COLUMNS)}
+    return HoldFile(name, columns)
+
+
+def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:
+    report = inspect_log(path, profile)
+    print(format_report(report))
+    if not report["holds"]:
+        return 1
+    link = ReplayLink(path, profile)
+    samples = list(link.read_samples())
+    try:
+        est = estimate_static(holds_from_table(_table(samples, profile, path), profile),
+                              profile)
+    except (EstimationError, DataError) as exc:
+        print(f"trimd: cannot estimate from this log: {exc}", file=sys.stderr)
+        return 1
+    print("\n" + format_estimate(est))
+    print("\n" + format_proposal(propose_ballast(est, profile, method=args.ballast)))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    path = str(args.path)
+    if not Path(path).is_file():
+        raise DataError(f"{path}: no such file")
+    profile, recording = _profile(path, args.profile)
+    if not recording:
+        return _analyse_foreign(path, profile, args)
+    presenter = HeadlessPresenter(json_lines=args.json, proposal_text=format_proposal,
+                                  proposal_dict=proposal_to_dict)
+    result, link = asyncio.run(replay_session(
+        path, profile, speed=args.speed, presenters=[presenter], method=args.ballast))
+    for warning in link.warnings:
+        print(f"trimd: warning: {warning}", file=sys.stderr)
+    if result.phase is not Phase.DONE:
+        print(f"trimd: replay ended {result.phase.value}: {result.reason}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,457 @@
+"""Vehicle profiles: validated, immutable descriptions of a vehicle (``profiles/*.yaml``).
+
+Every quantity is SI and every YAML key carries its unit (``mass_kg``, ``position_m``).
+Positions are in the body frame FRD with the origin at CG0, the centre of gravity of the
+nominal (balanced) vehicle. The schema is documented in ``docs/profile.md``; a problem is
+reported as one :class:`~trimd.errors.ProfileError` naming the file, the key path and
+what was expected.
+"""
+
+from __future__ import annotations
+
+import difflib
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from trimd.errors import ProfileError
+
+__all__ = [
+    "BallastPiece",
+    "BallastSlot",
+    "HoldSetpoint",
+    "Procedure",
+    "Profile",
+    "ThrustCurve",
+    "ThrustTable",
+    "Thruster",
+    "load_profile",
+    "parse_profile",
+]
+
+Vec3 = tuple[float, float, float]
+Vec6 = tuple[float, float, float, float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class ThrustTable:
+    """Static thrust [N] against PWM [µs] at one battery voltage [V].
+
+    Inside ``deadband_us`` (inclusive) the thrust is zero; ``pwm_us`` is increasing.
+    """
+
+    voltage_V: float
+    deadband_us: tuple[float, float]
+    pwm_us: tuple[float, ...]
+    thrust_N: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ThrustCurve:
+    """A thruster model: one or more tables, interpolated linearly on battery voltage."""
+
+    name: str
+    tables: tuple[ThrustTable, ...]
+    neutral_us: float = 1500.0
+
+
+@dataclass(frozen=True, slots=True)
+class Thruster:
+    """One thruster. ``direction`` is the unit force direction (body FRD) of a positive
+    output (PWM above neutral); ``reversed`` flips it, as ArduSub's MOT_n_DIRECTION = -1."""
+
+    name: str
+    channel: int
+    position_m: Vec3
+    direction: Vec3
+    curve: ThrustCurve
+    reversed: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class BallastSlot:
+    """A place where ballast can be mounted (body FRD, metres) and how much it takes.
+
+    ``max_float_kg`` is the lift capacity of buoyant material, in kilograms-force.
+    """
+
+    name: str
+    position_m: Vec3
+    max_weight_kg: float
+    max_float_kg: float
+
+
+@dataclass(frozen=True, slots=True)
+class BallastPiece:
+    """A kind of ballast piece in the inventory (a lead block, a foam block).
+
+    Its net downward force in water is ``mass_kg·g − rho·g·volume_m3`` (negative: lift).
+    """
+
+    name: str
+    kind: Literal["weight", "float"]
+    mass_kg: float
+    volume_m3: float
+    count: int
+
+
+@dataclass(frozen=True, slots=True)
+class HoldSetpoint:
+    """An attitude the procedure holds: roll and pitch in degrees (for people)."""
+
+    roll_deg: float
+    pitch_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class Procedure:
+    """Limits and tolerances of the trim procedure; every time is in sample time [s]."""
+
+    max_tilt_deg: float
+    max_depth_excursion_m: float
+    attitude_tol_deg: float
+    rate_tol_deg_s: float
+    min_steady_s: float
+    settle_timeout_s: float
+    collect_max_s: float
+    connect_timeout_s: float
+    link_timeout_s: float
+    target_cg_std_m: float
+    target_m_ext_std_kg: float
+
+
+@dataclass(frozen=True, slots=True)
+class Profile:
+    """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED."""
+
+    name: str
+    source: str
+    mass_kg: float
+    gravity_m_s2: float
+    water_density_kg_m3: float
+    buoyancy_N: float
+    r_b_m: Vec3
+    inertia_kg_m2: Vec3
+    added_mass: Vec6
+    linear_damping: Vec6
+    quadratic_damping: Vec6
+    nominal_voltage_V: float
+    thrusters: tuple[Thruster, ...]
+    slots: tuple[BallastSlot, ...]
+    inventory: tuple[BallastPiece, ...]
+    net_buoyancy_pct: tuple[float, float]
+    holds: tuple[HoldSetpoint, ...]
+    procedure: Procedure
+    frame_config: int | None = None
+
+    @property
+    def weight_N(self) -> float:
+        """Weight of the nominal vehicle, m·g [N]."""
+        return self.mass_kg * self.gravity_m_s2
+
+    def slot(self, name: str) -> BallastSlot:
+        """The slot called ``name``; ProfileError listing the slots if there is none."""
+        for s in self.slots:
+            if s.name.lower() == name.lower():
+                return s
+        names = ", ".join(s.name for s in self.slots) or "none"
+        raise ProfileError(f"{self.source}: no ballast slot '{name}' (slots: {names})")
+
+
+class _Node:
+    """A YAML mapping with its key path, so every error names file and key."""
+
+    def __init__(self, data: Any, path: str, source: str) -> None:
+        if not isinstance(data, dict):
+            raise ProfileError(f"{source}: {path or '<top>'}: expected a mapping, got "
+                               f"{type(data).__name__}")
+        self.data: dict[str, Any] = data
+        self.path = path
+        self.source = source
+        self.used: set[str] = set()
+
+    def _key(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    def fail(self, key: str, what: str) -> ProfileError:
+        return ProfileError(f"{self.source}: {self._key(key)}: {what}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str, default: Any = ...) -> Any:
+        if key not in self.data:
+            if default is ...:
+                raise self.fail(key, "missing (required)")
+            return default
+        self.used.add(key)
+        return self.data[key]
+
+    def number(self, key: str, default: Any = ..., *, minimum: float | None = None,
+               positive: bool = False) -> float:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(
+                value):
+            raise self.fail(key, f"expected a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.fail(key, f"expected a positive number, got {value!r}")
+        if minimum is not None and value < minimum:
+            raise self.fail(key, f"expected a number >= {minimum}, got {value!r}")
+        return float(value)
+
+    def vector(self, key: str, n: int, default: Any = ...) -> tuple[float, ...]:
+        value = self.raw(key, default)
+        if not isinstance(value, list | tuple) or len(value) != n or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                for v in value):
+            raise self.fail(key, f"expected a list of {n} finite numbers, got {value!r}")
+        return tuple(float(v) for v in value)
+
+    def text(self, key: str, default: Any = ...) -> str:
+        value = self.raw(key, default)
+        if not isinstance(value, str) or not value:
+            raise self.fail(key, f"expected a non-empty string, got {value!r}")
+        return value
+
+    def child(self, key: str, default: Any = ...) -> _Node:
+        return _Node(self.raw(key, default), self._key(key), self.source)
+
+    def items(self, key: str, default: Any = ...) -> list[_Node]:
+        value = self.raw(key, default)
+        if not isinstance(value, list):
+            raise self.fail(key, f"expected a list, got {type(value).__name__}")
+        return [_Node(v, f"{self._key(key)}[{i}]", self.source) for i, v in enumerate(value)]
+
+    def done(self) -> None:
+        """Reject keys nobody read: a typo or a wrong unit suffix must not pass silently."""
+        for key in self.data:
+            if key not in self.used:
+                near = difflib.get_close_matches(str(key), self.used | _KNOWN_KEYS, n=1)
+                hint = f" (did you mean '{near[0]}'?)" if near else ""
+                raise self.fail(str(key), f"unknown key{hint}")
+
+
+_KNOWN_KEYS = {
+    "name", "description", "mass_kg", "gravity_m_s2", "water_density_kg_m3", "buoyancy",
+    "force_N", "volume_m3", "centre_m", "inertia_kg_m2", "added_mass", "damping", "linear",
+    "quadratic", "nominal_voltage_V", "thrust_curves", "thrusters", "ballast", "slots",
+    "inventory", "holds", "procedure", "frame_config", "channel", "position_m", "direction",
+    "curve", "reversed", "tables", "voltage_V", "deadband_us", "pwm_us", "thrust_N",
+    "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
+    "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
+    "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
+    "connect_timeout_s", "link_timeout_s", "target_cg_std_m", "target_m_ext_std_kg",
+    "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
+}
+
+_G_STD = 9.80665
+
+
+def _thrust_table(node: _Node) -> ThrustTable:
+    voltage = node.number("voltage_V", positive=True)
+    band = node.vector("deadband_us", 2)
+    pwm = node.raw("pwm_us")
+    n = len(pwm) if isinstance(pwm, list) else 0
+    pwm_us = node.vector("pwm_us", n)
+    if node.has("thrust_N"):
+        thrust = node.vector("thrust_N", n)
+    else:
+        thrust = tuple(v * _G_STD for v in node.vector("thrust_kgf", n))
+    if n < 2 or any(b <= a for a, b in itertools.pairwise(pwm_us)):
+        raise node.fail("pwm_us", "expected at least 2 strictly increasing PWM values")
+    if not band[0] <= band[1] or any(band[0] < p < band[1] for p in pwm_us):
+        raise node.fail("deadband_us", f"expected [low, high] with no table point inside, "
+                                       f"got {list(band)}")
+    node.done()
+    return ThrustTable(voltage, (band[0], band[1]), pwm_us, thrust)
+
+
+def _thrust_curve(name: str, node: _Node) -> ThrustCurve:
+    tables = tuple(sorted((_thrust_table(t) for t in node.items("tables")),
+                          key=lambda t: t.voltage_V))
+    if not tables:
+        raise node.fail("tables", "expected at least one table")
+    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0))
+    node.done()
+    return curve
+
+
+def _unit(node: _Node, key: str) -> Vec3:
+    d = node.vector(key, 3)
+    norm = math.sqrt(sum(v * v for v in d))
+    if abs(norm - 1.0) > 1e-3:
+        raise node.fail(key, f"expected a unit vector (norm 1), got norm {norm:.4f}")
+    return (d[0] / norm, d[1] / norm, d[2] / norm)
+
+
+def _thruster(node: _Node, curves: dict[str, ThrustCurve]) -> Thruster:
+    curve_name = node.text("curve")
+    if curve_name not in curves:
+        raise node.fail("curve", f"unknown thrust curve '{curve_name}' "
+                                 f"(defined: {', '.join(curves) or 'none'})")
+    channel = node.number("channel", minimum=1)
+    if channel != int(channel) or channel > 32:
+        raise node.fail("channel", f"expected an output channel 1..32, got {channel}")
+    reversed_ = node.raw("reversed", False)
+    if not isinstance(reversed_, bool):
+        raise node.fail("reversed", f"expected true or false, got {reversed_!r}")
+    t = Thruster(node.text("name"), int(channel), _vec3(node, "position_m"),
+                 _unit(node, "direction"), curves[curve_name], reversed_)
+    node.done()
+    return t
+
+
+def _vec3(node: _Node, key: str, default: Any = ...) -> Vec3:
+    v = node.vector(key, 3, default)
+    return (v[0], v[1], v[2])
+
+
+def _piece(node: _Node, rho: float, g: float) -> BallastPiece:
+    text = node.text("kind")
+    kinds: dict[str, Literal["weight", "float"]] = {"weight": "weight", "float": "float"}
+    if text not in kinds:
+        raise node.fail("kind", f"expected 'weight' or 'float', got {text!r}")
+    kind = kinds[text]
+    count = node.number("count", minimum=0)
+    if count != int(count):
+        raise node.fail("count", f"expected a whole number, got {count}")
+    piece = BallastPiece(node.text("name"), kind, node.number("mass_kg", minimum=0.0),
+                         node.number("volume_m3", minimum=0.0), int(count))
+    net = piece.mass_kg * g - rho * g * piece.volume_m3
+    if (kind == "weight") != (net > 0):
+        raise node.fail("volume_m3", f"a {kind} must {'sink' if kind == 'weight' else 'float'}"
+                                     f" in water; this one has net downward force {net:.3f} N")
+    node.done()
+    return piece
+
+
+def _procedure(node: _Node) -> Procedure:
+    p = Procedure(
+        max_tilt_deg=node.number("max_tilt_deg", positive=True),
+        max_depth_excursion_m=node.number("max_depth_excursion_m", 1.0, positive=True),
+        attitude_tol_deg=node.number("attitude_tol_deg", 1.0, positive=True),
+        rate_tol_deg_s=node.number("rate_tol_deg_s", 1.0, positive=True),
+        min_steady_s=node.number("min_steady_s", 10.0, positive=True),
+        settle_timeout_s=node.number("settle_timeout_s", 120.0, positive=True),
+        collect_max_s=node.number("collect_max_s", 120.0, positive=True),
+        connect_timeout_s=node.number("connect_timeout_s", 30.0, positive=True),
+        link_timeout_s=node.number("link_timeout_s", 3.0, positive=True),
+        target_cg_std_m=node.number("target_cg_std_m", 0.001, positive=True),
+        target_m_ext_std_kg=node.number("target_m_ext_std_kg", 0.05, positive=True),
+    )
+    if p.max_tilt_deg >= 60:
+        raise node.fail("max_tilt_deg", f"expected less than 60 degrees, got {p.max_tilt_deg}")
+    node.done()
+    return p
+
+
+def _named(node: _Node, key: str, keys: tuple[str, ...], read: Callable[[_Node, str], float]
+           ) -> tuple[float, ...]:
+    child = node.child(key)
+    values = tuple(read(child, k) for k in keys)
+    child.done()
+    return values
+
+
+def parse_profile(data: Any, source: str = "<profile>") -> Profile:
+    """Validate a profile already parsed from YAML; raise ProfileError on any problem."""
+    top = _Node(data, "", source)
+    g = top.number("gravity_m_s2", 9.81, positive=True)
+    rho = top.number("water_density_kg_m3", 1025.0, positive=True)
+    buoy = top.child("buoyancy")
+    if buoy.has("force_N") == buoy.has("volume_m3"):
+        raise buoy.fail("force_N", "give exactly one of force_N or volume_m3")
+    B = (buoy.number("force_N", positive=True) if buoy.has("force_N")
+         else rho * g * buoy.number("volume_m3", positive=True))
+    r_b = _vec3(buoy, "centre_m")
+    buoy.done()
+
+    def mag(n: _Node, k: str) -> float:
+        return n.number(k, minimum=0.0)
+
+    def neg(n: _Node, k: str) -> float:
+        v = n.number(k)
+        if v > 0:
+            raise n.fail(k, f"damping derivatives are negative (Fossen's sign), got {v}")
+        return v
+
+    added = _named(top, "added_mass", ("surge_kg", "sway_kg", "heave_kg", "roll_kg_m2",
+                                       "pitch_kg_m2", "yaw_kg_m2"), mag)
+    damping = top.child("damping")
+    dofs = ("surge", "sway", "heave", "roll", "pitch", "yaw")
+    linear = _named(damping, "linear", dofs, neg)
+    quadratic = _named(damping, "quadratic", dofs, neg)
+    damping.done()
+
+    curves_node = top.child("thrust_curves")
+    curves = {str(k): _thrust_curve(str(k), curves_node.child(str(k))) for k in curves_node.data}
+    thrusters = tuple(_thruster(t, curves) for t in top.items("thrusters"))
+    channels = [t.channel for t in thrusters]
+    if len(set(channels)) != len(channels):
+        raise top.fail("thrusters", f"two thrusters share an output channel: {channels}")
+
+    ballast = top.child("ballast")
+    slots = []
+    for s in ballast.items("slots"):
+        slots.append(BallastSlot(s.text("name"), _vec3(s, "position_m"),
+                                 s.number("max_weight_kg", minimum=0.0),
+                                 s.number("max_float_kg", minimum=0.0)))
+        s.done()
+    inventory = tuple(_piece(p, rho, g) for p in ballast.items("inventory", []))
+    window = ballast.vector("net_buoyancy_pct", 2, [0.3, 1.0])
+    if not 0 <= window[0] <= window[1]:
+        raise ballast.fail("net_buoyancy_pct", f"expected [low, high] with 0 <= low <= high, "
+                                               f"got {list(window)}")
+    ballast.done()
+
+    procedure = _procedure(top.child("procedure"))
+    holds = []
+    for h in top.items("holds", [{"roll_deg": 0, "pitch_deg": 0},
+                                 {"roll_deg": 20, "pitch_deg": 20}]):
+        hold = HoldSetpoint(h.number("roll_deg"), h.number("pitch_deg"))
+        for key, angle in (("roll_deg", hold.roll_deg), ("pitch_deg", hold.pitch_deg)):
+            if abs(angle) > procedure.max_tilt_deg:
+                raise h.fail(key, f"{angle}° is beyond procedure.max_tilt_deg "
+                                  f"({procedure.max_tilt_deg}°)")
+        h.done()
+        holds.append(hold)
+    frame = top.raw("frame_config", None)
+    if frame is not None and (not isinstance(frame, int) or isinstance(frame, bool)):
+        raise top.fail("frame_config", f"expected an ArduSub FRAME_CONFIG number, got {frame!r}")
+    top.raw("description", "")
+    profile = Profile(
+        name=top.text("name"), source=source,
+        mass_kg=top.number("mass_kg", positive=True), gravity_m_s2=g,
+        water_density_kg_m3=rho, buoyancy_N=B, r_b_m=r_b,
+        inertia_kg_m2=_vec3(top, "inertia_kg_m2"), added_mass=added,  # type: ignore[arg-type]
+        linear_damping=linear, quadratic_damping=quadratic,  # type: ignore[arg-type]
+        nominal_voltage_V=top.number("nominal_voltage_V", 16.0, positive=True),
+        thrusters=thrusters, slots=tuple(slots), inventory=inventory,
+        net_buoyancy_pct=(window[0], window[1]), holds=tuple(holds), procedure=procedure,
+        frame_config=frame,
+    )
+    top.done()
+    return profile
+
+
+def load_profile(path: str | Path) -> Profile:
+    """Load and validate ``path`` (a YAML file, or the name of a shipped profile)."""
+    p = Path(path)
+    if not p.exists() and not p.suffix:
+        shipped = Path(__file__).resolve().parent.parent / "profiles" / f"{p.name}.yaml"
+        if shipped.exists():
+            p = shipped
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ProfileError(f"{path}: cannot read profile ({exc.strerror})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ProfileError(f"{path}: not valid YAML: {exc}") from None
+    return parse_profile(data, str(p))
