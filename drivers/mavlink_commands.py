@@ -12,7 +12,10 @@ nothing of sockets:
 * HoldAttitude: ALT_HOLD (MAV_CMD_DO_SET_MODE), then SET_ATTITUDE_TARGET with the body-rate
   and throttle-ignore bits (type_mask 71) at 4 Hz, with neutral MANUAL_CONTROL at 10 Hz;
 * OpenLoop: MANUAL, then MANUAL_CONTROL with those axes at 10 Hz;
-* Release: stop both and restore the mode the operator had before trimd's first command;
+* Release: one last SET_ATTITUDE_TARGET at level (roll = pitch = 0, the hold's heading),
+  then stop both and restore the mode the operator had before trimd's first command.
+  ArduSub keeps honouring the last target for 5 s in ALT_HOLD, so merely falling silent
+  would leave the vehicle tilted for up to 5 s; the level target brings it back at once;
 * Arm: MAV_CMD_COMPONENT_ARM_DISARM;
 * link lost: stop commanding at once (a command must come again after a loss).
 
@@ -207,7 +210,9 @@ class Commander:
             _fail(done, f"not supported over MAVLink: {command!r}")
 
     def release(self, now: float) -> None:
-        """Stop targeting and pilot input; restore the operator's mode."""
+        """Level the vehicle, stop targeting and pilot input; restore the operator's mode."""
+        if self.target is not None:
+            self._send_target((0.0, 0.0, self.target[2]), now)
         self.target = None
         self.pilot = _NEUTRAL if self.options.pilot == "always" else None
         if self._mode_wanted is not None:
@@ -262,9 +267,7 @@ class Commander:
             return due["heartbeat"]
         sysid, compid = vehicle
         if self.target is not None and now >= due["target"]:
-            q = quaternion_from_euler(*self.target)
-            mav.set_attitude_target_send(round(now * 1000) & 0xFFFFFFFF, sysid, compid,
-                                         _TYPE_MASK, q, 0.0, 0.0, 0.0, 0.5)
+            self._send_target(self.target, now)
             due["target"] = now + HOLD_PERIOD_S
         if self.pilot is not None and now >= due["pilot"]:
             x, y, z, r, s, t, ext = self.pilot
@@ -281,6 +284,15 @@ class Commander:
         if self.pilot is not None:
             waits.append(due["pilot"])
         return min(waits)
+
+    def _send_target(self, target: tuple[float, float, float], now: float) -> None:
+        """SET_ATTITUDE_TARGET for (roll, pitch, yaw) [rad], throttle and rates ignored."""
+        if self.decoder.vehicle is None:
+            return
+        sysid, compid = self.decoder.vehicle
+        self.mav.set_attitude_target_send(round(now * 1000) & 0xFFFFFFFF, sysid, compid,
+                                          _TYPE_MASK, quaternion_from_euler(*target),
+                                          0.0, 0.0, 0.0, 0.5)
 
     def _tick_requests(self, now: float, sysid: int, compid: int) -> None:
         if self._streams and mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL not in self._requests:

@@ -31,6 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from drivers import open_link
 from drivers.mavlink import MavlinkLink
 from drivers.sim.config import SimConfig
+from drivers.sim.dynamics import euler_from_quaternion
 from drivers.sim.mavlink_server import MavlinkServer
 from drivers.sim.vehicle import SimVehicle
 from replay.tlog import TlogReader
@@ -263,6 +264,46 @@ def test_stream_fallback_and_parameter_warnings(
         "with REQUEST_DATA_STREAM (stream 3) instead" in detail
     assert sorted(responder.streams) == [(2, 2), (3, 10), (10, 10), (11, 5)]
     assert link.params.motor_direction[3] == -1 and link.params.frame_config == 2
+
+
+def test_release_in_alt_hold_levels_the_vehicle_at_once(
+        fake_link: tuple[FakeVehicle, MavlinkLink]) -> None:
+    """ArduSub honours the last attitude target for 5 s: when the operator was in ALT_HOLD
+    already (no mode to restore), Release must send a level target, not merely fall silent."""
+    fake, link = fake_link
+    vehicle = fake.mav(1, 1)
+    reader = mavlink2.MAVLink(None)
+    targets: list[tuple[float, float, float]] = []
+
+    def read_until(kind: str) -> list[Any]:
+        """What trimd sends, up to and including the first message of ``kind``."""
+        got: list[Any] = []
+        while not got or got[-1].get_type() != kind:
+            data, _ = fake.sock.recvfrom(300)
+            got += [m for m in reader.parse_buffer(bytearray(data)) or [] if m is not None]
+        return got
+
+    async def go() -> None:
+        stream = link.samples()
+        fake.send(fake.heartbeat(vehicle, mode=2))                  # ALT_HOLD already
+        await collect(link, lambda s: len(healths(s)) == 1, stream)
+        await link.send(HoldAttitude(math.radians(20), math.radians(15), 1.0))
+        read_until("SET_ATTITUDE_TARGET")
+        await link.send(Release())
+        got = read_until("HEARTBEAT")                   # what follows, up to 1 s later
+        if not any(m.get_type() == "SET_ATTITUDE_TARGET" for m in got):
+            got += read_until("HEARTBEAT")              # the release fell after a heartbeat
+        targets.extend(euler_from_quaternion(*m.q) for m in got
+                       if m.get_type() == "SET_ATTITUDE_TARGET")
+        after = read_until("HEARTBEAT")                 # a whole heartbeat period later
+        assert not any(m.get_type() in ("SET_ATTITUDE_TARGET", "MANUAL_CONTROL")
+                       for m in after)
+
+    asyncio.run(go())
+    assert targets, "no attitude target after Release: ArduSub would hold the tilt for 5 s"
+    # maybe one tilted target in flight before the release, then level at the hold's heading
+    np.testing.assert_allclose(targets[-1], (0.0, 0.0, 1.0), atol=1e-6)
+    assert all(t == targets[-1] or t[0] > 0.3 for t in targets)
 
 
 def test_signing_refuses_unsigned_and_wrongly_signed(bluerov: Profile, tmp_path: Path) -> None:
