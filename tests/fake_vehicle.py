@@ -23,6 +23,8 @@ class FakeVehicle:
     r_g: np.ndarray
     seed: int = 0
     armed: bool = True
+    mode: str = "ALT_HOLD"
+    muted: set[str] = field(default_factory=set)  # streams that have stopped
     stuck_at_deg: float | None = None  # cannot tilt beyond this (never settles)
     depth_drift_m_s: float = 0.0
     rates_hz: dict[str, float] = field(default_factory=lambda: {
@@ -56,11 +58,13 @@ class FakeVehicle:
         out: list[Sample] = []
 
         def due(stream: str) -> bool:
+            if stream in self.muted:
+                return False
             period = 1.0 / self.rates_hz[stream]
             return math.floor(t / period) != math.floor((t - dt) / period)
 
         if due("health"):
-            out.append(Health(t, True, "ALT_HOLD", self.armed))
+            out.append(Health(t, True, self.mode, self.armed))
         if due("thrusters"):
             tau = restoring_forces(self.phi, self.theta, self.W, self.profile.buoyancy_N,
                                    self.r_g, self.profile.r_b_m)

@@ -162,3 +162,46 @@ def test_disarm_mid_hold_fails_and_releases(sabertooth: Profile,
     assert proc.phase is Phase.FAILED and "disarmed during a hold" in proc.reason
     assert proc.cause == "vehicle"
     assert isinstance(thesis_vehicle.commands[-1][1], Release)
+
+
+@pytest.mark.parametrize("stream", ["attitude", "thrusters", "depth"])
+def test_a_stream_that_stops_mid_hold_releases(sabertooth: Profile,
+                                               thesis_vehicle: FakeVehicle, stream: str) -> None:
+    """Heartbeats go on, but trimd must not keep commanding without seeing the vehicle."""
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 35.0)
+    assert proc.phase in (Phase.SETTLE, Phase.COLLECT)
+    thesis_vehicle.muted.add(stream)
+    run(proc, thesis_vehicle, 2000.0, t_start=35.0)
+    assert proc.phase is Phase.FAILED and f"no {stream} for" in proc.reason
+    assert proc.cause == "link"
+    # the last sample of a stream came up to one period before the mute
+    assert released_within(thesis_vehicle, 35.0 + sabertooth.procedure.link_timeout_s - 1, 1.5)
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    ({"mode": "AUTO"}, "vehicle in AUTO: switch it to MANUAL"),
+    ({"depth_drift_m_s": 0.2}, "depth not steady: 1.0"),
+])
+def test_precheck_refuses_a_busy_or_moving_vehicle(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle, change: dict[str, object],
+        expected: str) -> None:
+    for key, value in change.items():
+        setattr(thesis_vehicle, key, value)
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 100.0)
+    assert proc.phase is Phase.FAILED and expected in proc.reason
+    assert thesis_vehicle.commands == []
+
+
+def test_confirm_checks_the_vehicle_again(sabertooth: Profile,
+                                          thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth)
+    run(proc, thesis_vehicle, 20.0)
+    assert proc.phase is Phase.CONFIRM
+    thesis_vehicle.armed = False         # while the operator looked away
+    run(proc, thesis_vehicle, 22.0, t_start=20.0, at={21.5: Confirm})
+    assert proc.phase is Phase.PRECHECK and "cannot start: vehicle disarmed" in proc.reason
+    thesis_vehicle.armed = True
+    run(proc, thesis_vehicle, 40.0, t_start=22.0)
+    assert proc.phase is Phase.CONFIRM and thesis_vehicle.commands == []  # asks again

@@ -94,6 +94,41 @@ def test_operator_abort_releases(sabertooth: Profile, link: FakeLink) -> None:
     assert isinstance(link.sent[-1], Release)
 
 
+class SlowToConfirm(FakeLink):
+    """A link whose hold waits for the vehicle's confirmation until a release comes (as
+    the MAVLink link waits up to 3 s for the mode change)."""
+
+    async def send(self, command: Command) -> None:
+        await super().send(command)
+        if isinstance(command, HoldAttitude):
+            self.released = asyncio.Event()
+            await self.released.wait()
+        elif isinstance(command, Release):
+            self.released.set()
+
+
+def test_abort_is_not_held_up_by_a_command_awaiting_confirmation(
+        sabertooth: Profile, link: FakeLink) -> None:
+    slow = SlowToConfirm(link.vehicle)
+    session = Session(slow, sabertooth, recorder=None, presenters=[], confirmed=True)
+
+    async def until(condition: Any) -> None:
+        while not condition():
+            await asyncio.sleep(0.01)
+
+    async def main() -> Any:                      # wait_for: hang guards, not timings
+        task = asyncio.create_task(session.run())
+        await asyncio.wait_for(until(lambda: slow.sent), 60)  # the hold is out, unconfirmed
+        t_hold = slow.t
+        await asyncio.wait_for(until(lambda: slow.t >= t_hold + 1.0), 60)  # samples flow on
+        session.abort()
+        return await asyncio.wait_for(task, 60)
+
+    result = asyncio.run(main())
+    assert result.phase is Phase.ABORTED
+    assert [type(c) for c in slow.sent] == [HoldAttitude, Release]
+
+
 def test_link_that_goes_quiet_is_lost_and_released(sabertooth: Profile, link: FakeLink) -> None:
     link.hang_at = 40.0
     session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)

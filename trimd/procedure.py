@@ -51,6 +51,11 @@ CONFIDENCE_CHECK_EVERY_S = 2.0
 UNSTEADY_GRACE_S = 1.0
 #: Trailing window [s] of the thruster-effort drift test.
 EFFORT_WINDOW_S = 5.0
+#: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
+BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
+#: Before the holds, depth may wander by this share of max_depth_excursion_m over the
+#: precheck window.
+DEPTH_STABLE_SHARE = 0.5
 
 
 class Phase(Enum):
@@ -164,6 +169,7 @@ class Procedure:
         self._depth: Depth | None = None
         self._attitude: Attitude | None = None
         self._arrivals: dict[str, list[float]] = {k: [] for k in MIN_RATES_HZ}
+        self._depths: deque[tuple[float, float]] = deque()
         self._holds: list[_Hold] = []
         self._depth_ref = math.nan
         self._psi = 0.0
@@ -205,8 +211,7 @@ class Procedure:
         if isinstance(event, Abort):
             return self._finish(Phase.ABORTED, event.reason, cause="operator")
         if isinstance(event, Confirm):
-            self._confirmed = True
-            return self._start_holds() if self.phase is Phase.CONFIRM else []
+            return self._on_confirm()
         if math.isnan(self._t):
             self._t_phase = event.t_s
         self._t = max(event.t_s, self._t) if not math.isnan(self._t) else event.t_s
@@ -243,6 +248,9 @@ class Procedure:
         elif isinstance(s, Depth):
             self._depth = s
             self._arrivals["depth"].append(s.t_s)
+            self._depths.append((s.t_s, s.depth_m))
+            while self._depths[0][0] < s.t_s - PRECHECK_WINDOW_S:
+                self._depths.popleft()
             if (self.phase in (Phase.SETTLE, Phase.COLLECT)
                     and abs(s.depth_m - self._depth_ref) > self.proc.max_depth_excursion_m):
                 return self._finish(Phase.FAILED, (
@@ -299,6 +307,7 @@ class Procedure:
                                           f"({len(self.profile.holds)} holds)")
 
     def _precheck_problems(self) -> list[str]:
+        """What keeps trimd from commanding now: telemetry rates, arming, mode, depth."""
         problems = []
         for stream, need in MIN_RATES_HZ.items():
             recent = [t for t in self._arrivals[stream] if t > self._t - PRECHECK_WINDOW_S]
@@ -307,7 +316,29 @@ class Procedure:
                 problems.append(f"{stream} at {rate:.1f} Hz (need ≥ {need:g} Hz)")
         if self._health is not None and not self._health.armed:
             problems.append("vehicle disarmed: arm it")
+        if self._health is not None and self._health.mode in BUSY_MODES:
+            problems.append(f"vehicle in {self._health.mode}: switch it to MANUAL, "
+                            "STABILIZE or ALT_HOLD")
+        depths = [d for _, d in self._depths]
+        limit = DEPTH_STABLE_SHARE * self.proc.max_depth_excursion_m
+        if depths and max(depths) - min(depths) > limit:
+            problems.append(f"depth not steady: {max(depths) - min(depths):.2f} m of change in "
+                            f"{PRECHECK_WINDOW_S:g} s (limit {limit:g} m)")
         return problems
+
+    def _on_confirm(self) -> list[Output]:
+        """The operator's go. Given in the confirm phase, the precheck is run again (the
+        vehicle may have changed while the operator thought); given earlier, it stands
+        for the moment the precheck passes."""
+        if self.phase is not Phase.CONFIRM:
+            self._confirmed = True
+            return []
+        problems = self._precheck_problems()
+        if problems:
+            return self._enter(Phase.PRECHECK, "cannot start: " + "; ".join(problems)
+                               + " (confirm again when ready)")
+        self._confirmed = True
+        return self._start_holds()
 
     def _start_holds(self) -> list[Output]:
         self._depth_ref = self._depth.depth_m if self._depth else math.nan
@@ -469,6 +500,12 @@ class Procedure:
         if self.phase is not Phase.CONNECT and silent > self.proc.link_timeout_s:
             return self._finish(Phase.FAILED, f"link lost: no telemetry for {silent:.1f} s",
                                 cause="link")
+        if self.phase in (Phase.SETTLE, Phase.COLLECT):  # commanding blind is not allowed
+            for stream, times in self._arrivals.items():
+                quiet = self._t - (times[-1] if times else self._t_phase)
+                if quiet > self.proc.link_timeout_s:
+                    return self._finish(Phase.FAILED, f"link lost: no {stream} for "
+                                        f"{quiet:.1f} s while commanding", cause="link")
         # collecting ends on attitude samples, never on a Tick: a replay without the live
         # shell's Ticks then reproduces the live result exactly
         if self._time_left() >= 0 or self.phase is Phase.COLLECT:

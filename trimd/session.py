@@ -8,7 +8,9 @@ The session is the only place where the procedure meets I/O. It
 * feeds the procedure samples, operator events and, when the link goes quiet, Ticks
   from the monotonic clock (so a dead link still times out);
 * sends the procedure's commands, records them, and hands notices and progress to the
-  presenter (each presenter failure is logged, never fatal);
+  presenter (each presenter failure is logged, never fatal). A command is delivered in a
+  task of its own: a link that waits for the vehicle to confirm a mode change (MAVLink,
+  up to 3 s) never holds up an abort or the samples behind it;
 * always releases the vehicle and closes the log on the way out (done, failure,
   operator abort, signal or internal error).
 """
@@ -36,6 +38,9 @@ log = logging.getLogger(__name__)
 
 #: With no sample for this long [s, wall clock], the session ticks the procedure.
 TICK_S = 0.2
+#: On the way out, how long [s, wall clock] the session waits for the link to take the
+#: last commands (the release) before it closes the link.
+DELIVERY_WAIT_S = 3.0
 
 
 class Recorder(Protocol):
@@ -95,6 +100,7 @@ class Session:
         self._t_last = 0.0
         self._wall_last = time.monotonic()
         self._commanded = False
+        self._deliveries: set[asyncio.Future[None]] = set()
         # a MAVLink link hands over every packet as received: record those, not re-encoded
         # samples (the packets decode to the very samples the link yields)
         self._raw = recorder is not None and hasattr(link, "on_raw")
@@ -191,24 +197,33 @@ class Session:
                 if self.recorder:
                     self.recorder.notice(out)
             else:
-                await self._send(out)
+                self._send(out)
             for presenter in self.presenters:
                 self._safely(presenter.output, out, self.procedure.progress)
 
-    async def _send(self, command: Command) -> None:
+    def _send(self, command: Command) -> None:
+        """Record ``command`` and start delivering it (commands leave in order)."""
         if self.recorder:
             self.recorder.command(self._t_last, command)
         self._commanded = not isinstance(command, Release)
+        delivery = asyncio.ensure_future(self._deliver(command))
+        self._deliveries.add(delivery)
+        delivery.add_done_callback(self._deliveries.discard)
+
+    async def _deliver(self, command: Command) -> None:
         try:
             await self.link.send(command)
         except LinkError as exc:
             log.error("could not send %s: %s", command, exc)
             if not isinstance(command, Release):
-                await self._feed(Abort(f"link error while commanding: {exc}"))
+                self.abort(f"link error while commanding: {exc}")
 
     async def _release_if_needed(self) -> None:
+        """Release if trimd still commands, then let the link take what is under way."""
         if self._commanded:
-            await self._send(Release())
+            self._send(Release())
+        if self._deliveries:
+            await asyncio.wait(self._deliveries, timeout=DELIVERY_WAIT_S)
 
     @staticmethod
     def _safely(fn: Callable[..., None], *args: object) -> None:
