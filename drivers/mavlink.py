@@ -48,6 +48,7 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from drivers.limits import check_command
 from drivers.mavlink_commands import Commander
 from drivers.mavlink_decode import MavlinkDecoder, VehicleParams
 from drivers.mavlink_url import MavlinkOptions, load_signing_key, parse_mavlink_url
@@ -141,6 +142,7 @@ class MavlinkLink:
 
     def __init__(self, options: MavlinkOptions, profile: Profile) -> None:
         self.options = options
+        self.profile = profile
         self.description = f"MAVLink {options.device}" + (
             f" (system {options.sysid})" if options.sysid is not None else "")
         self.stats = LinkStats()
@@ -194,6 +196,7 @@ class MavlinkLink:
         """Carry out ``command``; returns when the vehicle confirmed it (LinkError if not)."""
         if self._closed or not self._thread.is_alive():
             raise LinkError(self._error or "the MAVLink link is closed")
+        check_command(command, self.profile)
         await self._submit(command)
 
     async def close(self) -> None:

@@ -32,6 +32,7 @@ from typing import Any
 
 import serial
 
+from drivers.limits import check_command
 from drivers.serial_protocol import (
     MAX_OUTPUTS,
     VEHICLE,
@@ -103,6 +104,7 @@ class SerialLink:
             raise LinkError(f"profile {profile.name}: the serial protocol carries outputs "
                             f"1…{MAX_OUTPUTS}, the thrusters use {self.channels}")
         self.port = port
+        self.profile = profile
         self.description = description
         self.timeout_s = timeout_s
         self.control_period_s = control_period_s
@@ -152,6 +154,7 @@ class SerialLink:
         version handshake."""
         if self._closed:
             raise LinkError(f"{self.description} is closed")
+        check_command(command, self.profile)
         if not isinstance(command, Release) and self.vehicle is None:
             raise LinkError(f"{self.description}: {self._problem}")
         try:
@@ -229,7 +232,10 @@ class SerialLink:
             self._emit(out)
 
     def _lose(self, detail: str, now: float) -> None:
+        """The vehicle is gone: stop repeating a command (one must come again after a
+        loss, as over MAVLink) and say so with a disconnected Health."""
         self._connected = False
+        self._active = Heartbeat()
         last = self._last
         t_s = self._last_rx[1] + (now - self._last_rx[0])
         self._emit(Health(t_s, False, last.mode if last else "", bool(last and last.armed),

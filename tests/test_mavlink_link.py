@@ -105,6 +105,14 @@ def test_unknown_or_bad_urls_are_link_errors(bluerov: Profile, url: str, message
         asyncio.run(open_link(url, bluerov))
 
 
+def test_a_hold_beyond_the_tilt_limit_never_leaves(
+        fake_link: tuple[FakeVehicle, MavlinkLink]) -> None:
+    _, link = fake_link
+    for hold in (HoldAttitude(0.0, math.radians(26), 0.0), HoldAttitude(math.nan, 0.0, 0.0)):
+        with pytest.raises(LinkError, match="not sent: a hold"):
+            asyncio.run(link.send(hold))
+
+
 def test_port_in_use_and_refused_tcp_are_link_errors(bluerov: Profile) -> None:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
         taken.bind(("127.0.0.1", 0))
@@ -456,7 +464,8 @@ def start_pair(tmp_path: Path, payload: str, log: Path) -> tuple[subprocess.Pope
     wait_bound(port)
     sim = subprocess.Popen(
         [*TRIMD, "sim", "--profile", str(profile), "--payload", payload, "--serve",
-         f"mavlink:udpout:127.0.0.1:{port}", "--rate", "10", "--options", "armed=true"],
+         f"mavlink:udpout:127.0.0.1:{port}", "--rate", "10", "--options",
+         "armed=true,mode=ALT_HOLD"],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
     return run, sim
 

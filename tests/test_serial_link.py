@@ -116,6 +116,50 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
     asyncio.run(go())
 
 
+def test_loss_stops_the_hold_and_holds_beyond_the_tilt_limit_are_refused(
+        sabertooth: Profile) -> None:
+    """After a loss trimd repeats no command (one must come again, as over MAVLink); a
+    hold beyond max_tilt_deg never leaves trimd. The test plays the vehicle on a pty."""
+    master, slave = os.openpty()
+    tty.setraw(master)
+    received = b""
+
+    def heard(seconds: float, *, talking: bool = False) -> bytes:
+        """What trimd wrote to the vehicle over ``seconds`` of wall time (the vehicle
+        sending its status every 50 ms when ``talking``)."""
+        nonlocal received
+        start, got = time.monotonic(), b""
+        while time.monotonic() < start + seconds:
+            if talking:
+                t_ms = 1000 + round((time.monotonic() - start) * 1000)
+                os.write(master, frame(f"VHSTA,{t_ms},ALT_HOLD,1,HOLD"))
+            if select.select([master], [], [], 0.05)[0]:
+                got += os.read(master, 4096)
+        received += got
+        return got
+
+    async def go() -> None:
+        link = open_serial_link(os.ttyname(slave), sabertooth, timeout_s=0.3)
+        os.write(master, frame("VHVER,1,bench") + frame("VHSTA,1000,ALT_HOLD,1,HOLD"))
+        await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        with pytest.raises(LinkError, match=r"roll 30\.0°.*beyond the profile's max_tilt"):
+            await link.send(HoldAttitude(30 * DEG, 0.0, 0.0))
+        await link.send(HoldAttitude(10 * DEG, 5 * DEG, 0.0))
+        assert heard(1.2, talking=True).count(b"$TRHLD,10.000,5.000") >= 2  # repeated
+        await collect(link, lambda s: isinstance(s, Health) and not s.connected)
+        heard(0.1)                                   # a sentence may be under way
+        after = heard(1.2)
+        assert b"TRHLD" not in after and after.count(b"$TRHBT") >= 2
+        await link.close()
+
+    try:
+        asyncio.run(go())
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert b"30.000" not in received
+
+
 # ---------------------------------------------------------------------- a real pty
 @pytest.fixture()
 def served(sabertooth: Profile) -> Iterator[tuple[SerialServer, threading.Event]]:

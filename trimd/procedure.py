@@ -323,7 +323,8 @@ class Procedure:
         limit = DEPTH_STABLE_SHARE * self.proc.max_depth_excursion_m
         if depths and max(depths) - min(depths) > limit:
             problems.append(f"depth not steady: {max(depths) - min(depths):.2f} m of change in "
-                            f"{PRECHECK_WINDOW_S:g} s (limit {limit:g} m)")
+                            f"{PRECHECK_WINDOW_S:g} s (limit {limit:g} m): hold depth first, "
+                            "e.g. in ALT_HOLD")
         return problems
 
     def _on_confirm(self) -> list[Output]:
