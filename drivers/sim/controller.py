@@ -32,6 +32,9 @@ MODES = ("MANUAL", "STABILIZE", "ALT_HOLD")
 _CLIMB_M_S = 0.5      # depth-target rate at full pilot throttle [m/s]
 _YAW_RATE = 0.8       # heading-target rate at full pilot yaw [rad/s]
 _STICK_DEADZONE = 0.05
+#: axis input (X, Y, Z, K, M, N index) driven by each integrator slot: K, M, N, depth,
+#: north, east
+_SLOT_AXES = (3, 4, 5, 2, 0, 1)
 
 
 def _gains(J: float, omega: float) -> tuple[float, float, float]:
@@ -58,9 +61,13 @@ class Controller:
         self._unit = tuple(float(u) for u in mixer.tau_unit)
         m = profile.mass_kg
         J = [i + a for i, a in zip(profile.inertia_kg_m2, profile.added_mass[3:], strict=True)]
-        self._att = [_gains(j, attitude_bandwidth) for j in J]
-        self._depth = _gains(m + profile.added_mass[2], depth_bandwidth)
-        self._horiz = [_gains(m + a, 0.5 * depth_bandwidth) for a in profile.added_mass[:2]]
+        gains = [*(_gains(j, attitude_bandwidth) for j in J),
+                 _gains(m + profile.added_mass[2], depth_bandwidth),
+                 *(_gains(m + a, 0.5 * depth_bandwidth) for a in profile.added_mass[:2])]
+        #: per integrator slot: (Kp, Ki, Kd, integral limit, axis input it drives); the
+        #: integral is bounded by the axis's authority: |Ki·∫e| ≤ |tau_unit|
+        self._pids = tuple((kp, ki, kd, abs(self._unit[axis]) / ki, axis)
+                           for (kp, ki, kd), axis in zip(gains, _SLOT_AXES, strict=True))
         self.target = (0.0, 0.0, 0.0)
         self._q_t = quaternion_from_euler(0.0, 0.0, 0.0)
         self.depth_target = 0.0
@@ -86,7 +93,7 @@ class Controller:
 
     def update(self, reading: Reading, mode: str) -> tuple[float, ...]:
         """Axis inputs (X, Y, Z, K, M, N, normalised) for one controller period."""
-        fwd, lat, thr, yaw = (0.0 if abs(s) < _STICK_DEADZONE else s for s in self.pilot)
+        fwd, lat, thr, yaw = [0.0 if abs(s) < _STICK_DEADZONE else s for s in self.pilot]
         if mode == "MANUAL":
             return self.open_loop or (fwd, lat, -thr, 0.0, 0.0, yaw)
         dt = self.dt
@@ -97,35 +104,36 @@ class Controller:
         b0, b1, b2, b3 = self._q_t
         w = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
         s = 2.0 if w >= 0 else -2.0
-        err = (s * (a0 * b1 - a1 * b0 - a2 * b3 + a3 * b2),
-               s * (a0 * b2 + a1 * b3 - a2 * b0 - a3 * b1),
-               s * (a0 * b3 - a1 * b2 + a2 * b1 - a3 * b0))
-        rates = (reading.p, reading.q, reading.r)
-        moments = [self._pid(j, 3 + j, self._att[j], err[j], rates[j]) for j in range(3)]
-        X, Y = fwd * self._unit[0], lat * self._unit[1]
+        pid = self._pid
+        K = pid(0, s * (a0 * b1 - a1 * b0 - a2 * b3 + a3 * b2), reading.p)
+        M = pid(1, s * (a0 * b2 + a1 * b3 - a2 * b0 - a3 * b1), reading.q)
+        N = pid(2, s * (a0 * b3 - a1 * b2 + a2 * b1 - a3 * b0), reading.r)
+        uX, uY, uZ, uK, uM, uN = self._unit
+        X, Y = fwd * uX, lat * uY
         if mode == "ALT_HOLD":
             if thr:
                 self.depth_target -= thr * _CLIMB_M_S * dt
-            F_d = self._pid(3, 2, self._depth, self.depth_target - reading.depth_m,
-                            reading.depth_rate_m_s)
+            F_d = pid(3, self.depth_target - reading.depth_m, reading.depth_rate_m_s)
             if self.station:
                 X, Y, Z = self._station(reading, a0, a1, a2, a3, F_d)
             else:
                 Z = F_d / max(0.5, math.cos(reading.phi) * math.cos(reading.theta))
         else:
-            Z = -thr * self._unit[2]
-        axes = tuple(f / u for f, u in zip((X, Y, Z, *moments), self._unit, strict=True))
+            Z = -thr * uZ
+        axes = (X / uX, Y / uY, Z / uZ, K / uK, M / uM, N / uN)
         self._saturated = [abs(a) >= 1.0 for a in axes]
         return axes
 
-    def _pid(self, slot: int, axis: int, gains: tuple[float, float, float], error: float,
-             rate: float) -> float:
-        """Kp·e + Ki·∫e − Kd·ė with integrator ``slot``, driving axis input ``axis``."""
-        kp, ki, kd = gains
-        limit = abs(self._unit[axis]) / ki
-        if not (self._saturated[axis] and self._i[slot] * error > 0):
-            self._i[slot] = max(-limit, min(limit, self._i[slot] + error * self.dt))
-        return kp * error + ki * self._i[slot] - kd * rate
+    def _pid(self, slot: int, error: float, rate: float) -> float:
+        """Kp·e + Ki·∫e − Kd·ė with integrator ``slot`` (its axis input saturated: the
+        integral holds while the error would grow it further)."""
+        kp, ki, kd, limit, axis = self._pids[slot]
+        i = self._i[slot]
+        if not (self._saturated[axis] and i * error > 0):
+            i += error * self.dt
+            i = limit if i > limit else -limit if i < -limit else i
+            self._i[slot] = i
+        return kp * error + ki * i - kd * rate
 
     def _station(self, reading: Reading, q0: float, q1: float, q2: float, q3: float,
                  F_d: float) -> tuple[float, float, float]:
@@ -135,10 +143,8 @@ class Controller:
              (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), 1 - 2 * (q1 * q1 + q2 * q2)))
         body_v = (reading.u, reading.v, reading.w)
         world_v = [sum(R[i][j] * body_v[j] for j in range(3)) for i in range(2)]
-        F_n = self._pid(4, 0, self._horiz[0], self.position_target[0] - reading.north_m,
-                        world_v[0])
-        F_e = self._pid(5, 1, self._horiz[1], self.position_target[1] - reading.east_m,
-                        world_v[1])
+        F_n = self._pid(4, self.position_target[0] - reading.north_m, world_v[0])
+        F_e = self._pid(5, self.position_target[1] - reading.east_m, world_v[1])
         F = (F_n, F_e, F_d)
         return (sum(R[i][0] * F[i] for i in range(3)), sum(R[i][1] * F[i] for i in range(3)),
                 sum(R[i][2] * F[i] for i in range(3)))

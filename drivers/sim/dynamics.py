@@ -71,7 +71,7 @@ class RigidBody:
         self.truth = truth
         self._m = m
         self._mr = tuple(float(v) for v in m * truth.r_g)
-        self._I = tuple(tuple(float(v) for v in row) for row in truth.inertia_o)
+        self._I = tuple(float(v) for v in np.ravel(truth.inertia_o))   # row-major
         self._A = tuple(float(v) for v in profile.added_mass)
         scale = 1.0 if damping else 0.0
         self._lin = tuple(scale * v for v in profile.linear_damping)
@@ -92,6 +92,14 @@ class RigidBody:
         """ẋ for state ``x``, generalised force ``tau`` [N, N·m] (body) and water current
         ``v_c`` [m/s] (NED, irrotational: its acceleration is neglected)."""
         _, _, _, q0, q1, q2, q3, u, v, w, p, q, r = x
+        return self._rates(q0, q1, q2, q3, u, v, w, p, q, r, tau, v_c)
+
+    def _rates(self, q0: float, q1: float, q2: float, q3: float, u: float, v: float,
+               w: float, p: float, q: float, r: float, tau: Sequence[float],
+               v_c: Sequence[float]) -> State:
+        """ẋ of :meth:`derivative` from the attitude quaternion and ν as separate floats
+        (ẋ does not depend on position; RK4 passes its stage states this way, building no
+        tuples)."""
         # rotation body → NED
         r00 = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
         r01 = 2.0 * (q1 * q2 - q0 * q3)
@@ -102,14 +110,18 @@ class RigidBody:
         r20 = 2.0 * (q1 * q3 - q0 * q2)
         r21 = 2.0 * (q2 * q3 + q0 * q1)
         r22 = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+        # velocity relative to the water: ν_r = ν − ν_c, ν_c = Rᵀ·v_c (ν_r = ν in still water)
         cn, ce, cd = v_c
-        ur = u - (r00 * cn + r10 * ce + r20 * cd)
-        vr = v - (r01 * cn + r11 * ce + r21 * cd)
-        wr = w - (r02 * cn + r12 * ce + r22 * cd)
+        if cn or ce or cd:
+            ur = u - (r00 * cn + r10 * ce + r20 * cd)
+            vr = v - (r01 * cn + r11 * ce + r21 * cd)
+            wr = w - (r02 * cn + r12 * ce + r22 * cd)
+        else:
+            ur, vr, wr = u, v, w
         # rigid-body momenta (p1, p2) = M_RB·ν
         m = self._m
         mx, my, mz = self._mr
-        (Ixx, Ixy, Ixz), (Iyx, Iyy, Iyz), (Izx, Izy, Izz) = self._I
+        Ixx, Ixy, Ixz, Iyx, Iyy, Iyz, Izx, Izy, Izz = self._I
         a1 = m * u + q * mz - r * my
         a2 = m * v + r * mx - p * mz
         a3 = m * w + p * my - q * mx
@@ -126,47 +138,61 @@ class RigidBody:
         k1, k2, k3 = r20, r21, r22
         Lu, Lv, Lw, Lp, Lq, Lr = self._lin
         Qu, Qv, Qw, Qp, Qq, Qr = self._quad
-        # τ − C_RB·ν − C_A·ν_r + (−D·ν_r) − g
-        f = (
-            tau[0] - (q * a3 - r * a2) - (q * b3 - r * b2)
-            + (Lu + Qu * abs(ur)) * ur + WB * k1,
-            tau[1] - (r * a1 - p * a3) - (r * b1 - p * b3)
-            + (Lv + Qv * abs(vr)) * vr + WB * k2,
-            tau[2] - (p * a2 - q * a1) - (p * b2 - q * b1)
-            + (Lw + Qw * abs(wr)) * wr + WB * k3,
-            tau[3] - (q * h3 - r * h2) - (v * a3 - w * a2)
-            - (q * c3 - r * c2) - (vr * b3 - wr * b2)
-            + (Lp + Qp * abs(p)) * p + (ny * k3 - nz * k2),
-            tau[4] - (r * h1 - p * h3) - (w * a1 - u * a3)
-            - (r * c1 - p * c3) - (wr * b1 - ur * b3)
-            + (Lq + Qq * abs(q)) * q + (nz * k1 - nx * k3),
-            tau[5] - (p * h2 - q * h1) - (u * a2 - v * a1)
-            - (p * c2 - q * c1) - (ur * b2 - vr * b1)
-            + (Lr + Qr * abs(r)) * r + (nx * k2 - ny * k1),
-        )
-        acc = tuple(row[0] * f[0] + row[1] * f[1] + row[2] * f[2] + row[3] * f[3]
-                    + row[4] * f[4] + row[5] * f[5] for row in self._Minv)
+        # f = τ − C_RB·ν − C_A·ν_r + (−D·ν_r) − g
+        X, Y, Z, K, M, N = tau
+        f0 = (X - (q * a3 - r * a2) - (q * b3 - r * b2)
+              + (Lu + Qu * abs(ur)) * ur + WB * k1)
+        f1 = (Y - (r * a1 - p * a3) - (r * b1 - p * b3)
+              + (Lv + Qv * abs(vr)) * vr + WB * k2)
+        f2 = (Z - (p * a2 - q * a1) - (p * b2 - q * b1)
+              + (Lw + Qw * abs(wr)) * wr + WB * k3)
+        f3 = (K - (q * h3 - r * h2) - (v * a3 - w * a2)
+              - (q * c3 - r * c2) - (vr * b3 - wr * b2)
+              + (Lp + Qp * abs(p)) * p + (ny * k3 - nz * k2))
+        f4 = (M - (r * h1 - p * h3) - (w * a1 - u * a3)
+              - (r * c1 - p * c3) - (wr * b1 - ur * b3)
+              + (Lq + Qq * abs(q)) * q + (nz * k1 - nx * k3))
+        f5 = (N - (p * h2 - q * h1) - (u * a2 - v * a1)
+              - (p * c2 - q * c1) - (ur * b2 - vr * b1)
+              + (Lr + Qr * abs(r)) * r + (nx * k2 - ny * k1))
+        # ν̇ = M⁻¹·f
+        g0, g1, g2, g3, g4, g5 = self._Minv
         return (r00 * u + r01 * v + r02 * w, r10 * u + r11 * v + r12 * w,
                 r20 * u + r21 * v + r22 * w,
                 -0.5 * (q1 * p + q2 * q + q3 * r), 0.5 * (q0 * p + q2 * r - q3 * q),
                 0.5 * (q0 * q - q1 * r + q3 * p), 0.5 * (q0 * r + q1 * q - q2 * p),
-                *acc)
+                g0[0] * f0 + g0[1] * f1 + g0[2] * f2 + g0[3] * f3 + g0[4] * f4 + g0[5] * f5,
+                g1[0] * f0 + g1[1] * f1 + g1[2] * f2 + g1[3] * f3 + g1[4] * f4 + g1[5] * f5,
+                g2[0] * f0 + g2[1] * f1 + g2[2] * f2 + g2[3] * f3 + g2[4] * f4 + g2[5] * f5,
+                g3[0] * f0 + g3[1] * f1 + g3[2] * f2 + g3[3] * f3 + g3[4] * f4 + g3[5] * f5,
+                g4[0] * f0 + g4[1] * f1 + g4[2] * f2 + g4[3] * f3 + g4[4] * f4 + g4[5] * f5,
+                g5[0] * f0 + g5[1] * f1 + g5[2] * f2 + g5[3] * f3 + g5[4] * f4 + g5[5] * f5)
 
     def rk4(self, x: State, tau: Sequence[float], v_c: Sequence[float], dt: float) -> State:
         """One classical Runge–Kutta step of ``dt`` [s] with τ and current held constant;
-        the quaternion is renormalised afterwards."""
-        f = self.derivative
+        the quaternion is renormalised afterwards.
+
+        Each stage state is x + h·k on the quaternion and ν only (ẋ does not depend on
+        position), passed to :meth:`_rates` as floats."""
+        f = self._rates
         h = 0.5 * dt
-        k1 = f(x, tau, v_c)
-        k2 = f(tuple(a + h * b for a, b in zip(x, k1, strict=True)), tau, v_c)
-        k3 = f(tuple(a + h * b for a, b in zip(x, k2, strict=True)), tau, v_c)
-        k4 = f(tuple(a + dt * b for a, b in zip(x, k3, strict=True)), tau, v_c)
+        _, _, _, q0, q1, q2, q3, u, v, w, p, q, r = x
+        k1 = f(q0, q1, q2, q3, u, v, w, p, q, r, tau, v_c)
+        _, _, _, d0, d1, d2, d3, d4, d5, d6, d7, d8, d9 = k1
+        k2 = f(q0 + h * d0, q1 + h * d1, q2 + h * d2, q3 + h * d3, u + h * d4, v + h * d5,
+               w + h * d6, p + h * d7, q + h * d8, r + h * d9, tau, v_c)
+        _, _, _, d0, d1, d2, d3, d4, d5, d6, d7, d8, d9 = k2
+        k3 = f(q0 + h * d0, q1 + h * d1, q2 + h * d2, q3 + h * d3, u + h * d4, v + h * d5,
+               w + h * d6, p + h * d7, q + h * d8, r + h * d9, tau, v_c)
+        _, _, _, d0, d1, d2, d3, d4, d5, d6, d7, d8, d9 = k3
+        k4 = f(q0 + dt * d0, q1 + dt * d1, q2 + dt * d2, q3 + dt * d3, u + dt * d4,
+               v + dt * d5, w + dt * d6, p + dt * d7, q + dt * d8, r + dt * d9, tau, v_c)
         s = dt / 6.0
-        y = [a + s * (b1 + 2.0 * (b2 + b3) + b4)
-             for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)]
-        norm = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
-        y[3:7] = [c * norm for c in y[3:7]]
-        return tuple(y)
+        n, e, d, q0, q1, q2, q3, u, v, w, p, q, r = [
+            a + s * (b1 + 2.0 * (b2 + b3) + b4)
+            for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4, strict=True)]
+        norm = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        return (n, e, d, q0 * norm, q1 * norm, q2 * norm, q3 * norm, u, v, w, p, q, r)
 
     def energy(self, x: State) -> float:
         """Kinetic plus potential energy [J]: ½·νᵀMν − W·z_CG + B·z_CB (NED z down)."""

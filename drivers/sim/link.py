@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import AsyncIterator
 
+from drivers.limits import check_command
 from drivers.sim.config import parse_sim_options
 from drivers.sim.vehicle import SimVehicle
 from trimd.errors import LinkError, ProfileError
@@ -61,6 +62,7 @@ class SimLink:
         """Apply ``command`` at the present simulated time."""
         if self._closed:
             raise LinkError("the simulated link is closed")
+        check_command(command, self.vehicle.profile)
         v = self.vehicle
         if isinstance(command, HoldAttitude):
             if v.mode != "ALT_HOLD":

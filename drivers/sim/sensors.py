@@ -16,7 +16,7 @@ all scaled by ``SimConfig.noise``:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,9 +28,11 @@ __all__ = ["Reading", "Sensors"]
 _BLOCK = 1024
 
 
-@dataclass(frozen=True, slots=True)
-class Reading:
-    """What the vehicle's sensors report at one instant (FRD/NED, SI)."""
+class Reading(NamedTuple):
+    """What the vehicle's sensors report at one instant (FRD/NED, SI).
+
+    Immutable; a named tuple rather than a frozen dataclass because one is built every
+    step and a frozen dataclass takes several times longer to construct."""
 
     t_s: float
     phi: float
@@ -76,16 +78,15 @@ class Sensors:
     def read(self, t_s: float, x: State) -> Reading:
         """Measure state ``x`` at time ``t_s`` [s]."""
         n = self._noise()
-        q0, q1, q2, q3 = x[3:7]
+        north, east, depth, q0, q1, q2, q3, u, v, w, p, q, r = x
         phi, theta, psi = euler_from_quaternion(q0, q1, q2, q3)
-        u, v, w = x[7:10]
         depth_rate = (2.0 * (q1 * q3 - q0 * q2) * u + 2.0 * (q2 * q3 + q0 * q1) * v
                       + (1.0 - 2.0 * (q1 * q1 + q2 * q2)) * w)
         bp, bq, br = self.gyro_bias
         return Reading(t_s, phi + n[0], theta + n[1], _wrap(psi + n[2]),
-                       x[10] + bp + n[3], x[11] + bq + n[4], x[12] + br + n[5],
-                       x[2] + n[6], depth_rate + n[7], u + n[8], v + n[9], w + n[10],
-                       x[0], x[1])
+                       p + bp + n[3], q + bq + n[4], r + br + n[5],
+                       depth + n[6], depth_rate + n[7], u + n[8], v + n[9], w + n[10],
+                       north, east)
 
     def current(self, t_s: float) -> tuple[float, float, float]:
         """Water current [m/s] in NED at ``t_s`` (horizontal, slowly varying)."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import mul
 
 import numpy as np
 from numpy.typing import NDArray
@@ -86,12 +87,19 @@ class Mixer:
             missing = [a for a, u in zip("XYZKMN", self.tau_unit, strict=True) if abs(u) < 1e-9]
             raise ValueError(f"{profile.name}: the thrusters cannot act on axes {missing}")
         self._rows = tuple(tuple(float(v) for v in row) for row in A)
+        #: per thruster: direction sign, neutral PWM and PWM per unit output above / below
+        #: neutral [µs]
+        self._pwm_scale = tuple((sign, neutral, hi - neutral, neutral - lo)
+                                for sign, (lo, hi, neutral) in zip(self._sign, self.ranges,
+                                                                   strict=True))
 
     def outputs(self, axes: Sequence[float]) -> tuple[float, ...]:
         """Normalised outputs in [−1, 1] for axis inputs (X, Y, Z, K, M, N order)."""
-        out = [sum(a * b for a, b in zip(row, axes, strict=True)) for row in self._rows]
+        X, Y, Z, K, M, N = axes
+        out = [a * X + b * Y + c * Z + d * K + e * M + f * N
+               for a, b, c, d, e, f in self._rows]
         for group in self.groups:
-            peak = max(abs(out[i]) for i in group)
+            peak = max([abs(out[i]) for i in group])
             if peak > 1.0:
                 for i in group:
                     out[i] /= peak
@@ -100,9 +108,12 @@ class Mixer:
     def pwm(self, outputs: Sequence[float]) -> tuple[int, ...]:
         """Integer PWM [µs] for normalised outputs (reversal applied, saturated)."""
         result = []
-        for out, sign, (lo, hi, neutral) in zip(outputs, self._sign, self.ranges, strict=True):
-            o = max(-1.0, min(1.0, sign * out))
-            result.append(round(neutral + o * ((hi - neutral) if o > 0 else (neutral - lo))))
+        for out, (sign, neutral, up, down) in zip(outputs, self._pwm_scale, strict=True):
+            o = sign * out
+            if o > 0.0:
+                result.append(round(neutral + (o if o < 1.0 else 1.0) * up))
+            else:
+                result.append(round(neutral + (o if o > -1.0 else -1.0) * down))
         return tuple(result)
 
     def neutral(self) -> tuple[int, ...]:
@@ -129,18 +140,23 @@ class ThrusterBank:
                         for row in thrust_configuration(profile.thrusters))
         self.lag_s = lag_s
         self.force_N: tuple[float, ...] = (0.0,) * len(profile.thrusters)
+        self._lag_dt = math.nan        # the step [s] of the cached lag factor
+        self._lag_factor = 1.0
 
     def thrust(self, pwm_us: Sequence[int]) -> tuple[float, ...]:
         """Static thrust [N] of integer PWM commands (the profile's curve, saturated)."""
-        return tuple(table[min(max(p, lo), hi) - lo]
-                     for table, p, (lo, hi, _) in zip(self._table, pwm_us, self.ranges,
-                                                      strict=True))
+        return tuple([table[(lo if p < lo else hi if p > hi else p) - lo]
+                      for table, p, (lo, hi, _) in zip(self._table, pwm_us, self.ranges,
+                                                       strict=True)])
 
     def step(self, pwm_us: Sequence[int], dt: float) -> tuple[float, ...]:
         """Advance the spin-up lag by ``dt`` [s] towards the thrust of ``pwm_us``; return
         τ [N, N·m] (body FRD) of the thrust reached."""
         target = self.thrust(pwm_us)
-        a = 1.0 if self.lag_s <= 0 else 1.0 - math.exp(-dt / self.lag_s)
-        self.force_N = f = tuple(x + a * (y - x) for x, y in zip(self.force_N, target,
-                                                                   strict=True))
-        return tuple(sum(c * fi for c, fi in zip(row, f, strict=True)) for row in self._T)
+        if dt != self._lag_dt:
+            self._lag_dt = dt
+            self._lag_factor = 1.0 if self.lag_s <= 0 else 1.0 - math.exp(-dt / self.lag_s)
+        a = self._lag_factor
+        self.force_N = f = tuple([x + a * (y - x) for x, y in zip(self.force_N, target,
+                                                                  strict=True)])
+        return tuple([sum(map(mul, row, f)) for row in self._T])

@@ -110,13 +110,13 @@ class SimVehicle:
     # ------------------------------------------------------------------ stepping
     def step(self) -> None:
         """Advance one step of ``dt_s``."""
-        t = self.t_s
-        self.reading = reading = self.sensors.read(t, self.x)
+        t, dt, x, sensors = self.steps * self.dt_s, self.dt_s, self.x, self.sensors
+        self.reading = reading = sensors.read(t, x)
         if self.armed:
-            axes = self.controller.update(reading, self.mode)
-            self.pwm_us = self.mixer.pwm(self.mixer.outputs(axes))
-        self.tau = self.thrusters.step(self.pwm_us, self.dt_s)
-        self.x = self.body.rk4(self.x, self.tau, self.sensors.current(t), self.dt_s)
+            mixer = self.mixer
+            self.pwm_us = mixer.pwm(mixer.outputs(self.controller.update(reading, self.mode)))
+        self.tau = tau = self.thrusters.step(self.pwm_us, dt)
+        self.x = self.body.rk4(x, tau, sensors.current(t), dt)
         self.steps += 1
 
     def run_for(self, duration_s: float) -> None:
