@@ -50,14 +50,21 @@ def test_noisy_estimate_within_three_sigma(sabertooth: Profile) -> None:
     assert est.r_g_std_m[2] < 1e-3  # z_g is actually determined, to better than a mm
 
 
-def test_confidence_intervals_cover_the_truth(sabertooth: Profile) -> None:
+@pytest.mark.parametrize(("m_ext", "position", "n"), [
+    (8.0, (0.5, -0.4, 0.2), 300),
+    (1.0, (0.78, -0.6, 0.0), 3000),     # a thesis case, long holds: a bias would show
+    (15.0, (-1.031, 0.6, 0.0), 10000),
+])
+def test_confidence_intervals_cover_the_truth(sabertooth: Profile, m_ext: float,
+                                              position: tuple[float, float, float],
+                                              n: int) -> None:
     """Over 200 seeds the 95 % intervals of m_ext, x_g, y_g, z_g cover 90–99 % of the time."""
-    W, r_g = payload_truth(sabertooth, 8.0, np.array([0.5, -0.4, 0.2]))
-    truth = np.r_[8.0, r_g]
+    W, r_g = payload_truth(sabertooth, m_ext, np.array(position))
+    truth = np.r_[m_ext, r_g]
     hits = np.zeros(4)
     seeds = 200
     for seed in range(seeds):
-        holds = equilibrium_holds(sabertooth, W, r_g, n=300, attitude_noise_deg=0.1,
+        holds = equilibrium_holds(sabertooth, W, r_g, n=n, attitude_noise_deg=0.1,
                                   thrust_noise=0.02, rng=np.random.default_rng(seed))
         est = estimate_static(holds, sabertooth)
         value = np.r_[est.m_ext_kg, est.r_g_m]
@@ -71,7 +78,14 @@ def test_level_holds_only_refuse_naming_z_g(sabertooth: Profile) -> None:
     W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.0, 0.6, 0.0]))
     holds = equilibrium_holds(sabertooth, W, r_g, tilts_deg=((0, 0), (0, 0)),
                               attitude_noise_deg=0.1, thrust_noise=0.01)
-    with pytest.raises(EstimationError, match="z_g is not identifiable"):
+    with pytest.raises(EstimationError, match="z_g is not identifiable: every hold was level"):
+        estimate_static(holds, sabertooth)
+
+
+def test_a_single_tilted_hold_is_refused_for_what_it_is(sabertooth: Profile) -> None:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.0, 0.6, 0.1]))
+    holds = equilibrium_holds(sabertooth, W, r_g, tilts_deg=((20, 20),), thrust_noise=0.01)
+    with pytest.raises(EstimationError, match=r"not identifiable .* two holds at different"):
         estimate_static(holds, sabertooth)
 
 

@@ -7,6 +7,14 @@ stacks into one weighted linear least-squares problem for q. The weight W, the c
 gravity r_g and m_ext = W/g − m then follow from the profile's buoyancy B and centre of
 buoyancy r_b; q itself does not depend on that prior.
 
+Each hold enters at its *mean* attitude (method.md §3: average over the steady window).
+Regressing on every sample's measured attitude would put the attitude noise into the
+design matrix, and errors in the regressors bias least squares towards zero: at a level
+hold the z-moment coefficient sin φ is pure noise, which pulled W·z_g − B·z_b (about
+B·|z_b|, hundreds of N·m) towards 0 by enough to bias z_g by 20–30 µm. The mean
+attitude's own uncertainty (sample spread over the effective sample count) is carried
+into the covariance through ∂(G·q)/∂(φ, θ).
+
 Weighting: the rows of each hold fall into two groups, forces [N] and moments [N·m];
 each group gets its own noise variance from the residuals of a first fit, inflated by
 the residuals' lag-1 autocorrelation (an effective-sample-size correction). The three
@@ -140,14 +148,16 @@ def _check_identifiable(holds: Sequence[HoldSamples], rows: NDArray[np.bool_]) -
     name = _PARAM_NAMES[int(np.argmax(np.abs(vt[-1])))]
     tilts = ", ".join(f"({np.degrees(np.mean(h.phi)):.1f}°, {np.degrees(np.mean(h.theta)):.1f}°)"
                       for h in holds)
-    if name == "z_g":
+    if all(_is_level(h) for h in holds):
         raise EstimationError(
-            f"z_g is not identifiable: every hold had roll = pitch = 0 (holds at roll, pitch "
-            f"{tilts}); add a tilted hold, e.g. roll = pitch = 20°")
+            f"{name} is not identifiable: every hold was level (holds at roll, pitch {tilts});"
+            " add a tilted hold, e.g. roll = pitch = 20°")
     used = ", ".join(d for d, r in zip(DOF_NAMES, rows, strict=True) if r)
     raise EstimationError(
         f"{name} is not identifiable from holds at roll, pitch {tilts} with the measured "
-        f"rows {used}; add a hold at another attitude")
+        f"rows {used}: at any one attitude the moment about the vertical is invisible, so "
+        "at least two holds at different attitudes are needed (e.g. level and roll = pitch "
+        "= 20°)")
 
 
 def _lag1(r: FloatArray) -> float:
@@ -161,6 +171,22 @@ def _lag1(r: FloatArray) -> float:
         return 0.0
     rho = np.sum(c[1:] * c[:-1], axis=0)[ok] / den[ok]
     return float(np.clip(np.mean(rho), 0.0, 0.99))
+
+
+def _mean_attitude_cov(hold: HoldSamples) -> FloatArray:
+    """Covariance [rad²] of a hold's mean (φ, θ): spread over the effective sample count."""
+    att = np.column_stack([hold.phi, hold.theta])
+    c = att - att.mean(axis=0)
+    kappa = (1 + (rho := _lag1(c))) / (1 - rho)
+    return np.cov(c, rowvar=False) * kappa / len(att)
+
+
+def _attitude_jacobian(phi: float, theta: float, q: FloatArray) -> FloatArray:
+    """∂(G(φ, θ)·q)/∂(φ, θ), shape (6, 2) [N or N·m per rad], by central differences."""
+    h = 1e-6
+    return np.column_stack([
+        (restoring_matrix(phi + h, theta) - restoring_matrix(phi - h, theta)) @ q / (2 * h),
+        (restoring_matrix(phi, theta + h) - restoring_matrix(phi, theta - h)) @ q / (2 * h)])
 
 
 def _is_level(hold: HoldSamples) -> bool:
@@ -219,16 +245,17 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     moment = rows & ~force
     level = [_is_level(h) for h in holds]
     use_force = [lv or not (level_forces_only and any(level)) for lv in level]
-    G = [restoring_matrix(h.phi, h.theta) for h in holds]
-    groups = [(h, Gh, m) for h, Gh, f in zip(holds, G, use_force, strict=True)
+    attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
+    G = [restoring_matrix(*a) for a in attitude]
+    groups = [(k, m) for k, f in enumerate(use_force)
               for m in ((force, moment) if f else (moment,)) if np.any(m)]
-    A = [Gh[:, m, :].reshape(-1, 4) for _, Gh, m in groups]
-    y = [h.tau[:, m].reshape(-1) for h, _, m in groups]
+    A = [np.tile(G[k][m], (len(holds[k].phi), 1)) for k, m in groups]
+    y = [holds[k].tau[:, m].reshape(-1) for k, m in groups]
     q0 = np.linalg.lstsq(np.concatenate(A), np.concatenate(y), rcond=None)[0]
 
     variances = []
-    for (h, _, m), Ag, yg in zip(groups, A, y, strict=True):
-        r = (yg - Ag @ q0).reshape(len(h.phi), int(np.sum(m)))
+    for (k, m), Ag, yg in zip(groups, A, y, strict=True):
+        r = (yg - Ag @ q0).reshape(len(holds[k].phi), int(np.sum(m)))
         kappa = (1 + (rho := _lag1(r))) / (1 - rho)
         variances.append(float(np.mean(r * r)) * kappa)
     scale = max(max(variances), 1e-300)
@@ -236,7 +263,14 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     Aw = np.concatenate([Ag * w for Ag, w in zip(A, weights, strict=True)])
     yw = np.concatenate([yg * w for yg, w in zip(y, weights, strict=True)])
     q = np.linalg.lstsq(Aw, yw, rcond=None)[0]
-    q_cov = np.linalg.inv(Aw.T @ Aw)
+    H_inv = np.linalg.inv(Aw.T @ Aw)
+    # q moves by −H⁻¹·Σ n·w²·G_mᵀ·D_m·δ for an error δ in a hold's mean attitude
+    c = np.zeros((len(holds), 4, 2))
+    for (k, m), w in zip(groups, weights, strict=True):
+        c[k] += len(holds[k].phi) * w**2 * G[k][m].T @ _attitude_jacobian(*attitude[k], q)[m]
+    spread = sum((ck @ _mean_attitude_cov(h) @ ck.T for ck, h in zip(c, holds, strict=True)),
+                 np.zeros((4, 4)))
+    q_cov = H_inv + H_inv @ spread @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)
     W = float(q[0] + B)
@@ -250,9 +284,9 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     J[1:, 1:] = np.eye(3) / W
     residuals = np.concatenate([h.tau - Gh @ q for h, Gh in zip(holds, G, strict=True)])
     residual_rms = np.sqrt(np.mean(residuals**2, axis=0))
-    summaries = tuple(HoldSummary(h.label, float(np.degrees(np.mean(h.phi))),
-                                  float(np.degrees(np.mean(h.theta))), len(h.phi),
-                                  float(h.t_s[0]), float(h.t_s[-1])) for h in holds)
+    summaries = tuple(HoldSummary(h.label, float(np.degrees(a[0])), float(np.degrees(a[1])),
+                                  len(h.phi), float(h.t_s[0]), float(h.t_s[-1]))
+                      for h, a in zip(holds, attitude, strict=True))
     return StaticEstimate(
         q=q, q_cov=q_cov, weight_N=W, buoyancy_N=B, r_b_m=r_b, r_g_m=r_g,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
