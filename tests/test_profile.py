@@ -72,6 +72,16 @@ def test_bluerov_directions_follow_ardusub_factor_table(bluerov: Profile) -> Non
         pwm_us=[1100, 1300, 1490, 1510, 1900, 1700]), r"strictly increasing"),
     (lambda d: d["procedure"].update(max_tilt_deg=80), r"max_tilt_deg: expected less than 60"),
     (lambda d: d.update(frame_config="heavy"), r"frame_config: expected"),
+    (lambda d: d["ballast"]["slots"][0].update(max_wieght_kg=d["ballast"]["slots"][0].pop(
+        "max_weight_kg")), r"max_weight_kg: missing \(required\); is 'max_wieght_kg' a typo"),
+    (lambda d: d["thrust_curves"]["sabertooth"]["tables"][0].update(
+        thrust_N=d["thrust_curves"]["sabertooth"]["tables"][0]["thrust_N"][::-1]),
+     r"tables\[0\]\.thrust_N: expected thrust that never falls as PWM rises"),
+    (lambda d: d["ballast"]["slots"][1].update(name="AftSB"),
+     r"ballast\.slots: expected unique names, got AftSB twice"),
+    (lambda d: d.update(holds=[{"roll_deg": 0, "pitch_deg": 0}] * 2),
+     r"holds: expected at least two holds at different attitudes, one of them tilted"),
+    (lambda d: d.update(holds=[{"roll_deg": 20, "pitch_deg": 20}]), r"holds: expected"),
 ])
 def test_errors_name_file_key_and_expectation(edit: Any, message: str) -> None:
     data = raw()

@@ -187,7 +187,9 @@ class _Node:
     def raw(self, key: str, default: Any = ...) -> Any:
         if key not in self.data:
             if default is ...:
-                raise self.fail(key, "missing (required)")
+                near = difflib.get_close_matches(key, [str(k) for k in self.data], n=1)
+                hint = f"; is '{near[0]}' a typo of it?" if near else ""
+                raise self.fail(key, f"missing (required){hint}")
             return default
         self.used.add(key)
         return self.data[key]
@@ -264,6 +266,11 @@ def _thrust_table(node: _Node) -> ThrustTable:
         thrust = tuple(v * _G_STD for v in node.vector("thrust_kgf", n))
     if n < 2 or any(b <= a for a, b in itertools.pairwise(pwm_us)):
         raise node.fail("pwm_us", "expected at least 2 strictly increasing PWM values")
+    if any(b < a for a, b in itertools.pairwise(thrust)):
+        raise node.fail("thrust_N" if node.has("thrust_N") else "thrust_kgf",
+                        "expected thrust that never falls as PWM rises (a thruster that "
+                        "pushes backwards above neutral has reversed: true, not a falling "
+                        f"table), got {[round(t, 3) for t in thrust]}")
     if not band[0] <= band[1] or any(band[0] < p < band[1] for p in pwm_us):
         raise node.fail("deadband_us", f"expected [low, high] with no table point inside, "
                                        f"got {list(band)}")
@@ -403,6 +410,11 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
                                  s.number("max_float_kg", minimum=0.0)))
         s.done()
     inventory = tuple(_piece(p, rho, g) for p in ballast.items("inventory", []))
+    for key, names in (("slots", [s.name for s in slots]),
+                       ("inventory", [p.name for p in inventory])):
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ballast.fail(key, f"expected unique names, got {', '.join(twice)} twice")
     window = ballast.vector("net_buoyancy_pct", 2, [0.3, 1.0])
     if not 0 <= window[0] <= window[1]:
         raise ballast.fail("net_buoyancy_pct", f"expected [low, high] with 0 <= low <= high, "
@@ -420,6 +432,11 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
                                   f"({procedure.max_tilt_deg}°)")
         h.done()
         holds.append(hold)
+    if len({(h.roll_deg, h.pitch_deg) for h in holds}) < 2 or all(
+            h.roll_deg == 0 and h.pitch_deg == 0 for h in holds):
+        raise top.fail("holds", "expected at least two holds at different attitudes, one of "
+                                "them tilted (z_g is only seen at a tilt), e.g. level and "
+                                "roll = pitch = 20°")
     frame = top.raw("frame_config", None)
     if frame is not None and (not isinstance(frame, int) or isinstance(frame, bool)):
         raise top.fail("frame_config", f"expected an ArduSub FRAME_CONFIG number, got {frame!r}")
