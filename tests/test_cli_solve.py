@@ -59,6 +59,16 @@ def test_solve_groups_holds_by_steady_state(tmp_path: Path, thesis_holds: list[H
         assert key in out
 
 
+def test_a_spreadsheet_csv_with_a_byte_order_mark_reads(
+        tmp_path: Path, thesis_holds: list[HoldSamples],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    plain = write_csv(tmp_path / "h.csv", thesis_holds, hold_column=True)
+    bom = tmp_path / "excel.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert run_json(capsys, "solve", str(bom), "--profile", "sabertooth-dh2") == run_json(
+        capsys, "solve", str(plain), "--profile", "sabertooth-dh2")
+
+
 def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     """Per-thruster PWM columns go through the profile's curves and geometry."""

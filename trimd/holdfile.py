@@ -43,7 +43,7 @@ class HoldFile:
 
 def _read_table(path: Path) -> HoldFile:
     try:
-        with path.open(newline="", encoding="utf-8") as f:
+        with path.open(newline="", encoding="utf-8-sig") as f:  # Excel writes a BOM
             rows = list(csv.reader(f))
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror})") from None
