@@ -6,6 +6,7 @@ wall clock; the wall-clock limit only keeps a broken server from hanging the sui
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -175,3 +176,18 @@ def test_ground_station_sees_ardusub_and_holds_an_attitude(
 def test_refuses_a_device_pymavlink_would_take_for_a_serial_port(bluerov: Profile) -> None:
     with pytest.raises(LinkError, match="udpout"):
         MavlinkServer(SimVehicle(bluerov), "udp:127.0.0.1:14550")
+
+
+def test_parameters_follow_the_channels_whatever_the_thruster_order(bluerov: Profile) -> None:
+    """Motor n sits on output n (the driver's reading of a channel): listing the thrusters
+    in another order, with one reversed, changes nothing but that motor's direction."""
+    last = dataclasses.replace(bluerov.thrusters[-1], reversed=True)
+    shuffled = dataclasses.replace(bluerov, thrusters=(last, *bluerov.thrusters[:-1]))
+    server = MavlinkServer(SimVehicle(shuffled), "udpout:127.0.0.1:9")
+    try:
+        params = {k: v for k, (v, _) in server._params.items()}
+        assert [params[f"SERVO{n}_FUNCTION"] for n in range(1, 10)] == [
+            33, 34, 35, 36, 37, 38, 39, 40, 0]
+        assert [params[f"MOT_{n}_DIRECTION"] for n in range(1, 9)] == [1] * 7 + [-1]
+    finally:
+        server.conn.close()

@@ -31,6 +31,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from drivers.ardusub import mode_name, mode_number
+from drivers.mavlink_decode import motor_function
 from drivers.sim.controller import MODES
 from drivers.sim.dynamics import euler_from_quaternion
 from drivers.sim.pacing import run_paced
@@ -231,12 +232,14 @@ class MavlinkServer:
             "MOT_PWM_MIN": (float(v.mixer.ranges[0][0]), int16),
             "MOT_PWM_MAX": (float(v.mixer.ranges[0][1]), int16),
         }
-        by_channel = {t.channel: i for i, t in enumerate(v.profile.thrusters)}
+        # a profile's channel is the ArduSub motor number (motor n on output n, as the
+        # driver reads it), whatever order the profile lists the thrusters in
+        channels = {t.channel for t in v.profile.thrusters}
         for n in range(1, 17):
-            function = 33 + by_channel[n] if n in by_channel else 0
+            function = motor_function(n) if n in channels else 0
             params[f"SERVO{n}_FUNCTION"] = (float(function), int16)
-        for i, t in enumerate(v.profile.thrusters):
-            params[f"MOT_{i + 1}_DIRECTION"] = (-1.0 if t.reversed else 1.0, int8)
+        for t in v.profile.thrusters:
+            params[f"MOT_{t.channel}_DIRECTION"] = (-1.0 if t.reversed else 1.0, int8)
         return params
 
     def _param_value(self, name: str) -> None:
