@@ -20,7 +20,7 @@ import threading
 import time
 import tty
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +62,12 @@ async def collect(link: SerialLink, until: object, limit_s: float = WALL_LIMIT_S
     return out
 
 
+async def until(condition: Callable[[], bool]) -> None:
+    """Returns once ``condition()`` holds (callers bound it with a hang guard)."""
+    while not condition():
+        await asyncio.sleep(0.01)
+
+
 # ---------------------------------------------------------------------- loop://
 def test_url_forms(sabertooth: Profile) -> None:
     for url in ("loop://", "loop://,9600"):
@@ -97,7 +103,8 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert stamps[1] - stamps[0] == pytest.approx(0.5, abs=1e-9)
         assert stamps[2] - stamps[1] == pytest.approx(-0.05, abs=1e-9)
         assert stamps[3] - stamps[2] == pytest.approx(99.85, abs=1e-9)
-        assert abs(stamps[4] - time.monotonic()) < 1.0     # re-anchored on the reboot
+        # re-anchored on the reboot (not 99.85 s on); the bound only allows for a slow thread
+        assert abs(stamps[4] - time.monotonic()) < 10.0
         # silence: the link's own TR lines come back on loop:// but are not the vehicle
         (lost,) = await collect(link, lambda s: isinstance(s, Health))
         assert isinstance(lost, Health) and not lost.connected
@@ -106,8 +113,7 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 8
         assert lost.bad_frames == link.parser.bad_lines
         write(frame("VHVER,2,future"))
-        await asyncio.sleep(0.2)
-        assert link.vehicle is None
+        await asyncio.wait_for(until(lambda: link.vehicle is None), WALL_LIMIT_S)
         with pytest.raises(LinkError, match="speaks serial protocol version 2"):
             await link.send(HoldAttitude(0.0, 0.0, 0.0))
         await link.close()
