@@ -23,11 +23,20 @@ TimeUS [s since boot] minus that of the first timestamped record. Range checks a
 of :mod:`drivers.mavlink_decode`; a rejected record is counted in ``rejected``.
 A log without ARM/EV records leaves the armed state unknown: Health then says
 ``armed=False`` with ``detail="armed state not logged"`` and ``armed_known`` is False.
+
+Damage: DFReader skips bytes it cannot parse and prints about them on stderr; here its
+output is kept off the terminal and the damage is counted instead: ``skipped_bytes``
+and ``first_skip_at`` for garbage between records, ``truncated_at`` for an incomplete
+record at the end (a log cut off mid-write).
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import os
+import sys
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -49,6 +58,22 @@ from trimd.samples import Health, Sample
 __all__ = ["DataflashReader"]
 
 _EV_ARMED, _EV_DISARMED = 10, 11
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence standard error, at the file-descriptor level too: pymavlink's compiled
+    DataFlash indexer prints a line per damaged byte from C, past ``sys.stderr``."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        with contextlib.redirect_stderr(io.StringIO()):
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 class DataflashReader:
@@ -80,25 +105,37 @@ class DataflashReader:
         self.armed = False
         self.armed_known = False
         self.error: str | None = None  # why reading stopped early, if it did
+        self.skipped_bytes = 0
+        self.first_skip_at: int | None = None
+        self.truncated_at: int | None = None
         self._rates: tuple[float, float, float] | None = None
         try:
-            self._log: Any = DFReader.DFReader_binary(self.path, zero_time_base=False)
+            with _quiet_stderr():  # its indexer's "bad header" lines, one per byte
+                self._log: Any = DFReader.DFReader_binary(self.path, zero_time_base=False)
         except OSError as exc:
             raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
         except Exception as exc:  # DFReader raises anything on a file that is not a log
             raise DataError(f"{path}: not a DataFlash log ({exc})") from None
 
     def records(self) -> Iterator[Any]:
-        """Every DFReader record in file order; counts them and notes the time span."""
+        """Every DFReader record in file order; counts them, notes the time span and the
+        damage (module docstring)."""
         while True:
             offset = self._log.offset
             try:
-                msg = self._log.recv_msg()
+                with contextlib.redirect_stderr(io.StringIO()):  # "Skipped N bad bytes"
+                    msg = self._log.recv_msg()
             except Exception as exc:  # a damaged record: stop there, say where
                 self.error = f"unreadable record at byte {offset}: {exc}"
                 return
             if msg is None:
+                if self._log.data_len > offset:  # bytes left that make no record
+                    self.truncated_at = offset
                 return
+            skipped = self._log.offset - msg.fmt.len - offset
+            if skipped > 0:
+                self.skipped_bytes += skipped
+                self.first_skip_at = offset if self.first_skip_at is None else self.first_skip_at
             self.counts[msg.get_type()] += 1
             stamp = getattr(msg, "TimeUS", None)
             if isinstance(stamp, int):

@@ -85,6 +85,12 @@ class ReplayLink:
             yield from df.samples()
             if df.error:
                 self.warnings.append(f"{self.path}: {df.error}; replayed up to there")
+            if df.truncated_at is not None:
+                self.warnings.append(f"{self.path}: truncated record at byte "
+                                     f"{df.truncated_at}; replayed up to there")
+            if df.skipped_bytes:
+                self.warnings.append(f"{self.path}: {df.skipped_bytes} damaged bytes skipped "
+                                     f"(the first at byte {df.first_skip_at})")
             return
         reader = TlogReader.open(self.path)
         yield from reader.samples(MavlinkDecoder.for_profile(self.profile))

@@ -98,3 +98,27 @@ def test_not_a_log(tmp_path: Path) -> None:
     assert list(reader.samples()) == [] and not reader.counts
     with pytest.raises(DataError, match="cannot read"):
         DataflashReader(tmp_path / "missing.BIN")
+
+
+def test_damage_is_counted_quietly_and_reading_goes_on(
+        tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    """A cut-off log and one with 3000 zeroed bytes: the reader says where, keeps every
+    record it can, and pymavlink's per-byte complaints never reach the terminal."""
+    data = GAT.read_bytes()
+    whole = sum(1 for _ in DataflashReader(GAT).samples())
+    cut, zeroed = tmp_path / "cut.BIN", tmp_path / "zeroed.BIN"
+    cut.write_bytes(data[:150_001])
+    zeroed.write_bytes(data[:50_000] + bytes(3000) + data[53_000:])
+    capfd.readouterr()
+
+    reader = DataflashReader(cut)
+    n_cut = sum(1 for _ in reader.samples())
+    assert reader.truncated_at is not None and 150_001 - reader.truncated_at < 200
+    assert 0 < n_cut < whole and reader.skipped_bytes == 0
+
+    reader = DataflashReader(zeroed)
+    n_zeroed = sum(1 for _ in reader.samples())
+    assert 3000 <= reader.skipped_bytes < 3200 and 49_800 < (reader.first_skip_at or 0) <= 50_100
+    assert whole - 20 < n_zeroed < whole and reader.truncated_at is None
+    out, err = capfd.readouterr()
+    assert "bad header" not in err + out and "Skipped" not in err + out

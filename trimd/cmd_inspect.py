@@ -112,8 +112,10 @@ def _read_dataflash(path: Path, profile: Profile | None) -> tuple[dict[str, Any]
         "start": None if reader.first_us is None else f"boot + {reader.first_us / 1e6:.3f} s",
         "firmware": reader.firmware, "vehicle": None, "counts": reader.counts,
         "params": reader.params, "armed_known": reader.armed_known,
-        "messages": sum(reader.counts.values()), "bad_frames": 0, "truncated_at": None,
-        "error": reader.error, "rejected": dict(reader.rejected),
+        "messages": sum(reader.counts.values()), "bad_frames": 0,
+        "truncated_at": reader.truncated_at, "skipped_bytes": reader.skipped_bytes,
+        "first_skip_at": reader.first_skip_at, "error": reader.error,
+        "rejected": dict(reader.rejected),
     }
     return info, samples
 
@@ -233,6 +235,9 @@ def format_report(r: dict[str, Any]) -> str:
         gaps = ", ".join(f"{k} {n}" for k, n in r["sequence_gaps"].items()) or "none"
         lines.append(f"bad frames: {r['bad_frames']} ({r['bad_crc']} bad CRC, "
                      f"{r['skipped_bytes']} bytes skipped); sequence gaps (sys/comp): {gaps}")
+    elif r["skipped_bytes"]:
+        lines.append(f"warning: {r['skipped_bytes']} damaged bytes skipped (the first at byte "
+                     f"{r['first_skip_at']})")
     if r["truncated_at"] is not None:
         lines.append(f"warning: the last record is truncated at byte {r['truncated_at']}")
     if r.get("error"):
