@@ -27,9 +27,11 @@ def main() -> None:
     y = np.concatenate([h.tau.reshape(-1) for h in holds])
     t_est = best_time(lambda: estimate_static(holds, profile))
     t_ref = best_time(lambda: np.linalg.lstsq(A, y, rcond=None))
+    # the reference is one unweighted solve over every row of every sample; the estimator
+    # also weights the rows, drops the tilted hold's force rows and propagates covariances
     print(f"estimate_static 2 holds × 10 000 samples: {t_est * 1e3:.1f} ms; "
-          f"numpy.linalg.lstsq on the same 120 000 × 4 matrix: {t_ref * 1e3:.1f} ms; "
-          f"ratio {t_est / t_ref:.1f}×")
+          f"one numpy.linalg.lstsq over all 120 000 × 4 rows of the same holds: "
+          f"{t_ref * 1e3:.1f} ms; ratio {t_est / t_ref:.1f}×")
 
 
 if __name__ == "__main__":
