@@ -1,11 +1,15 @@
-"""Ballast milp: solve time on both shipped vehicles beside linprog on its relaxation."""
+"""Ballast milp: solve time on both shipped vehicles beside linprog on its relaxation,
+and on the degenerate Sabertooth cases (no or little static stability)."""
 
 from __future__ import annotations
+
+import dataclasses
+import time
 
 import numpy as np
 
 from bench.timing import best_time
-from trimd.ballast import propose_ballast
+from trimd.ballast import TIME_LIMIT_S, propose_ballast
 from trimd.ballast_lp import build_programme, piece_items, solve_programme
 from trimd.estimate import HoldSamples, StaticEstimate, estimate_static
 from trimd.model import restoring_forces
@@ -15,6 +19,10 @@ from trimd.profile import Profile, load_profile
 #: and the largest mass [kg] of the random payloads (inside the weight slots' footprint).
 CASES = {"sabertooth-dh2": (10.0, (-1.031, 0.6, 0.0), 6.0),
          "bluerov2-heavy": (0.3, (0.10, 0.08, 0.05), 0.4)}
+#: Degenerate Sabertooth cases: 40 N heavy, net moment [N·m], estimate 1σ of q [N, N·m].
+DEGENERATE = {"zero moment": (0.0, 0.0, 0.0), "m_z < 0": (1.0, 2.0, -5.0),
+              "small m_z": (-20.0, 10.0, 5.0)}
+DEGENERATE_Q_STD = (0.04, 0.097, 0.095, 0.306)
 
 
 def _estimate(profile: Profile, mass_kg: float, r_m: tuple[float, float, float]
@@ -46,6 +54,19 @@ def _spread(profile: Profile, max_kg: float, n: int = 20) -> tuple[list[float], 
     return t_milp, t_lp
 
 
+def _degenerate(profile: Profile) -> None:
+    """milp wall time [s] (one run each) on the degenerate cases, with the default limit."""
+    for label, moment in DEGENERATE.items():
+        est = _estimate(profile, 0.0, (0.0, 0.0, 0.0))
+        q = np.r_[40.0, moment]
+        est = dataclasses.replace(est, q=q, weight_N=est.buoyancy_N + 40.0,
+                                  q_cov=np.diag(np.square(DEGENERATE_Q_STD)))
+        t0 = time.perf_counter()
+        p = propose_ballast(est, profile, "milp")
+        print(f"{profile.name}, {label} {moment} N·m, 40 N heavy: milp "
+              f"{time.perf_counter() - t0:.2f} s (limit {TIME_LIMIT_S:g} s); {p.message}")
+
+
 def main() -> None:
     for name, (mass, r, max_kg) in CASES.items():
         profile = load_profile(name)
@@ -65,6 +86,7 @@ def main() -> None:
         print(f"{name}, 20 random payloads ≤ {max_kg:g} kg: milp median "
               f"{np.median(t_m) * 1e3:.1f} ms, max {max(t_m) * 1e3:.1f} ms; linprog on the "
               f"relaxation median {np.median(t_r) * 1e3:.1f} ms, max {max(t_r) * 1e3:.1f} ms")
+    _degenerate(load_profile("sabertooth-dh2"))
 
 
 if __name__ == "__main__":

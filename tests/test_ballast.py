@@ -240,10 +240,12 @@ def test_unstable_vehicle_is_named(sabertooth: Profile) -> None:
     top_heavy = dataclasses.replace(sabertooth, r_b_m=(0.0, 0.0, 0.04))
     payload = [Payload(2.0, 0.0, (-0.5, 0.3, 0.0))]
     p = propose_ballast(estimate_for(top_heavy, payload), top_heavy, "lp")
-    assert not p.feasible
-    assert p.binding == ("static stability: the centre of gravity is not below the centre "
-                         "of buoyancy",)
-    assert abs(p.trim.roll_deg) == pytest.approx(180.0)
+    assert not p.feasible and not p.trim.stable
+    assert len(p.binding) == 1
+    assert p.binding[0].startswith("no static stability: W·z_g − B·z_b = -467 N·m ≤ 0")
+    assert p.binding[0].endswith("the vehicle would capsize; passive trim undefined")
+    assert np.isnan(p.trim.roll_deg) and np.isnan(p.trim.pitch_std_deg)
+    assert p.trim.net_moment_Nm[:2] == pytest.approx([0.0, 0.0], abs=1e-6)  # balanced anyway
 
 
 def test_trim_std_matches_numerical_propagation(bluerov: Profile) -> None:

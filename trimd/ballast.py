@@ -14,6 +14,10 @@ When the requirement cannot be met the proposal is the best achievable one (the 
 first, then the least residual moment) with ``feasible`` False and the limits that bind
 named. Every proposal is checked by physics (:mod:`trimd.ballast_check`): combined
 weight, buoyancy and centres, and the passive equilibrium attitude with its uncertainty.
+A vehicle left without static stability (W·z_g − B·z_b ≤ 0) has no passive trim: its
+angles are NaN in the proposal, ``null`` in :func:`proposal_to_dict`, and ``binding``
+says so. ``milp`` has a time limit; when it is reached the best solution found is used
+and the message says so.
 """
 
 from __future__ import annotations
@@ -31,15 +35,18 @@ from trimd.ballast_lp import (
     Item,
     build_programme,
     ideal_items,
+    moment_resolution,
     piece_items,
     solve_programme,
 )
 from trimd.errors import DataError, ProfileError
 from trimd.estimate import StaticEstimate
+from trimd.estimate_io import covariance_problem
 from trimd.profile import Profile
 
 __all__ = [
     "METHODS",
+    "TIME_LIMIT_S",
     "Proposal",
     "SlotLoad",
     "Trim",
@@ -52,6 +59,9 @@ FloatArray = NDArray[np.float64]
 METHODS = ("lp", "line", "general", "milp")
 #: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
 _EXACT_RAD = 1e-6
+#: Default time limit of the solver [s]: a backstop behind its deterministic node budget,
+#: so that a replay reproduces the live proposal however loaded the machine is.
+TIME_LIMIT_S = 60.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,9 +117,15 @@ def _setup(method: str, profile: Profile, level_tol_deg: float
 
 
 def _check_inputs(estimate: StaticEstimate, profile: Profile) -> None:
-    """DataError for a non-finite estimate, ProfileError for another vehicle's estimate."""
+    """DataError for a non-finite estimate, a non-positive weight or a covariance that is
+    not one; ProfileError for another vehicle's estimate."""
     if not (np.all(np.isfinite(estimate.q)) and np.all(np.isfinite(estimate.q_cov))):
         raise DataError("the estimate's net force, moments or covariance are not finite")
+    if not estimate.weight_N > 0:
+        raise DataError(f"the estimate's weight must be positive, got {estimate.weight_N} N")
+    problem = covariance_problem(np.asarray(estimate.q_cov, dtype=float))
+    if problem is not None:
+        raise DataError(f"the estimate's covariance of the net quantities {problem}")
     same = (math.isclose(estimate.buoyancy_N, profile.buoyancy_N, rel_tol=1e-6)
             and math.isclose(estimate.gravity_m_s2, profile.gravity_m_s2, rel_tol=1e-9)
             and np.allclose(estimate.r_b_m, profile.r_b_m, rtol=0.0, atol=1e-9))
@@ -191,17 +207,36 @@ def _window_state(trim: Trim, window: tuple[float, float] | None) -> tuple[bool,
     return lo - 1e-6 <= pct <= hi + 1e-6, edges
 
 
-def _level_cause(method: str, trim: Trim, items: list[Item]) -> str:
+def _unstable(trim: Trim) -> str:
+    """The plain statement for a vehicle left without static stability."""
+    return (f"no static stability: W·z_g − B·z_b = {trim.net_moment_Nm[2]:.3g} N·m ≤ 0 after "
+            "ballast (the centre of gravity is not below the centre of buoyancy): the vehicle "
+            "would capsize; passive trim undefined")
+
+
+def _level_cause(method: str, trim: Trim, items: list[Item], level_tol_deg: float,
+                 resolution_Nm: float) -> str:
     """Why the vehicle cannot be levelled when no slot, piece or window limit is active."""
-    if trim.net_moment_Nm[2] <= 0:
-        return "static stability: the centre of gravity is not below the centre of buoyancy"
     if not items:
         return "no slot takes the ballast this method uses"
     if method in ("lp", "line"):
         return "weights only: the counter-moment needs weight where no slot is (or a float)"
+    band = math.tan(math.radians(level_tol_deg)) * trim.net_moment_Nm[2]
+    if method == "milp" and band < resolution_Nm:
+        return (f"little static stability: W·z_g − B·z_b = {trim.net_moment_Nm[2]:.3g} N·m, so "
+                f"{level_tol_deg:g}° needs the moments balanced to {band:.2g} N·m, finer than "
+                f"the estimate resolves ({resolution_Nm:.2g} N·m)")
     if method == "milp":
         return "piece sizes: no combination of the inventory's pieces levels closer"
     return "slot positions: no slot combination gives the counter-moment"
+
+
+def _attitude_text(trim: Trim) -> str:
+    """Passive roll and pitch with their 1σ [deg], or why they are undefined."""
+    if not trim.stable:
+        return "passive roll and pitch undefined (no static stability)"
+    return (f"passive roll {trim.roll_deg:+.3f}° ± {trim.roll_std_deg:.3f}°, pitch "
+            f"{trim.pitch_deg:+.3f}° ± {trim.pitch_std_deg:.3f}°")
 
 
 def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list[Item],
@@ -212,15 +247,16 @@ def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list
     trim = check_trim(estimate, loads, profile.gravity_m_s2)
     m = trim.net_moment_Nm
     t = math.tan(math.radians(level_tol_deg)) + _EXACT_RAD
-    level = bool(m[2] > 0 and max(abs(m[0]), abs(m[1])) <= t * m[2])
+    level = trim.stable and bool(max(abs(m[0]), abs(m[1])) <= t * m[2])
     in_window, edges = _window_state(trim, window)
-    binding = _active_limits(profile, items, amounts) + edges
+    binding = ([] if trim.stable else [_unstable(trim)]) + _active_limits(
+        profile, items, amounts) + edges
     if not level and not binding:
-        binding.append(_level_cause(method, trim, items))
+        binding.append(_level_cause(method, trim, items, level_tol_deg,
+                                    moment_resolution(estimate)))
     feasible = success and level and in_window
-    result = (f"passive roll {trim.roll_deg:+.3f}° ± {trim.roll_std_deg:.3f}°, pitch "
-              f"{trim.pitch_deg:+.3f}° ± {trim.pitch_std_deg:.3f}°, net buoyancy "
-              f"{trim.net_buoyancy_N:+.2f} N ({trim.net_buoyancy_pct:+.2f} % of weight)")
+    result = (f"{_attitude_text(trim)}, net buoyancy {trim.net_buoyancy_N:+.2f} N "
+              f"({trim.net_buoyancy_pct:+.2f} % of weight)")
     if feasible:
         message = f"{note}{method}: {result}"
     else:
@@ -233,7 +269,8 @@ def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list
 
 
 def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "milp", *,
-                    level_tol_deg: float = 0.25) -> Proposal:
+                    level_tol_deg: float = 0.25, time_limit_s: float = TIME_LIMIT_S
+                    ) -> Proposal:
     """Propose ballast for ``estimate`` on ``profile`` by ``method`` (see :data:`METHODS`).
 
     Parameters
@@ -243,15 +280,19 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     method : ``lp``, ``line``, ``general`` or ``milp``.
     level_tol_deg : for ``milp``, the largest passive roll or pitch accepted [deg]; the
         continuous methods level exactly.
+    time_limit_s : the solver's time limit [s]; when reached, the best solution found is
+        proposed and the message says so (nothing is proposed if none was found).
 
     Returns
     -------
     Proposal : never raises for infeasible or degenerate physics: the best achievable
-        proposal comes back with ``feasible`` False and the binding limits named.
+        proposal comes back with ``feasible`` False and the binding limits named (a
+        vehicle without static stability among them, its passive angles NaN).
 
     Raises
     ------
-    ValueError : unknown method.  DataError : non-finite estimate.
+    ValueError : unknown method.  DataError : non-finite estimate, weight ≤ 0, or a
+        covariance that is not symmetric positive semi-definite.
     ProfileError : the estimate was made with another profile's buoyancy or gravity.
     """
     items, tol, window = _setup(method, profile, level_tol_deg)
@@ -261,18 +302,27 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
         amounts, note = _line_amounts(estimate, profile, items)
     if amounts is None:
         prog = build_programme(estimate, profile, items, level_tol_deg=tol, window_pct=window)
-        sol = solve_programme(prog)
+        sol = solve_programme(prog, time_limit_s=time_limit_s)
         if not sol.success:
             return _assess(method, estimate, profile, items, sol.amounts, tol, window,
                            f"{sol.message}; nothing proposed. ", success=False)
         amounts = sol.amounts
+        note += f"{sol.note}. " if sol.note else ""
     return _assess(method, estimate, profile, items, amounts, tol, window, note)
+
+
+def _number(value: float) -> float | None:
+    """``value``, or None where it is undefined (NaN or infinite)."""
+    return value if math.isfinite(value) else None
 
 
 def proposal_to_dict(p: Proposal) -> dict[str, Any]:
     """JSON-ready dict (the ``trimd ballast --json`` shape; units in the key names).
 
     ``predicted_trim_std_deg`` is [roll, pitch] 1σ; ``pieces`` maps piece name to count.
+    A number that is undefined (the passive trim of a vehicle without static stability)
+    or unbounded (the window's upper edge for ``general``) is None (JSON ``null``): the
+    dict never holds NaN or infinity.
     """
     t = p.trim
     return {
@@ -284,16 +334,17 @@ def proposal_to_dict(p: Proposal) -> dict[str, Any]:
         "net_buoyancy_N": t.net_buoyancy_N,
         "net_buoyancy_pct": t.net_buoyancy_pct,
         "net_buoyancy_std_N": t.net_buoyancy_std_N,
-        "predicted_roll_deg": t.roll_deg,
-        "predicted_pitch_deg": t.pitch_deg,
-        "predicted_trim_std_deg": list(p.trim_std_deg),
+        "predicted_roll_deg": _number(t.roll_deg),
+        "predicted_pitch_deg": _number(t.pitch_deg),
+        "predicted_trim_std_deg": [_number(v) for v in p.trim_std_deg],
         "weight_N": t.weight_N,
         "buoyancy_N": t.buoyancy_N,
         "cg_m": t.r_g_m.tolist(),
         "cb_m": t.r_b_m.tolist(),
         "net_moment_Nm": t.net_moment_Nm.tolist(),
         "level_tol_deg": p.level_tol_deg,
-        "net_buoyancy_window_pct": None if p.window_pct is None else list(p.window_pct),
+        "net_buoyancy_window_pct": (None if p.window_pct is None
+                                    else [_number(v) for v in p.window_pct]),
         "feasible": p.feasible,
         "success": p.success,
         "binding": list(p.binding),
@@ -318,8 +369,9 @@ def format_proposal(p: Proposal) -> str:
         f"added mass        {p.added_mass_kg:.3f} kg",
         f"net buoyancy      {t.net_buoyancy_N:+.2f} ± {t.net_buoyancy_std_N:.2f} N "
         f"({t.net_buoyancy_pct:+.2f} % of weight)",
-        f"passive roll      {t.roll_deg:+.3f} ± {t.roll_std_deg:.3f}°",
-        f"passive pitch     {t.pitch_deg:+.3f} ± {t.pitch_std_deg:.3f}°",
+        *((f"passive roll      {t.roll_deg:+.3f} ± {t.roll_std_deg:.3f}°",
+           f"passive pitch     {t.pitch_deg:+.3f} ± {t.pitch_std_deg:.3f}°") if t.stable
+          else ("passive trim      undefined: no static stability",)),
         f"binding           {'; '.join(p.binding) or 'none'}",
         p.message,
     ]

@@ -14,12 +14,15 @@ straight down,
 
 the stable one of the two solutions of g_K = g_M = g_N = 0 (m pointing up is unstable).
 It exists whatever the net vertical force W − B, which only makes the vehicle rise or
-sink. A vehicle with m_z ≤ 0 (centre of gravity not below the centre of buoyancy)
-comes to rest past 90° of roll: the check shows that rather than hide it.
+sink. A vehicle with m_z = W·z_g − B·z_b ≤ 0 (centre of gravity not below the centre of
+buoyancy) has no static stability in roll and pitch: it would capsize, or with m = 0
+rest at any attitude, so its passive trim is undefined. The check reports NaN angles
+then (``Trim.stable`` False) rather than a meaningless number.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -28,10 +31,13 @@ from numpy.typing import NDArray
 
 from trimd.estimate import StaticEstimate
 
-__all__ = ["SlotLoad", "Trim", "check_trim", "equilibrium_attitude"]
+__all__ = ["MIN_GM_M", "SlotLoad", "Trim", "check_trim", "equilibrium_attitude"]
 
 FloatArray = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
+#: Metacentric height m_z/W [m] at or below which a vehicle counts as having no static
+#: stability in roll and pitch (zero to rounding: a nanometre).
+MIN_GM_M = 1e-9
 
 
 @dataclass(frozen=True)
@@ -66,7 +72,8 @@ class Trim:
     ``weight_N``/``buoyancy_N`` and the centres ``r_g_m``/``r_b_m`` are the combined
     ones; ``net_moment_Nm`` = W·r_g − B·r_b after ballasting; ``roll_deg``/``pitch_deg``
     are the passive equilibrium attitude and ``*_std_deg`` their uncertainty propagated
-    from the estimate's covariance of q.
+    from the estimate's covariance of q. The four angles are NaN when the vehicle has no
+    static stability (``stable`` False): its passive trim is undefined.
     """
 
     weight_N: float
@@ -86,34 +93,43 @@ class Trim:
         return self.buoyancy_N - self.weight_N
 
     @property
+    def stable(self) -> bool:
+        """Whether W·z_g − B·z_b > 0 (above :data:`MIN_GM_M` × W): a passive trim exists."""
+        return bool(self.net_moment_Nm[2] > MIN_GM_M * self.weight_N)
+
+    @property
     def net_buoyancy_pct(self) -> float:
         """B − W as a percentage of the combined weight W."""
         return 100.0 * self.net_buoyancy_N / self.weight_N
 
 
-def equilibrium_attitude(m: FloatArray) -> tuple[tuple[float, float], FloatArray]:
+def equilibrium_attitude(m: FloatArray, min_mz_Nm: float = 0.0
+                         ) -> tuple[tuple[float, float], FloatArray] | None:
     """Stable passive roll and pitch [rad] for the net moment m = W·r_g − B·r_b [N·m].
 
     Returns
     -------
-    (phi, theta) : the attitude where g_K = g_M = g_N = 0 and m points down.
-    J : 2 × 3 Jacobian ∂(φ, θ)/∂m [rad/(N·m)]; NaN when m_y = m_z = 0 (no roll restoring).
+    ((phi, theta), J) : the attitude where g_K = g_M = g_N = 0 and m points down, and the
+        2 × 3 Jacobian ∂(φ, θ)/∂m [rad/(N·m)].
+    None : when m_z ≤ ``min_mz_Nm`` [N·m]: no static stability, no passive trim.
 
     Examples
     --------
     >>> (phi, theta), _ = equilibrium_attitude(np.array([-1.0, 0.0, 1.0]))  # nose-light
     >>> round(float(np.degrees(phi)), 6), round(float(np.degrees(theta)), 6)
     (0.0, 45.0)
+    >>> equilibrium_attitude(np.zeros(3)) is None
+    True
     """
     mx, my, mz = (float(v) for v in m)
+    if not mz > max(min_mz_Nm, 0.0):
+        return None
     rho2 = my * my + mz * mz
     n2 = rho2 + mx * mx
-    rho = np.sqrt(rho2)
-    phi, theta = float(np.arctan2(my, mz)), float(np.arctan2(-mx, rho))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        J = np.array([[0.0, mz / rho2, -my / rho2],
-                      [-rho / n2, mx * my / (rho * n2), mx * mz / (rho * n2)]])
-    return (phi, theta), J
+    rho = math.sqrt(rho2)
+    J = np.array([[0.0, mz / rho2, -my / rho2],
+                  [-rho / n2, mx * my / (rho * n2), mx * mz / (rho * n2)]])
+    return (math.atan2(my, mz), math.atan2(-mx, rho)), J
 
 
 def check_trim(estimate: StaticEstimate, loads: Sequence[SlotLoad],
@@ -131,10 +147,13 @@ def check_trim(estimate: StaticEstimate, loads: Sequence[SlotLoad],
     r_g = (estimate.weight_N * estimate.r_g_m + w @ r) / W
     r_b = (estimate.buoyancy_N * estimate.r_b_m + b @ r) / B
     m = estimate.q[1:] + (w - b) @ r
-    (phi, theta), J = equilibrium_attitude(m)
-    angle_cov = J @ estimate.q_cov[1:, 1:] @ J.T
-    std = np.degrees(np.sqrt(np.diag(angle_cov)))
+    attitude = equilibrium_attitude(m, MIN_GM_M * W)
+    if attitude is None:
+        angles, std = np.full(2, np.nan), np.full(2, np.nan)
+    else:
+        angles, J = np.degrees(attitude[0]), attitude[1]
+        std = np.degrees(np.sqrt(np.clip(np.diag(J @ estimate.q_cov[1:, 1:] @ J.T), 0.0, None)))
     return Trim(weight_N=W, buoyancy_N=B, r_g_m=r_g, r_b_m=r_b, net_moment_Nm=m,
-                roll_deg=float(np.degrees(phi)), pitch_deg=float(np.degrees(theta)),
+                roll_deg=float(angles[0]), pitch_deg=float(angles[1]),
                 roll_std_deg=float(std[0]), pitch_std_deg=float(std[1]),
-                net_buoyancy_std_N=float(np.sqrt(estimate.q_cov[0, 0])))
+                net_buoyancy_std_N=math.sqrt(max(float(estimate.q_cov[0, 0]), 0.0)))

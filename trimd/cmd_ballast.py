@@ -7,7 +7,13 @@ import json
 from pathlib import Path
 from typing import Any
 
-from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
+from trimd.ballast import (
+    METHODS,
+    TIME_LIMIT_S,
+    format_proposal,
+    proposal_to_dict,
+    propose_ballast,
+)
 from trimd.errors import DataError
 from trimd.estimate import StaticEstimate
 from trimd.estimate_io import estimate_from_dict
@@ -26,6 +32,9 @@ def register(sub: Any) -> None:
     p.add_argument("--estimate", required=True, help="EST.json written by trimd solve --json")
     p.add_argument("--method", choices=METHODS, default="milp",
                    help="lp, line, general or milp (default: milp, the real pieces)")
+    p.add_argument("--time-limit", type=float, default=TIME_LIMIT_S, metavar="S",
+                   help=f"solver time limit [s]; when reached, the best proposal found is "
+                   f"printed and says so (default {TIME_LIMIT_S:g})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -49,6 +58,10 @@ def read_estimate(path: str | Path) -> StaticEstimate:
 
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    proposal = propose_ballast(read_estimate(args.estimate), profile, args.method)
-    print(json.dumps(proposal_to_dict(proposal)) if args.json else format_proposal(proposal))
+    if not args.time_limit > 0:
+        raise DataError(f"--time-limit must be a positive number of seconds, got {args.time_limit}")
+    proposal = propose_ballast(read_estimate(args.estimate), profile, args.method,
+                               time_limit_s=args.time_limit)
+    print(json.dumps(proposal_to_dict(proposal), allow_nan=False) if args.json
+          else format_proposal(proposal))
     return 0

@@ -14,7 +14,7 @@ import numpy as np
 from trimd.errors import DataError
 from trimd.estimate import HoldSummary, StaticEstimate
 
-__all__ = ["estimate_from_dict", "estimate_to_dict"]
+__all__ = ["covariance_problem", "estimate_from_dict", "estimate_to_dict"]
 
 
 def estimate_to_dict(est: StaticEstimate) -> dict[str, Any]:
@@ -54,6 +54,31 @@ def _array(d: dict[str, Any], key: str, shape: tuple[int, ...], source: str) -> 
     return a
 
 
+def covariance_problem(cov: np.ndarray) -> str | None:
+    """Why ``cov`` is not a covariance matrix (square, finite, symmetric, positive
+    semi-definite, each to rounding), or None when it is one."""
+    if cov.ndim != 2 or cov.shape[0] != cov.shape[1]:
+        return f"is not a square matrix (shape {cov.shape})"
+    if not np.all(np.isfinite(cov)):
+        return "has a non-finite entry"
+    scale = float(np.max(np.abs(cov), initial=0.0))
+    if np.max(np.abs(cov - cov.T), initial=0.0) > 1e-9 * scale:
+        return "is not symmetric"
+    lowest = float(np.linalg.eigvalsh((cov + cov.T) / 2).min(initial=0.0))
+    if lowest < -1e-9 * scale:
+        return f"is not positive semi-definite (eigenvalue {lowest:.3g})"
+    return None
+
+
+def _covariance(d: dict[str, Any], key: str, size: int, source: str) -> np.ndarray:
+    """The covariance matrix at ``key``; DataError naming the key if it is not one."""
+    cov = _array(d, key, (size, size), source)
+    problem = covariance_problem(cov)
+    if problem is not None:
+        raise DataError(f"{source}: '{key}' {problem}: not a covariance matrix")
+    return cov
+
+
 def estimate_from_dict(d: Any, source: str = "<estimate>") -> StaticEstimate:
     """Rebuild a :class:`StaticEstimate` from :func:`estimate_to_dict` output."""
     if not isinstance(d, dict):
@@ -75,9 +100,9 @@ def estimate_from_dict(d: Any, source: str = "<estimate>") -> StaticEstimate:
                  else scalars["weight_N"] - scalars["buoyancy_N"])
     q = np.concatenate([[net_force], _array(d, "net_moment_Nm", (3,), source)])
     return StaticEstimate(
-        q=q, q_cov=_array(d, "cov_net", (4, 4), source), weight_N=scalars["weight_N"],
+        q=q, q_cov=_covariance(d, "cov_net", 4, source), weight_N=scalars["weight_N"],
         buoyancy_N=scalars["buoyancy_N"], r_b_m=_array(d, "r_b_m", (3,), source),
-        r_g_m=_array(d, "cg_m", (3,), source), cov=_array(d, "cov_W_cg", (4, 4), source),
+        r_g_m=_array(d, "cg_m", (3,), source), cov=_covariance(d, "cov_W_cg", 4, source),
         m_ext_kg=scalars["m_ext_kg"], gravity_m_s2=scalars["gravity_m_s2"], holds=holds,
         dofs_used=tuple(str(x) for x in d.get("dofs_used", [])),
         residual_rms=np.asarray(d.get("residual_rms", [math.nan] * 6), dtype=float))
