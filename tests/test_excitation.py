@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from trimd.excitation import design_signal
+from trimd.excitation import axis_forces, design_signal
 from trimd.excite import Excite
-from trimd.identify_model import STAGES
+from trimd.identify_model import HYDRO_NAMES, STAGES, prior_values
 from trimd.procedure import Abort, Confirm, Phase, Tick
 from trimd.profile import Profile
 from trimd.samples import Attitude, Depth, Health, OpenLoop, Release
@@ -90,3 +90,36 @@ def test_completes_and_releases(sabertooth: Profile) -> None:
     out += e.step(Attitude(10.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     assert e.phase is Phase.DONE
     assert any(isinstance(o, Release) for o in out)
+
+
+def test_attitude_hold_only_where_the_thrusters_turn_the_vehicle(sabertooth: Profile,
+                                                                 bluerov: Profile) -> None:
+    # the Sabertooth's surge, sway and yaw thrusters sit level with its CG: open loop
+    free = design_signal(sabertooth, "uvr", duration_s=60.0, seed=0)
+    assert free.hold == ()
+    assert all(d.amplitude == pytest.approx(0.6) for d in free.axes)
+    # the BlueROV2 Heavy's horizontal thrusters sit below it: roll and pitch are held and
+    # the coupled amplitudes lowered so that the hold keeps their moment in the allowance
+    held = design_signal(bluerov, "uvr", duration_s=60.0, seed=0, hold_bandwidth_rad_s=4.0)
+    assert {h.axis for h in held.hold} == {3, 4}
+    forces = axis_forces(bluerov)
+    prior = prior_values(bluerov)
+    allowance = 0.25 * math.radians(bluerov.procedure.max_tilt_deg)
+    for h in held.hold:
+        assert h.bandwidth_rad_s <= 4.0
+        J = prior[HYDRO_NAMES[h.axis]]
+        moment = sum(abs(forces[h.axis, d.axis]) * d.amplitude for d in held.axes)
+        assert 0.27 * moment / (J * h.bandwidth_rad_s ** 2) <= allowance * 1.001
+    assert all(0.1 < d.amplitude < 0.6 for d in held.axes)
+
+
+def test_the_hold_pushes_back_towards_level(bluerov: Profile) -> None:
+    sig = design_signal(bluerov, "uvr", duration_s=60.0, seed=0)
+    e = Excite(bluerov, sig, confirmed=True)
+    _ready(e)
+    assert e.phase is Phase.COLLECT
+    out = e.step(Attitude(4.1, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0))
+    cmd = [o for o in out if isinstance(o, OpenLoop)][-1]
+    base = sig.at(4.1 - 2.0)
+    assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]     # roll right → left, etc.
+    assert cmd.axes[:3] == base[:3] and cmd.axes[5] == base[5]

@@ -46,7 +46,9 @@ def register(sub: Any) -> None:
     e.add_argument("--max-depth-excursion", type=float, default=5.0, metavar="M",
                    help="abort beyond this depth change from the start [m]")
     e.add_argument("--yes", action="store_true", help="confirm up front")
-    e.add_argument("--record", metavar="PATH", help="session log (.tlog)")
+    e.add_argument("--record", metavar="PATH", help="session log (default: a timestamped "
+                   "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions, as trimd run)")
+    e.add_argument("--no-record", action="store_true", help="do not write a session log")
     e.set_defaults(func=run_excite)
     i: argparse.ArgumentParser = sub.add_parser(
         "identify", help="fit the dynamic model to recorded excitation experiments",
@@ -58,7 +60,8 @@ def register(sub: Any) -> None:
                    help="held-out sessions for the NRMSE fit")
     i.add_argument("--segment", type=float, default=FitOptions.segment_s, metavar="S",
                    help="simulation horizon of each segment [s]")
-    i.add_argument("--out", metavar="DIR", help="write fragment.yaml and summary.json here")
+    i.add_argument("--out", metavar="DIR", help="write fragment.yaml, summary.json and PNG "
+                   "plots (measured vs simulated per output, residuals) here")
     i.set_defaults(func=run_identify)
 
 
@@ -78,18 +81,24 @@ class SampleCollector:
 
 
 async def run_experiment(link: Any, profile: Profile, excite: Excite, *,
-                         recorder: Any = None, quiet: bool = True
+                         recorder: Any = None, quiet: bool = True, signals: bool = False
                          ) -> tuple[SessionResult, list[Sample]]:
-    """Run ``excite`` over ``link`` in a :class:`Session`; the result and every sample."""
+    """Run ``excite`` over ``link`` in a :class:`Session`; the result and every sample.
+    With ``signals``, SIGINT and SIGTERM abort the session (it releases the vehicle)."""
     collector = SampleCollector(quiet)
     session = Session(link, profile, recorder=recorder, presenters=[collector],
                       procedure=excite)
+    if signals:
+        loop = asyncio.get_running_loop()
+        for sig_no in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig_no, session.abort, f"stopped by {sig_no.name}")
     return await session.run(), collector.samples
 
 
 def run_excite(args: argparse.Namespace) -> int:
     from drivers import open_link
     from replay.recorder import TlogRecorder
+    from trimd.cmd_run import default_record_path
 
     profile = load_profile(args.profile)
     if not args.yes:
@@ -101,16 +110,14 @@ def run_excite(args: argparse.Namespace) -> int:
 
     async def go() -> SessionResult:
         link = await open_link(args.link, profile)
-        recorder = (TlogRecorder(args.record, profile,
-                                 Path(profile.source).read_text(encoding="utf-8"))
-                    if args.record else None)
-        collector = SampleCollector()
-        session = Session(link, profile, recorder=recorder, presenters=[collector],
-                          procedure=excite)
-        loop = asyncio.get_running_loop()
-        for sig_no in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig_no, session.abort, f"stopped by {sig_no.name}")
-        return await session.run()
+        recorder = None
+        if not args.no_record:
+            path = Path(args.record) if args.record else default_record_path(profile)
+            recorder = TlogRecorder(path, profile,
+                                    Path(profile.source).read_text(encoding="utf-8"))
+        result, _ = await run_experiment(link, profile, excite, recorder=recorder,
+                                         quiet=False, signals=True)
+        return result
 
     result = asyncio.run(go())
     if result.phase is not Phase.DONE:
@@ -138,8 +145,11 @@ def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
 
 
 def run_identify(args: argparse.Namespace) -> int:
+    from trimd.identify_plots import write_plots
+
     profile = load_profile(args.profile)
-    fit: StageFit = fit_stage(_load(args.logs, profile), profile, args.stage,
+    experiments = _load(args.logs, profile)
+    fit: StageFit = fit_stage(experiments, profile, args.stage,
                               FitOptions(segment_s=args.segment))
     validations: list[Validation] = []
     for e in _load(args.validate, profile):
@@ -153,5 +163,10 @@ def run_identify(args: argparse.Namespace) -> int:
         (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
         (out / "summary.json").write_text(json.dumps(
             summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
-        print(f"wrote {out / 'fragment.yaml'} and {out / 'summary.json'}", file=sys.stderr)
+        # without held-out logs, plot the free run of the fitted ones (not a validation)
+        shown = validations or [v for e in experiments
+                                for v in validate(fit.values(), [e], profile, args.stage)]
+        plots = write_plots(shown, out, args.stage)
+        print(f"wrote {out / 'fragment.yaml'}, {out / 'summary.json'} and {len(plots)} "
+              "plots (measured vs simulated, residuals)", file=sys.stderr)
     return 0

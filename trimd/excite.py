@@ -3,8 +3,9 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 ``cause``, ``estimate``, ``proposal``), so :class:`trimd.session.Session` runs it.
 
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.excitation.Signal`
-as :class:`~trimd.samples.OpenLoop` commands, one per change) → done; ``failed`` or
-``aborted`` from anywhere. The safety rules are the procedure's: no command before the
+as :class:`~trimd.samples.OpenLoop` commands, one per change; with an attitude hold in
+the signal, its PID output is added on roll and pitch at every attitude sample) → done;
+``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's: no command before the
 operator's confirmation; an attitude beyond ``max_tilt_deg`` + 5° or a depth excursion
 beyond the limit from the start depth ends the experiment; so do link loss (a Health
 sample that is not connected, or no telemetry for ``link_timeout_s``), a disarmed vehicle,
@@ -69,6 +70,8 @@ class Excite:
         self._attitude_seen = False
         self._last: tuple[float, ...] | None = None
         self._commanded = False
+        self._integral = {h.axis: 0.0 for h in signal.hold}
+        self._t_hold = math.nan
 
     # ---------------------------------------------------------------- interface
     def step(self, event: Event) -> list[Output]:
@@ -134,7 +137,7 @@ class Excite:
                     f"attitude out of envelope: roll {roll:.1f}°, pitch {pitch:.1f}° "
                     f"(limit {limit:.0f}°)"), "envelope")
             if self.phase is Phase.COLLECT:
-                return self._play()
+                return self._play(s)
             return self._precheck()
         return []
 
@@ -162,18 +165,41 @@ class Excite:
         self._t_start = self._t
         out = self._enter(Phase.COLLECT, "exciting: open-loop inputs on axes "
                           + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
-        return out + self._play()
+        return out + self._play(None)
 
-    def _play(self) -> list[Output]:
+    def _play(self, attitude: Attitude | None) -> list[Output]:
+        """The inputs at the present time: the signal, plus the attitude hold's output on
+        the held axes when ``attitude`` is a new measurement."""
         elapsed = self._t - self._t_start
         if elapsed >= self.signal.duration_s:
             return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s)")
         axes = self.signal.at(elapsed)
+        if attitude is not None and self.signal.hold:
+            axes = self._hold(axes, attitude)
         if axes == self._last:
             return []
         self._last = axes
         self._commanded = True
         return [OpenLoop(axes)]
+
+    def _hold(self, axes: tuple[float, ...], a: Attitude
+              ) -> tuple[float, float, float, float, float, float]:
+        """``axes`` plus the PID output of each held tilt axis towards level; the integral
+        is clamped to ± the hold's limit and frozen while the axis input saturates."""
+        dt = 0.0 if math.isnan(self._t_hold) else max(0.0, a.t_s - self._t_hold)
+        self._t_hold = a.t_s
+        out = list(axes)
+        for h in self.signal.hold:
+            angle, rate = (a.phi, a.p) if h.axis == 3 else (a.theta, a.q)
+            error = -angle
+            saturated = abs(self._last[h.axis]) >= 1.0 if self._last else False
+            if not (saturated and self._integral[h.axis] * error > 0):
+                self._integral[h.axis] += error * dt
+            i_term = max(-h.i_limit, min(h.i_limit, h.ki * self._integral[h.axis]))
+            self._integral[h.axis] = i_term / h.ki
+            out[h.axis] = max(-1.0, min(1.0, axes[h.axis] + h.kp * error + i_term
+                                        - h.kd * rate))
+        return (out[0], out[1], out[2], out[3], out[4], out[5])
 
     def _check_time(self) -> list[Output]:
         if self.phase.final:
