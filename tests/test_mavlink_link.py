@@ -429,12 +429,12 @@ def test_rates_hold_release_and_link_lost(
 
 
 # ------------------------------------------------------------------ trimd run ↔ trimd sim
-def fast_profile(tmp_path: Path) -> Path:
-    """sabertooth-dh2 with 3 s instead of 10 s of steadiness before collecting: the served
+def fast_profile(tmp_path: Path, name: str) -> Path:
+    """Profile ``name`` with 3 s instead of 10 s of steadiness before collecting: the served
     simulator runs 10× faster than the wall clock the live procedure measures."""
-    text = (REPO / "profiles" / "sabertooth-dh2.yaml").read_text(encoding="utf-8")
+    text = (REPO / "profiles" / f"{name}.yaml").read_text(encoding="utf-8")
     assert "min_steady_s: 10.0" in text
-    path = tmp_path / "sabertooth-dh2.yaml"
+    path = tmp_path / f"{name}.yaml"
     path.write_text(text.replace("min_steady_s: 10.0", "min_steady_s: 3.0"), encoding="utf-8")
     return path
 
@@ -452,10 +452,10 @@ def wait_bound(port: int) -> None:
     raise AssertionError(f"nothing listens on udp {port}")
 
 
-def start_pair(tmp_path: Path, payload: str, log: Path) -> tuple[subprocess.Popen[str],
-                                                                 subprocess.Popen[str]]:
+def start_pair(tmp_path: Path, name: str, payload: str, log: Path
+               ) -> tuple[subprocess.Popen[str], subprocess.Popen[str]]:
     """``trimd run`` listening on a UDP port, then ``trimd sim`` serving to it, armed."""
-    profile, port = fast_profile(tmp_path), free_udp_port()
+    profile, port = fast_profile(tmp_path, name), free_udp_port()
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     run = subprocess.Popen(
         [*TRIMD, "run", "--link", f"mavlink:udpin:127.0.0.1:{port}?pilot=always", "--profile",
@@ -471,9 +471,15 @@ def start_pair(tmp_path: Path, payload: str, log: Path) -> tuple[subprocess.Pope
 
 
 @pytest.mark.slow
-def test_trimd_run_over_mavlink_estimates_the_served_vehicle(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("name", "payload", "xy_tol", "z_tol", "m_tol"), [
+    ("sabertooth-dh2", "10@AftSB", 1e-3, 3e-3, 0.2),
+    ("bluerov2-heavy", "0.3@0.05,0.1,-0.1", 3e-3, 5e-3, 0.1),   # T200 deadband, offset
+])
+def test_trimd_run_over_mavlink_estimates_the_served_vehicle(
+        tmp_path: Path, name: str, payload: str, xy_tol: float, z_tol: float,
+        m_tol: float) -> None:
     log = tmp_path / "session.tlog"
-    run, sim = start_pair(tmp_path, "10@AftSB", log)
+    run, sim = start_pair(tmp_path, name, payload, log)
     try:
         out, err = run.communicate(timeout=150)
     finally:
@@ -482,11 +488,11 @@ def test_trimd_run_over_mavlink_estimates_the_served_vehicle(tmp_path: Path) -> 
     assert run.returncode == 0, err
     result = json.loads(out.splitlines()[-1])
     assert result["type"] == "result"
-    truth = SimVehicle(load_profile("sabertooth-dh2"), SimConfig(payload="10@AftSB")).truth
+    truth = SimVehicle(load_profile(name), SimConfig(payload=payload)).truth
     err_cg = np.asarray(result["estimate"]["cg_m"]) - np.asarray(truth.mass.r_g)
     print("estimate − truth: cg", err_cg, "m_ext", result["estimate"]["m_ext_kg"] - truth.m_ext_kg)
-    assert np.all(np.abs(err_cg[:2]) < 1e-3) and abs(err_cg[2]) < 3e-3
-    assert abs(result["estimate"]["m_ext_kg"] - truth.m_ext_kg) < 0.2
+    assert np.all(np.abs(err_cg[:2]) < xy_tol) and abs(err_cg[2]) < z_tol, err_cg
+    assert abs(result["estimate"]["m_ext_kg"] - truth.m_ext_kg) < m_tol
     # the log holds the packets as received; replaying it gives the same numbers
     replayed = subprocess.run([*TRIMD, "replay", str(log), "--json"], capture_output=True,
                               text=True, cwd=REPO, timeout=120, check=True,
@@ -499,7 +505,7 @@ def test_trimd_run_over_mavlink_estimates_the_served_vehicle(tmp_path: Path) -> 
 @pytest.mark.slow
 def test_trimd_run_exits_3_with_an_intact_log_when_the_vehicle_dies(tmp_path: Path) -> None:
     log = tmp_path / "session.tlog"
-    run, sim = start_pair(tmp_path, "10@AftSB", log)
+    run, sim = start_pair(tmp_path, "sabertooth-dh2", "10@AftSB", log)
     try:
         assert run.stdout is not None
         for line in run.stdout:                      # until the first hold is commanded

@@ -325,10 +325,10 @@ class Relay:
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("payload", ["10@AftSB", "6@0.5,-0.45,0.25"])   # one above the CO
 def test_trimd_run_over_serial_against_trimd_sim(
         sabertooth: Profile, monkeypatch: pytest.MonkeyPatch,
-        capsys: pytest.CaptureFixture[str]) -> None:
-    payload = "10@AftSB"
+        capsys: pytest.CaptureFixture[str], payload: str) -> None:
     sim = subprocess.Popen(
         [sys.executable, "-m", "trimd.cli", "sim", "--profile", "sabertooth-dh2",
          "--payload", payload, "--serve", "serial:pty", "--rate", "20",
