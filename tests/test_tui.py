@@ -3,8 +3,11 @@ method switching, the report, abort mid-hold, quitting."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
+import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -14,6 +17,7 @@ from drivers import open_link
 from tests.fake_vehicle import FakeLink
 from tests.tui_helpers import app_for, never_times_out, thesis_vehicle, until
 from trimd.ballast import METHODS, propose_ballast
+from trimd.cmd_run import STOP_SIGNALS, stop_on_signals
 from trimd.procedure import Phase
 from trimd.profile import Profile
 from trimd.samples import HoldAttitude, Release
@@ -38,7 +42,7 @@ async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path:
         await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
         assert link.sent == []  # nothing commanded before the operator confirms
         await pilot.press("s")
-        await until(pilot, lambda: app.result is not None, timeout_s=40)
+        await until(pilot, lambda: app.result is not None)
         result = app.result
         assert result is not None and result.phase is Phase.DONE, result
         assert isinstance(link.sent[0], HoldAttitude) and isinstance(link.sent[-1], Release)
@@ -81,7 +85,7 @@ async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile) -> 
     async with app.run_test(size=(80, 24)) as pilot:
         await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
         await pilot.press("s")
-        await until(pilot, lambda: app.result is not None, timeout_s=60)
+        await until(pilot, lambda: app.result is not None)
         result = app.result
         assert result is not None and result.phase is Phase.DONE, result
         assert abs(result.estimate.m_ext_kg - 10.0) < 0.2  # issue 6's tolerance
@@ -141,3 +145,27 @@ async def test_closing_the_app_mid_hold_still_releases(sabertooth: Profile) -> N
     assert isinstance(link.sent[-1], Release) and link.closed
     assert app.result is not None and app.result.reason == "the terminal UI closed"
     assert not math.isnan(app.state.t_s)
+
+
+@pytest.mark.asyncio
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+async def test_a_signal_mid_hold_releases_and_quits(sabertooth: Profile,
+                                                    sig: signal.Signals) -> None:
+    profile = never_times_out(sabertooth)
+    link = FakeLink(thesis_vehicle(profile, stuck_at_deg=5.0))  # runs until stopped
+    app = app_for(profile, link, confirmed=True)
+    loop = asyncio.get_running_loop()
+    try:
+        async with app.run_test(size=(80, 24)) as pilot:
+            stop_on_signals(app.stop)  # as trimd run does around the TUI
+            await until(pilot, lambda: _phase(app) is Phase.SETTLE and len(link.sent) == 2)
+            os.kill(os.getpid(), sig)
+            await until(pilot, lambda: app.result is not None)
+            await pilot.pause()
+    finally:
+        for s in STOP_SIGNALS:
+            loop.remove_signal_handler(s)
+    assert isinstance(link.sent[-1], Release) and link.closed  # the release reached the link
+    assert app.return_value is app.result  # and the app quit by itself
+    assert app.result is not None and app.result.phase is Phase.ABORTED
+    assert app.result.reason == f"stopped by {sig.name}"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -99,3 +100,19 @@ def test_report_files_never_overwrite(sabertooth: Profile, tmp_path: Path) -> No
     text = md.read_text()
     assert "## Ballast proposal (line)" in text and "| 1.50 | state | a/b |" in text
     assert "extra mass m_ext" in text and "10 kg at AftSB" in text
+    assert "- ballast method: line" in text and data["method"] == "line"
+
+
+def test_report_warns_of_an_infeasible_proposal(sabertooth: Profile, tmp_path: Path) -> None:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    est = estimate_static(equilibrium_holds(sabertooth, W, r_g), sabertooth)
+    lp = propose_ballast(est, sabertooth, method="lp")
+    md, js = save_report(Report("sabertooth-dh2", "sim", "done", None, est,
+                                dataclasses.replace(lp, feasible=True), None, []), tmp_path, "ok")
+    assert json.loads(js.read_text())["warnings"] == [] and "Warning" not in md.read_text()
+    bad = dataclasses.replace(lp, feasible=False, message="cannot level it.")
+    md, js = save_report(Report("sabertooth-dh2", "sim", "done", None, est, bad, None, []),
+                         tmp_path, "r")
+    (warning,) = json.loads(js.read_text())["warnings"]
+    assert warning == "the lp proposal is NOT FEASIBLE (best achievable): cannot level it."
+    assert f"> **Warning**: {warning}" in md.read_text()

@@ -1,7 +1,9 @@
 """``trimd replay PATH``: feed a recording through the same pipeline as a live session.
 
 * A trimd recording carries its profile; replaying it runs the same procedure over the
-  recorded samples and reproduces the live estimate and proposal exactly.
+  recorded samples and reproduces the live estimate and proposal exactly. With a
+  terminal attached (and no ``--headless`` / ``--json``) it opens the TUI, with pause
+  and speed keys; the recording's own times drive the procedure at any pace.
 * A foreign log (QGroundControl / MAVProxy ``.tlog``, ArduSub DataFlash ``.bin``) needs
   ``--profile``; trimd reports what the log holds and estimates from the steady attitude
   holds it finds. A log without holds ends with that statement and exit code 1.
@@ -11,9 +13,10 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -21,19 +24,23 @@ import yaml
 from replay.link import ReplayLink, recorded_profile_yaml
 from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
 from trimd.cmd_inspect import format_report, inspect_log
+from trimd.cmd_run import format_result, run_in_tui, wants_tui
 from trimd.cmd_solve import format_estimate
 from trimd.errors import DataError, EstimationError
 from trimd.estimate import StaticEstimate, estimate_static
 from trimd.headless import HeadlessPresenter
 from trimd.holdfile import TAU_COLUMNS, HoldFile, holds_from_table
 from trimd.model import tau_from_pwm
-from trimd.procedure import Phase
+from trimd.procedure import Event, Output, Phase, Procedure, Tick
 from trimd.profile import Profile, load_profile, parse_profile
 from trimd.resample import zoh_align
 from trimd.samples import Attitude, Battery, Sample, Thrusters
-from trimd.session import Session, SessionResult
+from trimd.session import Presenter, Session, SessionResult
 
-__all__ = ["register", "replay_session", "run"]
+if TYPE_CHECKING:
+    from trimd.tui import TrimApp
+
+__all__ = ["register", "replay_app", "replay_session", "run"]
 
 #: Thruster outputs older than this [s] are not held onto an attitude sample.
 MAX_OUTPUT_AGE_S = 1.0
@@ -48,8 +55,10 @@ def register(sub: Any) -> None:
     p.add_argument("--profile", help="vehicle profile (a trimd recording carries its own)")
     pace = p.add_mutually_exclusive_group()
     pace.add_argument("--speed", type=float, help="pace at this many times real time")
-    pace.add_argument("--fast", action="store_true", help="as fast as possible (default)")
-    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    pace.add_argument("--fast", action="store_true", help="as fast as possible (the default "
+                      "headless; the TUI starts at real time)")
+    p.add_argument("--headless", action="store_true", help="no terminal UI")
+    p.add_argument("--json", action="store_true", help="headless, one JSON object per line")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
     p.set_defaults(func=run)
 
@@ -65,17 +74,43 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
     return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
 
 
-async def replay_session(path: str, profile: Profile, *, speed: float | None,
-                         presenters: list[Any], method: str) -> tuple[SessionResult, ReplayLink]:
-    """Run the trim procedure over a recording; return its result and the link."""
-    link = ReplayLink(path, profile, speed=speed)
+class _SampleClockProcedure(Procedure):
+    """The trim procedure on the recording's clock alone: the session's quiet-link Ticks
+    (wall clock) are dropped, so a paused or slowed replay times nothing out and any pace
+    gives the live result (the live session recorded no Ticks either)."""
+
+    def step(self, event: Event) -> list[Output]:
+        return [] if isinstance(event, Tick) else super().step(event)
+
+
+def _session(link: Any, profile: Profile, *, presenters: list[Presenter],
+             method: str) -> Session:
+    """The replay's session over ``link``: confirmed, proposing by ``method``."""
 
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=method)
 
-    session = Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
-                      propose=propose)
-    return await session.run(), link
+    return Session(link, profile, recorder=None, presenters=presenters, procedure=(
+        _SampleClockProcedure(profile, confirmed=True, propose=propose)))
+
+
+async def replay_session(path: str, profile: Profile, *, speed: float | None,
+                         presenters: list[Presenter], method: str
+                         ) -> tuple[SessionResult, ReplayLink]:
+    """Run the trim procedure over a recording; return its result and the link."""
+    link = ReplayLink(path, profile, speed=speed)
+    return await _session(link, profile, presenters=presenters, method=method).run(), link
+
+
+def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> TrimApp:
+    """The TUI over a replay of ``path`` starting at ``speed`` × real time (inf: as fast
+    as possible); its heartbeat age is on the recording's clock."""
+    from trimd.tui import make_app
+    from trimd.tui.replay_pace import PacedReplay
+
+    link = PacedReplay(ReplayLink(path, profile), speed=speed)
+    return make_app(_session(link, profile, presenters=[], method=method), profile,
+                    link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
 def _table(samples: list[Sample], profile: Profile, name: str) -> HoldFile:
@@ -124,11 +159,21 @@ def run(args: argparse.Namespace) -> int:
     profile, recording = _profile(path, args.profile)
     if not recording:
         return _analyse_foreign(path, profile, args)
-    presenter = HeadlessPresenter(json_lines=args.json, proposal_text=format_proposal,
-                                  proposal_dict=proposal_to_dict)
-    result, link = asyncio.run(replay_session(
-        path, profile, speed=args.speed, presenters=[presenter], method=args.ballast))
-    for warning in link.warnings:
+    if wants_tui(args):
+        app = replay_app(path, profile, speed=math.inf if args.fast else args.speed or 1.0,
+                         method=args.ballast)
+        result = asyncio.run(run_in_tui(app))
+        warnings = app.replay.link.warnings if app.replay else []
+        text = format_result(result)
+        if text:
+            print(text)
+    else:
+        presenter = HeadlessPresenter(json_lines=args.json, proposal_text=format_proposal,
+                                      proposal_dict=proposal_to_dict)
+        result, link = asyncio.run(replay_session(
+            path, profile, speed=args.speed, presenters=[presenter], method=args.ballast))
+        warnings = link.warnings
+    for warning in warnings:
         print(f"trimd: warning: {warning}", file=sys.stderr)
     if result.phase is not Phase.DONE:
         print(f"trimd: replay ended {result.phase.value}: {result.reason}", file=sys.stderr)

@@ -1,7 +1,9 @@
 """``trimd run`` and ``trimd demo``: the trim procedure over a link, headless or in the TUI.
 
 Exit codes: 0 done, 1 failed or aborted, 2 usage or profile error, 3 link error
-(cannot open, or lost during the procedure).
+(cannot open, or lost during the procedure). SIGINT, SIGTERM and SIGHUP (an SSH session
+that drops) stop the session, headless or in the TUI: trimd releases the vehicle, closes
+the log and exits 1.
 """
 
 from __future__ import annotations
@@ -12,12 +14,14 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers import open_link
 from replay.recorder import TlogRecorder
 from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
+from trimd.cmd_solve import format_estimate
 from trimd.errors import ProfileError
 from trimd.estimate import StaticEstimate
 from trimd.headless import HeadlessPresenter
@@ -26,7 +30,14 @@ from trimd.profile import Profile, load_profile
 from trimd.samples import Sample
 from trimd.session import Presenter, Session, SessionResult
 
-__all__ = ["default_record_path", "register", "run", "run_demo"]
+if TYPE_CHECKING:
+    from trimd.tui import TrimApp
+
+__all__ = ["STOP_SIGNALS", "default_record_path", "format_result", "register", "run",
+           "run_demo", "run_in_tui", "stop_on_signals", "wants_tui"]
+
+#: Signals that stop a session cleanly: Ctrl-C (headless), ``kill``, an SSH drop.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 DEMO_PROFILE = "sabertooth-dh2"
 DEMO_LINK = "sim:payload=10@AftSB"
@@ -115,6 +126,40 @@ def _truth(link: Any, wanted: bool) -> str | None:
     return str(link.truth()) if wanted and hasattr(link, "truth") else None
 
 
+def stop_on_signals(stop: Callable[[str], None]) -> None:
+    """On any of :data:`STOP_SIGNALS`, call ``stop("stopped by SIGTERM")`` (etc.) on the
+    running loop: ``Session.abort`` headless, ``TrimApp.stop`` in the TUI. Either way the
+    session releases the vehicle and closes the log before the process exits."""
+    loop = asyncio.get_running_loop()
+    for sig in STOP_SIGNALS:
+        loop.add_signal_handler(sig, stop, f"stopped by {sig.name}")
+
+
+def wants_tui(args: argparse.Namespace) -> bool:
+    """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
+    return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()
+
+
+async def run_in_tui(app: TrimApp) -> SessionResult:
+    """Run ``app`` until the operator quits or a signal stops it; how the session ended.
+
+    The session always ends (and releases the vehicle) before this returns.
+    """
+    stop_on_signals(app.stop)
+    await app.run_async()
+    if app.result is None:
+        raise RuntimeError("the terminal UI stopped before the session ended")
+    return app.result
+
+
+def format_result(result: SessionResult) -> str | None:
+    """The estimate and proposal as the headless daemon prints them (None: no estimate)."""
+    if result.estimate is None:
+        return None
+    text = format_estimate(result.estimate)
+    return text + "\n\n" + format_proposal(result.proposal) if result.proposal else text
+
+
 async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
                     ) -> tuple[SessionResult, str | None]:
     link = await open_link(args.link, profile)
@@ -123,31 +168,34 @@ async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
     session = _make_session(args, profile, link, presenters)
     if not args.yes:
         presenters.append(_StdinConfirm(session))
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, session.abort, f"stopped by {sig.name}")
+    stop_on_signals(session.abort)
     result = await session.run()
     return result, _truth(link, truth)
 
 
+async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
+               ) -> tuple[SessionResult, str | None]:
+    from trimd.tui import make_app
+
+    link = await open_link(args.link, profile)
+    truth_text = _truth(link, truth)
+    app = make_app(_make_session(args, profile, link, []), profile,
+                   link_description=link.description, truth=truth_text)
+    return await run_in_tui(app), truth_text
+
+
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
     profile = load_profile(args.profile)
-    tui = not args.headless and sys.stdin.isatty() and sys.stdout.isatty()
+    tui = wants_tui(args)
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    if tui:
-        from trimd.tui.app import run_tui
-
-        link = asyncio.run(open_link(args.link, profile))
-        session = _make_session(args, profile, link, [])
-        result = run_tui(session, profile, link_description=args.link,
-                         truth=_truth(link, truth))
-        truth_text = None
-    else:
-        result, truth_text = asyncio.run(_headless(args, profile, truth=truth))
+    result, truth_text = asyncio.run((_tui if tui else _headless)(args, profile, truth=truth))
     if result.phase is not Phase.DONE:
         print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+    text = format_result(result) if tui else None  # headless printed it as it came
+    if text:
+        print(text)
     if truth_text and not args.json:
         print("\n" + truth_text)
     if result.log_path:

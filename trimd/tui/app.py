@@ -1,6 +1,7 @@
 """The trimd terminal UI: the session runs in a worker on the app's loop; the TUI is
-one of its presenters. :func:`make_app` builds it (tests reuse it), :func:`run_tui`
-runs it for ``trimd run`` / ``trimd demo`` until the operator quits."""
+one of its presenters. :func:`make_app` builds it for ``trimd run`` / ``trimd demo`` /
+``trimd replay`` (which run it until the operator quits or a signal stops it) and for the
+tests."""
 
 from __future__ import annotations
 
@@ -29,13 +30,14 @@ from trimd.tui.link_panel import LinkPanel
 from trimd.tui.messages import CommandSent, NoticeReceived, SessionEnded, TelemetryChanged
 from trimd.tui.presenter import TuiPresenter
 from trimd.tui.quit_screen import QuitScreen
+from trimd.tui.replay_pace import PacedReplay
 from trimd.tui.report import Report, save_report
 from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 from trimd.tui.telemetry import LiveState
 from trimd.tui.thrusters import ThrusterPanel
 
-__all__ = ["TrimApp", "make_app", "run_tui"]
+__all__ = ["TrimApp", "make_app"]
 
 #: At least this many columns and rows show the live view and the result together
 #: (class ``-roomy`` on the app; ``-result`` shows the result alone).
@@ -46,7 +48,9 @@ _BEFORE_HOLDS = (Phase.CONNECT, Phase.PRECHECK, Phase.CONFIRM)
 
 
 class TrimApp(App[SessionResult]):
-    """Runs ``session`` and shows it; ``result`` is set once the session has ended."""
+    """Runs ``session`` and shows it; ``result`` is set once the session has ended.
+
+    ``replay``: the session's link when it replays a recording (pause and speed keys)."""
 
     CSS_PATH = "trimd.tcss"
     TITLE = "trimd"
@@ -58,19 +62,24 @@ class TrimApp(App[SessionResult]):
         Binding("m", "method", "Method"),
         Binding("v", "view", "Live/result"),
         Binding("r", "report", "Save report"),
+        # a replay's only (hidden over a live link)
+        Binding("space", "pace('pause')", "Pause"),
+        Binding("plus,equals_sign", "pace('faster')", "Faster", key_display="+"),
+        Binding("minus", "pace('slower')", "Slower", key_display="-"),
         Binding("question_mark,f1", "help", "Help", key_display="?"),
         Binding("q,ctrl+c", "quit", "Quit", key_display="q"),
     ]
 
     def __init__(self, session: Session, profile: Profile, *, link_description: str,
                  truth: str | None, report_dir: Path | None,
-                 clock: Callable[[], float]) -> None:
+                 clock: Callable[[], float], replay: PacedReplay | None) -> None:
         super().__init__()
         self.session = session
         self.profile = profile
         self.link_description = link_description
         self.truth = truth
         self.report_dir = report_dir
+        self.replay = replay
         self.state = LiveState(clock)
         self.result: SessionResult | None = None
         self.confirmed = False
@@ -99,6 +108,7 @@ class TrimApp(App[SessionResult]):
         # workers, and the session must still end by the procedure's abort (releasing)
         self._session_task = asyncio.ensure_future(self.session.run())
         self.set_interval(1 / REDRAW_HZ, self._redraw)
+        self._show_pace()
         self.run_worker(self._wait_session(), name="session", group="session")
 
     async def _wait_session(self) -> None:
@@ -172,6 +182,8 @@ class TrimApp(App[SessionResult]):
             return self.result is None and not self.confirmed and early
         if action in ("method", "view"):
             return self.query_one(ResultPanel).estimate is not None
+        if action == "pace":
+            return self.replay is not None and self.result is None
         return True
 
     def action_start(self) -> None:
@@ -186,6 +198,16 @@ class TrimApp(App[SessionResult]):
         if self.result is None:
             self.session.abort("aborted by the operator")
             self.query_one(EventLog).add(self.state.t_s, "error", "ABORT requested")
+
+    def stop(self, reason: str) -> None:
+        """End the session for ``reason`` (releasing the vehicle, closing the log), then
+        quit: what a signal does (``trimd run`` installs it for SIGINT, SIGTERM, SIGHUP).
+        Safe before the app is mounted (the session then aborts as it starts)."""
+        if self.result is not None:
+            self.exit(self.result)
+        else:
+            self._quitting = True
+            self.session.abort(reason)
 
     def action_method(self, method: str = "") -> None:
         """Show the proposal of ``method`` (default: the next one)."""
@@ -218,8 +240,20 @@ class TrimApp(App[SessionResult]):
         self.query_one(EventLog).add(self.state.t_s, "info", f"report saved: {md.name}")
         self.notify(f"Report saved: {md} and {js.name}")
 
+    def action_pace(self, change: str) -> None:
+        """Replay: ``pause`` (or resume), ``faster`` or ``slower``."""
+        if self.replay is not None:
+            {"pause": self.replay.toggle_pause, "faster": self.replay.faster,
+             "slower": self.replay.slower}[change]()
+            self._show_pace()
+
+    def _show_pace(self) -> None:
+        if self.replay is not None:
+            self.query_one(LinkPanel).border_subtitle = f"replay {self.replay.label}"
+
     def action_help(self) -> None:
-        self.push_screen(HelpScreen([b for b in self.BINDINGS if isinstance(b, Binding)]))
+        self.push_screen(HelpScreen([b for b in self.BINDINGS if isinstance(b, Binding)
+                                     and (self.replay or not b.action.startswith("pace("))]))
 
     async def action_quit(self) -> None:
         """Quit; while the session runs, ask first (quitting aborts it)."""
@@ -252,25 +286,13 @@ class TrimApp(App[SessionResult]):
 
 def make_app(session: Session, profile: Profile, *, link_description: str,
              truth: str | None = None, report_dir: Path | None = None,
-             clock: Callable[[], float] = time.monotonic) -> TrimApp:
+             clock: Callable[[], float] = time.monotonic,
+             replay: PacedReplay | None = None) -> TrimApp:
     """The TUI over ``session`` (not started yet; the app starts it when mounted).
 
     ``report_dir``: where reports go (default: beside the session log, else the current
-    directory). ``clock``: only for the heartbeat age shown (tests fix it).
+    directory). ``clock``: only for the heartbeat age shown (tests fix it; a replay passes
+    its own sample time). ``replay``: the session's link when it replays a recording.
     """
     return TrimApp(session, profile, link_description=link_description, truth=truth,
-                   report_dir=report_dir, clock=clock)
-
-
-def run_tui(session: Session, profile: Profile, *, link_description: str,
-            truth: str | None = None, report_dir: Path | None = None) -> SessionResult:
-    """Run the TUI until the operator quits; return how the session ended.
-
-    The session always ends (and releases the vehicle) before this returns.
-    """
-    app = make_app(session, profile, link_description=link_description, truth=truth,
-                   report_dir=report_dir)
-    app.run()
-    if app.result is None:
-        raise RuntimeError("the terminal UI stopped before the session ended")
-    return app.result
+                   report_dir=report_dir, clock=clock, replay=replay)

@@ -1,5 +1,5 @@
 """Attitude panel: roll, pitch, yaw and depth against their set-points, and a braille
-plot of roll and pitch over the last minute of sample time."""
+plot of roll and pitch over the last minute of sample time (its legend in the border)."""
 
 from __future__ import annotations
 
@@ -30,7 +30,9 @@ class AttitudePanel(Widget):
         super().__init__(id=id)
         self.state = state
         self.border_title = "Attitude"
-        self.border_subtitle = f"last {HISTORY_S:.0f} s"
+        # the plot's legend (the table's headings are coloured the same)
+        self.border_subtitle = (f"[{_ROLL}]━ roll[/] [{_PITCH}]━ pitch[/] [{_SET}]━ set[/]"
+                                f" · last {HISTORY_S:.0f} s")
 
     def render(self) -> Text:
         s, a, sp = self.state, self.state.attitude, self.state.setpoint

@@ -1,6 +1,7 @@
 """The trim report the operator saves from the TUI: markdown for people, JSON for tools
 (the estimate and proposal in the ``trimd solve --json`` / ``trimd ballast --json``
-shapes), written side by side."""
+shapes), written side by side. Both state the ballast method of the proposal shown and
+warn when that proposal is not feasible."""
 
 from __future__ import annotations
 
@@ -42,9 +43,19 @@ def _free_stem(directory: Path, stem: str) -> Path:
     return directory / name
 
 
+def _warnings(r: Report) -> list[str]:
+    """What the reader must not miss: an infeasible proposal."""
+    p = r.proposal
+    if p is None or p.feasible:
+        return []
+    return [f"the {p.method} proposal is NOT FEASIBLE (best achievable): {p.message}"]
+
+
 def _to_dict(r: Report) -> dict[str, Any]:
     return {
         "profile": r.profile, "link": r.link, "status": r.status, "log_path": r.log_path,
+        "method": None if r.proposal is None else r.proposal.method,
+        "warnings": _warnings(r),
         "estimate": None if r.estimate is None else estimate_to_dict(r.estimate),
         "proposal": None if r.proposal is None else proposal_to_dict(r.proposal),
         "truth": r.truth,
@@ -55,7 +66,10 @@ def _to_dict(r: Report) -> dict[str, Any]:
 
 def _to_markdown(r: Report) -> str:
     out = [f"# trimd report: {r.profile}", "", f"- link: `{r.link}`", f"- status: {r.status}",
-           f"- session log: {f'`{r.log_path}`' if r.log_path else 'not recorded'}", ""]
+           f"- session log: {f'`{r.log_path}`' if r.log_path else 'not recorded'}",
+           f"- ballast method: {r.proposal.method if r.proposal else 'none (no proposal)'}",
+           ""]
+    out += [f"> **Warning**: {w}\n" for w in _warnings(r)]
     out += ["## Estimate", ""]
     out += (["```text", format_estimate(r.estimate), "```"] if r.estimate
             else ["No estimate: the procedure did not finish."])
