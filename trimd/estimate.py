@@ -161,16 +161,19 @@ def _check_identifiable(holds: Sequence[HoldSamples], rows: NDArray[np.bool_]) -
 
 
 def _lag1(r: FloatArray) -> float:
-    """Lag-1 autocorrelation of each column of ``r``, averaged, clipped to [0, 0.99]."""
+    """Pooled lag-1 autocorrelation of the columns of ``r``, clipped to [0, 0.99].
+
+    Pooled (each column weighted by its variance), as the variance it corrects is pooled:
+    a plain mean of per-column values lets a column of negligible spread (a thruster row
+    stuck in its deadband, say) inflate the variance of the whole group.
+    """
     if r.shape[0] < 3:
         return 0.0
     c = r - r.mean(axis=0)
-    den = np.sum(c * c, axis=0)
-    ok = den > 0
-    if not np.any(ok):
+    den = float(np.sum(c * c))
+    if den <= 0:
         return 0.0
-    rho = np.sum(c[1:] * c[:-1], axis=0)[ok] / den[ok]
-    return float(np.clip(np.mean(rho), 0.0, 0.99))
+    return float(np.clip(np.sum(c[1:] * c[:-1]) / den, 0.0, 0.99))
 
 
 def _mean_attitude_cov(hold: HoldSamples) -> FloatArray:
