@@ -11,12 +11,14 @@ import numpy as np
 import pytest
 
 from tests.conftest import equilibrium_holds, payload_truth
+from tests.test_ballast_degenerate import CASES, with_net
 from trimd.ballast import propose_ballast
 from trimd.estimate import estimate_static
 from trimd.profile import Profile
 from trimd.samples import Attitude, Depth, Health, HoldAttitude, Release
 from trimd.tui.plot import Series, braille_plot
 from trimd.tui.report import Report, save_report
+from trimd.tui.result_panel import ResultPanel
 from trimd.tui.telemetry import HISTORY_S, LiveState
 from trimd.tui.thrusters import efforts
 from trimd.tui.topview import top_view
@@ -116,3 +118,11 @@ def test_report_warns_of_an_infeasible_proposal(sabertooth: Profile, tmp_path: P
     (warning,) = json.loads(js.read_text())["warnings"]
     assert warning == "the lp proposal is NOT FEASIBLE (best achievable): cannot level it."
     assert f"> **Warning**: {warning}" in md.read_text()
+
+
+def test_result_panel_says_when_the_passive_trim_is_undefined(sabertooth: Profile) -> None:
+    """A vehicle without static stability has no passive trim: no 'nan ± nan°'."""
+    proposal = propose_ballast(with_net(sabertooth, *CASES["negative"]), sabertooth, "lp")
+    assert not proposal.trim.stable
+    text = "\n".join(line.plain for line in ResultPanel(sabertooth)._footer(proposal, 80))
+    assert "passive trim undefined: no static stability" in text and "nan" not in text

@@ -63,6 +63,11 @@ class Terminal:
     def type(self, keys: str) -> None:
         os.write(self.fd, keys.encode())
 
+    def hang_up(self) -> None:
+        """Close the terminal, as an SSH drop does: the kernel sends SIGHUP to trimd."""
+        os.close(self.fd)
+        self.fd = -1
+
     def wait(self) -> int:
         """The exit code (a death by signal: 128 + its number, as a shell reports it)."""
         status: list[int] = []
@@ -74,7 +79,8 @@ class Terminal:
             os.kill(self.pid, signal.SIGKILL)
             pytest.fail(f"hang guard: trimd did not exit within {HANG_GUARD_S:g} s")
         self._reader.join(timeout=HANG_GUARD_S)
-        os.close(self.fd)
+        if self.fd >= 0:
+            os.close(self.fd)
         code = os.waitstatus_to_exitcode(status[0])
         return 128 - code if code < 0 else code
 
@@ -91,8 +97,10 @@ def log_has(path: Path, text: str) -> Callable[[], bool]:
     return lambda: path.exists() and text.encode() in path.read_bytes()
 
 
-@pytest.mark.parametrize("how", ["SIGTERM", "SIGHUP"])
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGHUP", "hang-up"])
 def test_a_signal_mid_hold_releases_and_closes_the_log(tmp_path: Path, how: str) -> None:
+    """SIGTERM, SIGHUP, and a terminal that really goes away (then Textual could never
+    restore it: trimd must still exit, not hang)."""
     profile = (REPO / "profiles" / "sabertooth-dh2.yaml").read_text()
     for old, new in NEVER_SETTLES.items():
         assert old in profile
@@ -102,10 +110,14 @@ def test_a_signal_mid_hold_releases_and_closes_the_log(tmp_path: Path, how: str)
     term = Terminal("run", "--link", "sim:payload=10@AftSB", "--profile",
                     str(tmp_path / "stuck.yaml"), "--yes", "--record", str(log))
     term.wait_for(log_has(log, "hold 1/2"))  # commanding the vehicle: it must be released
-    os.kill(term.pid, getattr(signal, how))
+    if how == "hang-up":
+        term.hang_up()
+    else:
+        os.kill(term.pid, getattr(signal, how))
     assert term.wait() == 1  # aborted: not 143 / 129 (killed by the signal)
     data = log.read_bytes()
-    assert b"trimd: release control" in data and f"stopped by {how}".encode() in data
+    signame = "SIGHUP" if how == "hang-up" else how
+    assert b"trimd: release control" in data and f"stopped by {signame}".encode() in data
     if how == "SIGTERM":  # the terminal is still there to tell why
         assert f"trimd: aborted: stopped by {how}" in term.text
 

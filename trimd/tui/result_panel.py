@@ -163,8 +163,10 @@ class ResultPanel(Widget):
             Text(f"added {p.added_mass_kg:.2f} kg"),
             Text(f"net buoyancy {t.net_buoyancy_N:+.1f} ± {t.net_buoyancy_std_N:.1f} N "
                  f"({t.net_buoyancy_pct:+.2f} %)"),
-            Text(f"passive roll {t.roll_deg:+.2f} ± {t.roll_std_deg:.2f}°", style=trim_style),
-            Text(f"pitch {t.pitch_deg:+.2f} ± {t.pitch_std_deg:.2f}°", style=trim_style),
+            *((Text(f"passive roll {t.roll_deg:+.2f} ± {t.roll_std_deg:.2f}°", style=trim_style),
+               Text(f"pitch {t.pitch_deg:+.2f} ± {t.pitch_std_deg:.2f}°", style=trim_style))
+              if t.stable else
+              (Text("passive trim undefined: no static stability", style="bold red"),)),
         ], width)
         if not p.feasible:
             lines += [Text(line, style="bold red") for line in
