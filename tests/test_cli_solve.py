@@ -69,20 +69,25 @@ def test_a_spreadsheet_csv_with_a_byte_order_mark_reads(
         capsys, "solve", str(plain), "--profile", "sabertooth-dh2")
 
 
-def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile,
+@pytest.mark.parametrize("battery", [False, True])
+def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile, battery: bool,
                                         capsys: pytest.CaptureFixture[str]) -> None:
-    """Per-thruster PWM columns go through the profile's curves and geometry."""
+    """Per-thruster PWM columns go through the profile's curves and geometry, at the
+    nominal voltage or at each row's ``battery_V`` (between the 12 V and 16 V tables)."""
     W, r_g = payload_truth(bluerov, 0.4, np.array([0.11, 0.128, 0.175]))
     holds = equilibrium_holds(bluerov, W, r_g, n=50)
     T = thrust_configuration(bluerov.thrusters)
-    lines = ["time_s,roll_deg,pitch_deg,hold," + ",".join(f"pwm_{i}" for i in range(1, 9))]
+    lines = ["time_s,roll_deg,pitch_deg,hold," + ",".join(f"pwm_{i}" for i in range(1, 9))
+             + (",battery_V" if battery else "")]
     for k, h in enumerate(holds):
         f = np.linalg.lstsq(T, h.tau[0], rcond=None)[0]
-        pwm = [pwm_from_thrust(t.curve, [fi], 16.0)[0] for t, fi in zip(
-            bluerov.thrusters, f, strict=True)]
         for i in range(len(h.t_s)):
+            volts = 15.5 - 0.5 * k - 0.02 * i if battery else 16.0
+            pwm = [pwm_from_thrust(t.curve, [fi], volts)[0] for t, fi in zip(
+                bluerov.thrusters, f, strict=True)]
             lines.append(",".join(f"{v:.9g}" for v in (
-                i * 0.1 + 100 * k, np.degrees(h.phi[i]), np.degrees(h.theta[i]), k, *pwm)))
+                i * 0.1 + 100 * k, np.degrees(h.phi[i]), np.degrees(h.theta[i]), k, *pwm,
+                *([volts] if battery else []))))
     path = tmp_path / "pwm.csv"
     path.write_text("\n".join(lines) + "\n")
     out = run_json(capsys, "solve", str(path), "--profile", "bluerov2-heavy")

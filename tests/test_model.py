@@ -11,6 +11,7 @@ from trimd.model import (
     pwm_from_thrust,
     restoring_forces,
     restoring_matrix,
+    restoring_matrix_jacobian,
     tau_from_pwm,
     thrust_configuration,
     thrust_from_pwm,
@@ -63,6 +64,24 @@ def test_restoring_matrix_broadcasts() -> None:
     np.testing.assert_allclose(G[3], restoring_matrix(0.0, 0.225))
 
 
+def test_restoring_matrix_jacobian_matches_central_differences() -> None:
+    rng = np.random.default_rng(11)
+    h = 1e-6
+    for phi, theta in rng.uniform(-np.radians(60), np.radians(60), (20, 2)):
+        J = restoring_matrix_jacobian(phi, theta)
+        d_phi = (restoring_matrix(phi + h, theta) - restoring_matrix(phi - h, theta)) / (2 * h)
+        d_theta = (restoring_matrix(phi, theta + h) - restoring_matrix(phi, theta - h)) / (2 * h)
+        np.testing.assert_allclose(J[..., 0], d_phi, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(J[..., 1], d_theta, rtol=0, atol=1e-9)
+
+
+def test_restoring_matrix_jacobian_broadcasts() -> None:
+    phi, theta = np.linspace(-0.5, 0.5, 5), np.linspace(0, 0.3, 5)
+    J = restoring_matrix_jacobian(phi, theta)
+    assert J.shape == (5, 6, 4, 2)
+    np.testing.assert_allclose(J[3], restoring_matrix_jacobian(phi[3], theta[3]))
+
+
 def test_thrust_configuration_columns() -> None:
     curve = ThrustCurve("lin", (ThrustTable(16.0, (1500, 1500), (1100, 1900), (-10, 10)),))
     t = Thruster("a", 1, (1.0, 0.5, 0.0), (0.0, 0.0, 1.0), curve)
@@ -103,3 +122,50 @@ def test_tau_from_pwm_uses_geometry(bluerov: Profile) -> None:
     np.testing.assert_allclose(tau, [0, 0, 4 * 1.82 * 9.80665, 0, 0, 0], atol=1e-9)
     many = tau_from_pwm(bluerov, np.tile(pwm, (3, 1)), 16.0)
     assert many.shape == (3, 6)
+
+
+def test_thrust_from_pwm_with_one_voltage_per_command() -> None:
+    """Three tables on different PWM grids, so that grid points fall inside the deadband
+    interpolated between two tables; voltages below, between, at and above the tables."""
+    curve = ThrustCurve("three", (
+        ThrustTable(12.0, (1460, 1540), (1100, 1300, 1450, 1550, 1700, 1900),
+                    (-20, -8, -1, 1.5, 12, 25)),
+        ThrustTable(14.0, (1480, 1520), (1100, 1250, 1470, 1530, 1650, 1800, 1900),
+                    (-28, -15, -0.5, 0.7, 14, 27, 33)),
+        ThrustTable(16.0, (1490, 1510), (1150, 1400, 1495, 1505, 1600, 1850),
+                    (-30, -12, -0.2, 0.3, 20, 40)),
+    ))
+    rng = np.random.default_rng(5)
+    pwm = np.r_[rng.uniform(1000, 2000, 600), [1100, 1250, 1460, 1470, 1500, 1530, 1540, 1900]]
+    volts = np.r_[rng.uniform(11, 17, 600), [12.0, 13.0, 14.0, 15.0, 16.0, 11.0, 17.0, 12.5]]
+    loop = [thrust_from_pwm(curve, [p], v)[0] for p, v in zip(pwm, volts, strict=True)]
+    np.testing.assert_allclose(thrust_from_pwm(curve, pwm, volts), loop, rtol=1e-12, atol=1e-12)
+    # one voltage broadcast over a grid of commands, and a 0-d voltage
+    grid = thrust_from_pwm(curve, pwm[:5, None], volts[None, :7])
+    assert grid.shape == (5, 7)
+    np.testing.assert_allclose(grid[2, 4], thrust_from_pwm(curve, [pwm[2]], volts[4])[0])
+    np.testing.assert_allclose(thrust_from_pwm(curve, pwm, np.float64(13.0)),
+                               thrust_from_pwm(curve, pwm, np.full(pwm.shape, 13.0)),
+                               rtol=1e-12, atol=1e-12)
+    # at 13 V the deadband is [1470, 1530], both edges points of the 14 V table: still 0 N
+    band = np.linspace(1470, 1530, 13)
+    assert thrust_from_pwm(curve, band, 13.0).tolist() == [0.0] * 13
+    assert thrust_from_pwm(curve, band, np.full(13, 13.0)).tolist() == [0.0] * 13
+
+
+def test_tau_from_pwm_with_one_voltage_per_row(bluerov: Profile) -> None:
+    rng = np.random.default_rng(8)
+    n = 500
+    pwm = rng.uniform(1000, 2000, (n, len(bluerov.thrusters)))
+    pwm[::10] = 1500.0  # all in the deadband
+    volts = rng.uniform(11.0, 17.0, n)
+    volts[::7] = 14.0
+    loop = np.array([tau_from_pwm(bluerov, p, v) for p, v in zip(pwm, volts, strict=True)])
+    tau = tau_from_pwm(bluerov, pwm, volts)
+    assert tau.shape == (n, 6)
+    np.testing.assert_allclose(tau, loop, rtol=1e-12, atol=1e-9)
+    # a scalar voltage (or none: the nominal one) still applies to every row
+    np.testing.assert_allclose(tau_from_pwm(bluerov, pwm, 13.0),
+                               tau_from_pwm(bluerov, pwm, np.full(n, 13.0)), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(tau_from_pwm(bluerov, pwm),
+                               tau_from_pwm(bluerov, pwm, bluerov.nominal_voltage_V))

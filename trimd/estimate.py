@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.errors import EstimationError
-from trimd.model import restoring_matrix, thrust_configuration
+from trimd.model import restoring_matrix, restoring_matrix_jacobian, thrust_configuration
 from trimd.profile import Profile
 
 __all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs"]
@@ -185,11 +185,9 @@ def _mean_attitude_cov(hold: HoldSamples) -> FloatArray:
 
 
 def _attitude_jacobian(phi: float, theta: float, q: FloatArray) -> FloatArray:
-    """∂(G(φ, θ)·q)/∂(φ, θ), shape (6, 2) [N or N·m per rad], by central differences."""
-    h = 1e-6
-    return np.column_stack([
-        (restoring_matrix(phi + h, theta) - restoring_matrix(phi - h, theta)) @ q / (2 * h),
-        (restoring_matrix(phi, theta + h) - restoring_matrix(phi, theta - h)) @ q / (2 * h)])
+    """∂(G(φ, θ)·q)/∂(φ, θ), shape (6, 2) [N or N·m per rad]."""
+    d: FloatArray = np.einsum("ijk,j->ik", restoring_matrix_jacobian(phi, theta), q)
+    return d
 
 
 def _is_level(hold: HoldSamples) -> bool:

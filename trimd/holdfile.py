@@ -79,10 +79,7 @@ def _tau(table: HoldFile, profile: Profile) -> NDArray[np.float64]:
     pwm_cols = [f"pwm_{t.channel}" for t in profile.thrusters]
     if profile.thrusters and all(c in cols for c in pwm_cols):
         pwm = np.column_stack([cols[c] for c in pwm_cols])
-        if "battery_V" not in cols:
-            return tau_from_pwm(profile, pwm)
-        return np.array([tau_from_pwm(profile, p, v) for p, v in zip(
-            pwm, cols["battery_V"], strict=True)])
+        return tau_from_pwm(profile, pwm, cols.get("battery_V"))
     missing = [c for c in TAU_COLUMNS if c not in cols]
     missing_pwm = [c for c in pwm_cols if c not in cols]
     raise DataError(f"{table.path}: missing columns: give {', '.join(missing)} "
