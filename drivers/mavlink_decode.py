@@ -7,8 +7,11 @@ shares its range checks (``checked_*``).
 =====================  =========================================================
 message                sample
 =====================  =========================================================
-HEARTBEAT              :class:`Health` (ArduSub mode name, armed = base_mode bit 128)
-                       from the vehicle's autopilot component only
+HEARTBEAT              :class:`Health` (ArduSub mode name, armed = base_mode bit 128,
+                       vehicle = sysid, autopilot and type) from the vehicle's
+                       autopilot component only
+STATUSTEXT             :class:`VehicleText` (severity, text; MAVLink 2 chunks joined)
+                       from any component of the vehicle's system
 ATTITUDE               :class:`Attitude` (rad, rad/s; already NED→FRD)
 SERVO_OUTPUT_RAW       :class:`Thrusters` (µs) in the profile's thruster order
 VFR_HUD                :class:`Depth` = −alt [m]            (``depth_source="vfr_hud"``)
@@ -47,9 +50,20 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
 from drivers.ardusub import mode_name
 from trimd.profile import Profile
-from trimd.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, Velocity
+from trimd.samples import (
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    Sample,
+    Thrusters,
+    VehicleText,
+    Velocity,
+)
 
 __all__ = [
     "LIMITS",
@@ -84,6 +98,21 @@ _TYPE_GCS = 6
 _ARMED = 128  # MAV_MODE_FLAG_SAFETY_ARMED
 _UINT16_MAX = 65535
 _FRAME_BODY_FRD = 12  # MAV_FRAME_BODY_FRD
+_TEXT_CHUNK = 50  # STATUSTEXT text bytes: a shorter chunk ends a multi-chunk text
+_TEXTS_PENDING = 8  # multi-chunk texts being joined at once (older ones are dropped)
+_AUTOPILOTS = {3: "ArduPilot", 12: "PX4"}
+
+
+def vehicle_name(sysid: int, autopilot: int, mav_type: int) -> str:
+    """E.g. ``"sysid 1 ArduPilot submarine"`` from a HEARTBEAT's sender and fields."""
+    enums = mavlink2.enums
+    kind = enums["MAV_TYPE"].get(mav_type)
+    pilot = enums["MAV_AUTOPILOT"].get(autopilot)
+    kind_name = kind.name.removeprefix("MAV_TYPE_").lower().replace("_", " ") if kind else (
+        f"type {mav_type}")
+    pilot_name = _AUTOPILOTS.get(autopilot) or (
+        pilot.name.removeprefix("MAV_AUTOPILOT_") if pilot else f"autopilot {autopilot}")
+    return f"sysid {sysid} {pilot_name} {kind_name}"
 
 
 class _Skip:
@@ -231,6 +260,8 @@ class MavlinkDecoder:
         self.rejected: Counter[str] = Counter()
         self.ignored = 0
         self._outputs: dict[int, int] = {}
+        self._vehicle_name = ""
+        self._texts: dict[int, list[bytes]] = {}
         depth_type = {"vfr_hud": "VFR_HUD", "global_position": "GLOBAL_POSITION_INT",
                       "pressure": "SCALED_PRESSURE2"}[depth_source]
         self._handlers = {
@@ -256,6 +287,11 @@ class MavlinkDecoder:
             params = self._params_by_source.setdefault(source, VehicleParams())
             params.update(str(msg.param_id), float(msg.param_value))
             return []
+        if kind == "STATUSTEXT":
+            if self.vehicle is None or source[0] != self.vehicle[0]:
+                self.ignored += 1
+                return []
+            return self._statustext(msg, t_s)
         handler = self._handlers.get(kind)
         if handler is None:
             return []
@@ -278,12 +314,31 @@ class MavlinkDecoder:
                 return []
             self.vehicle = source
             self.params = self._params_by_source.setdefault(source, VehicleParams())
+            self._vehicle_name = vehicle_name(source[0], int(msg.autopilot), int(msg.type))
         elif source != self.vehicle:
             self.ignored += 1
             return []
         self.mode = mode_name(int(msg.custom_mode))
         self.armed = bool(msg.base_mode & _ARMED)
-        return [Health(t_s, True, self.mode, self.armed, self.bad_frames)]
+        return [Health(t_s, True, self.mode, self.armed, self.bad_frames,
+                       vehicle=self._vehicle_name)]
+
+    def _statustext(self, msg: Any, t_s: float) -> list[Sample]:
+        # pymavlink decodes the text as ASCII; the raw bytes keep UTF-8 (e.g. "°") whole
+        raw = getattr(msg, "_text_raw", None)
+        chunk = raw.split(b"\0", 1)[0] if isinstance(raw, bytes) else str(msg.text).encode()
+        text_id = int(getattr(msg, "id", 0))  # MAVLink 1 has no chunks
+        if text_id:
+            chunks = self._texts.pop(text_id, [])
+            chunks.append(chunk)
+            if len(chunk) >= _TEXT_CHUNK:  # more to come
+                self._texts[text_id] = chunks
+                while len(self._texts) > _TEXTS_PENDING:
+                    del self._texts[next(iter(self._texts))]
+                return []
+            chunk = b"".join(chunks)
+        text = chunk.decode("utf-8", errors="replace")
+        return [VehicleText(t_s, int(msg.severity), text)]
 
     def _attitude(self, msg: Any, t_s: float) -> Attitude | None:
         return checked_attitude(t_s, msg.roll, msg.pitch, msg.yaw, msg.rollspeed,

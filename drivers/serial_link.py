@@ -224,7 +224,8 @@ class SerialLink:
         if isinstance(out, Health):
             self._connected = self.vehicle is not None
             out = Health(t_s, self._connected, out.mode, out.armed, self.parser.bad_lines,
-                         out.detail if self._connected else self._problem)
+                         out.detail if self._connected else self._problem,
+                         self.vehicle.name if self.vehicle else "")
             self._last = out
         if out is None:
             self.unmapped += 1
@@ -239,7 +240,7 @@ class SerialLink:
         last = self._last
         t_s = self._last_rx[1] + (now - self._last_rx[0])
         self._emit(Health(t_s, False, last.mode if last else "", bool(last and last.armed),
-                          self.parser.bad_lines, detail))
+                          self.parser.bad_lines, detail, last.vehicle if last else ""))
 
     def _emit(self, sample: Sample) -> None:
         if len(self._pending) >= _QUEUE_MAX:

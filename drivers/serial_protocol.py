@@ -329,7 +329,9 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
                                             for x in (sample.u, sample.v, sample.w))])
     if isinstance(sample, Battery):
         return encode(VEHICLE, "BAT", [t, _f(_clamp(sample.voltage_V, 100, 1), 2)])
-    return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
+    if isinstance(sample, Health):
+        return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
+    raise ValueError(f"the serial protocol (version 1) has no sentence for {sample!r}")
 
 
 def _clamp(x: float, hi: float, lo: float | None = None) -> float:

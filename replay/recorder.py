@@ -8,7 +8,8 @@ zero; a replay measures every sample's time from it.
   component 1 (the vehicle): ATTITUDE, SERVO_OUTPUT_RAW (the profile's channels),
   VFR_HUD (alt = −depth), SYS_STATUS (battery mV), HEARTBEAT (ArduSub mode, armed),
   ODOMETRY with child frame MAV_FRAME_BODY_FRD for a body velocity (DVL): vx, vy, vz =
-  u, v, w; position and orientation unknown (NaN), as MAVLink allows.
+  u, v, w; position and orientation unknown (NaN), as MAVLink allows; STATUSTEXT for the
+  vehicle's own messages.
 * Commands and the procedure's events come from system 255 / component 190 (trimd):
   SET_ATTITUDE_TARGET for a hold, STATUSTEXT for release, notices and warnings,
   NAMED_VALUE_FLOAT for the result.
@@ -49,6 +50,7 @@ from trimd.samples import (
     Release,
     Sample,
     Thrusters,
+    VehicleText,
     Velocity,
 )
 
@@ -67,15 +69,17 @@ def _f32(x: float) -> float:
 
 
 def _text_chunks(text: str) -> list[bytes]:
-    """Split ``text`` into STATUSTEXT chunks of at most 50 UTF-8 bytes, whole characters."""
-    chunks, current = [], b""
-    for ch in text:
-        b = ch.encode("utf-8")
-        if len(current) + len(b) > _STATUSTEXT_BYTES:
-            chunks.append(current)
-            current = b""
-        current += b
-    return [*chunks, current]
+    """Split ``text`` (UTF-8) into STATUSTEXT chunks of 50 bytes and a shorter last one.
+
+    A reader knows a text has ended by a chunk shorter than 50 bytes, so a text of several
+    chunks whose last one is full gets an empty chunk after it; a character may straddle
+    two chunks (join the bytes, then decode).
+    """
+    data = text.encode("utf-8")
+    chunks = [data[i:i + _STATUSTEXT_BYTES] for i in range(0, len(data), _STATUSTEXT_BYTES)]
+    if not chunks or (len(chunks) > 1 and len(chunks[-1]) == _STATUSTEXT_BYTES):
+        chunks.append(b"")
+    return chunks
 
 
 class TlogRecorder:
@@ -111,12 +115,13 @@ class TlogRecorder:
             self.flush()
             self._last_flush = now
 
-    def _write_text(self, t_s: float, text: str, severity: int) -> None:
+    def _write_text(self, t_s: float, text: str, severity: int, mav: Any = None) -> None:
+        """STATUSTEXT from trimd (or from ``mav``, e.g. the vehicle), in chunks."""
+        mav = mav or self._trimd
         chunks = _text_chunks(text)
         self._text_id = self._text_id % 65535 + 1 if len(chunks) > 1 else 0
         for seq, chunk in enumerate(chunks):
-            self._write(t_s, self._trimd, self._trimd.statustext_encode(
-                severity, chunk, self._text_id, seq))
+            self._write(t_s, mav, mav.statustext_encode(severity, chunk, self._text_id, seq))
 
     def _write_profile(self, name: str, profile_yaml: str) -> None:
         data = gzip.compress(profile_yaml.encode("utf-8"), mtime=0)
@@ -178,7 +183,11 @@ class TlogRecorder:
             self._write(s.t_s, v, v.heartbeat_encode(
                 mavlink2.MAV_TYPE_SUBMARINE, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
                 number, mavlink2.MAV_STATE_ACTIVE))
-            return Health(s.t_s, True, mode_name(number), s.armed)
+            return Health(s.t_s, True, mode_name(number), s.armed, vehicle=s.vehicle)
+        if isinstance(s, VehicleText):
+            severity = min(max(s.severity, 0), 7)
+            self._write_text(s.t_s, s.text, severity, v)
+            return VehicleText(s.t_s, severity, s.text)
         return s
 
     def command(self, t_s: float, command: Command) -> None:

@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from drivers.mavlink_decode import MavlinkDecoder, VehicleParams, motor_function
 from trimd.profile import Profile
-from trimd.samples import Attitude, Battery, Depth, Health, Thrusters
+from trimd.samples import Attitude, Battery, Depth, Health, Thrusters, VehicleText
 
 SUB, ARDUPILOT, GCS, INVALID = 12, 3, 6, 8
 ARMED_MANUAL = 128 | 81
@@ -44,12 +44,50 @@ def test_heartbeat_only_from_the_autopilot_gives_mode_and_armed() -> None:
     assert d.decode(heartbeat(mav_type=GCS, autopilot=INVALID, sysid=255, compid=190), 0) == []
     assert d.decode(heartbeat(mav_type=30, autopilot=INVALID, compid=100), 0) == []
     assert d.vehicle is None
-    assert d.decode(heartbeat(21, ARMED_MANUAL), 1.5) == [Health(1.5, True, "SURFTRAK", True)]
+    assert d.decode(heartbeat(21, ARMED_MANUAL), 1.5) == [
+        Health(1.5, True, "SURFTRAK", True, vehicle="sysid 1 ArduPilot submarine")]
     assert d.vehicle == (1, 1)
     [h] = d.decode(heartbeat(20, 81), 2.0)
     assert (h.mode, h.armed) == ("MOTOR_DETECT", False)
     assert d.decode(heartbeat(2, ARMED_MANUAL, sysid=2), 3.0) == []  # another vehicle
     assert d.ignored == 3
+
+
+def test_vehicle_is_named_by_sysid_autopilot_and_type() -> None:
+    [h] = MavlinkDecoder((1,)).decode(heartbeat(sysid=7, mav_type=2, autopilot=12), 0.0)
+    assert h.vehicle == "sysid 7 PX4 quadrotor"
+    [h] = MavlinkDecoder((1,)).decode(heartbeat(mav_type=250, autopilot=99), 0.0)
+    assert h.vehicle == "sysid 1 autopilot 99 type 250"
+
+
+def statustext(text: bytes, severity: int = 2, text_id: int = 0, seq: int = 0,
+               sysid: int = 1, compid: int = 1) -> Any:
+    return packet(lambda m: m.statustext_encode(severity, text, text_id, seq), sysid, compid)
+
+
+def test_statustext_of_the_vehicle_becomes_a_vehicle_text() -> None:
+    d = MavlinkDecoder((1,))
+    assert d.decode(statustext(b"before the heartbeat"), 0.5) == []
+    d.decode(heartbeat(), 1.0)
+    assert d.decode(statustext(b"Failsafe: pilot input lost, disarming"), 2.0) == [
+        VehicleText(2.0, 2, "Failsafe: pilot input lost, disarming")]
+    # any component of the vehicle's system (a camera, the companion computer) …
+    [t] = d.decode(statustext(b"camera ready", 6, compid=100), 2.5)
+    assert (t.severity, t.level, t.text) == (6, "info", "camera ready")
+    # … but nothing from another system (the GCS, another vehicle)
+    assert d.decode(statustext(b"from the GCS", sysid=255, compid=190), 3.0) == []
+    assert d.ignored == 2
+
+
+def test_chunked_statustext_is_joined() -> None:
+    d = bound()
+    long = "PreArm: " + "0123456789" * 9  # 98 bytes: chunks of 50 and 48
+    assert d.decode(statustext(long[:50].encode(), 4, text_id=7, seq=0), 1.0) == []
+    [t] = d.decode(statustext(long[50:].encode(), 4, text_id=7, seq=1), 1.1)
+    assert (t.t_s, t.text, t.level) == (1.1, long, "warning")
+    exact = "x" * 50  # a full last chunk is followed by an empty one
+    assert d.decode(statustext(exact.encode(), 4, text_id=8, seq=0), 2.0) == []
+    assert d.decode(statustext(b"", 4, text_id=8, seq=1), 2.1)[0].text == exact
 
 
 def test_sysid_chooses_the_vehicle() -> None:

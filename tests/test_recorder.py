@@ -10,12 +10,23 @@ from pathlib import Path
 import numpy as np
 from pymavlink import mavutil
 
+from drivers.mavlink_decode import MavlinkDecoder
 from replay.recorder import TlogRecorder
+from replay.tlog import TlogReader
 from tests.conftest import REPO
 from trimd.model import quaternion_from_euler
 from trimd.procedure import Notice
 from trimd.profile import Profile
-from trimd.samples import Attitude, Battery, Depth, Health, HoldAttitude, Release, Thrusters
+from trimd.samples import (
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    HoldAttitude,
+    Release,
+    Thrusters,
+    VehicleText,
+)
 
 
 def record(path: Path, profile: Profile) -> list[object]:
@@ -62,6 +73,23 @@ def test_samples_come_back_as_recorded(tmp_path: Path, bluerov: Profile) -> None
     texts = [m.text for m in msgs if m.get_type() == "STATUSTEXT"]
     assert "trimd: release control" in texts
     assert any(x.startswith("a long warning") for x in texts)
+
+
+def test_vehicle_texts_replay_whole_and_trimd_texts_stay_trimd_s(tmp_path: Path,
+                                                                  bluerov: Profile) -> None:
+    path = tmp_path / "s.tlog"
+    rec = TlogRecorder(path, bluerov, (REPO / "profiles" / "bluerov2-heavy.yaml").read_text())
+    texts = ["Failsafe: pilot input lost, disarming", "PreArm: " + "0123456789" * 11,
+             "y" * 100, "Mode change to GUIDED denied — 2 chunks with ° signs " * 2]
+    rec.sample(Health(0.0, True, "ALT_HOLD", True))
+    stored = [rec.sample(VehicleText(1.0 + k, 2 + k, text)) for k, text in enumerate(texts)]
+    rec.sample(VehicleText(9.0, 42, "out-of-range severity"))
+    rec.notice(Notice(10.0, "warning", "trimd's own warning"))
+    rec.close()
+    replayed = [s for s in TlogReader.open(path).samples(MavlinkDecoder.for_profile(bluerov))
+                if isinstance(s, VehicleText)]
+    assert replayed == [*stored, VehicleText(9.0, 7, "out-of-range severity")]
+    assert [t.text for t in replayed[:4]] == texts
 
 
 def test_timestamps_are_session_time_from_the_first_record(tmp_path: Path,

@@ -186,10 +186,10 @@ def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None
     assert Silent.sent == []
 
 
-def test_headless_prints_each_link_warning_once() -> None:
+def test_headless_prints_each_link_warning_once_and_the_vehicle_s_messages() -> None:
     from trimd.procedure import Procedure
     from trimd.profile import load_profile
-    from trimd.samples import Health
+    from trimd.samples import Health, VehicleText
 
     out = io.StringIO()
     presenter = HeadlessPresenter(out)
@@ -197,6 +197,8 @@ def test_headless_prints_each_link_warning_once() -> None:
     for t in (1.0, 2.0):
         presenter.sample(Health(t, True, "MANUAL", True, detail="MOT_1_DIRECTION is -1; x"),
                          progress)
+    presenter.sample(VehicleText(3.0, 2, "Failsafe: pilot input lost, disarming"), progress)
     lines = out.getvalue().splitlines()
     assert lines == ["[     1.0 s] warning: MOT_1_DIRECTION is -1",
-                     "[     1.0 s] warning: x"]
+                     "[     1.0 s] warning: x",
+                     "[     3.0 s] vehicle error: Failsafe: pilot input lost, disarming"]

@@ -4,10 +4,12 @@ method switching, the report, abort mid-hold, quitting."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import math
 import os
 import signal
+from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
@@ -20,8 +22,10 @@ from trimd.ballast import METHODS, propose_ballast
 from trimd.cmd_run import STOP_SIGNALS, stop_on_signals
 from trimd.procedure import Phase
 from trimd.profile import Profile
-from trimd.samples import HoldAttitude, Release
+from trimd.samples import Health, HoldAttitude, Release, Sample, VehicleText
+from trimd.tui.event_log import EventLog
 from trimd.tui.help_screen import HelpScreen
+from trimd.tui.link_panel import LinkPanel
 from trimd.tui.messages import NoticeReceived, TelemetryChanged
 from trimd.tui.quit_screen import QuitScreen
 from trimd.tui.result_panel import ResultPanel
@@ -89,11 +93,40 @@ async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile) -> 
         result = app.result
         assert result is not None and result.phase is Phase.DONE, result
         assert abs(result.estimate.m_ext_kg - 10.0) < 0.2  # issue 6's tolerance
+        assert app.query_one(LinkPanel).border_title == "Link · simulated sabertooth-dh2"
         panel = app.query_one(ResultPanel)
         assert panel.proposal is result.proposal and result.proposal.feasible
         await pilot.press("m")
         await until(pilot, lambda: panel.method == "lp" and not panel.busy)
         assert panel.proposal is not None and panel.proposal.method == "lp"
+
+
+class ChattyLink(FakeLink):
+    """FakeLink whose vehicle, after its first heartbeat, warns about a parameter (as the
+    MAVLink link does in Health.detail) and says something for people (STATUSTEXT)."""
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        said = False
+        async for s in super().samples():
+            if isinstance(s, Health) and not said:
+                said = True
+                yield dataclasses.replace(s, detail="MOT_1_DIRECTION is -1")
+                yield VehicleText(s.t_s, 2, "Failsafe: pilot input lost, disarming")
+            else:
+                yield s
+
+
+@pytest.mark.asyncio
+async def test_link_warnings_and_vehicle_messages_reach_the_messages_panel(
+        sabertooth: Profile) -> None:
+    app = app_for(sabertooth, ChattyLink(thesis_vehicle(sabertooth)), confirmed=False)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        entries = [(kind, text) for _, kind, text in app.query_one(EventLog).entries]
+        assert entries.count(("warning", "MOT_1_DIRECTION is -1")) == 1
+        assert ("error", "vehicle: Failsafe: pilot input lost, disarming") in entries
+        await pilot.press("a")
+        await until(pilot, lambda: app.result is not None)
 
 
 @pytest.mark.asyncio

@@ -12,7 +12,7 @@ from trimd.cmd_solve import format_estimate
 from trimd.estimate import StaticEstimate
 from trimd.estimate_io import estimate_to_dict
 from trimd.procedure import Notice, Output, Phase, Progress
-from trimd.samples import Command, Health, HoldAttitude, Release, Sample
+from trimd.samples import Command, Health, HoldAttitude, Release, Sample, VehicleText
 
 __all__ = ["HeadlessPresenter"]
 
@@ -57,12 +57,16 @@ class HeadlessPresenter:
                        {"type": "command", "t_s": t, "command": _describe(out)})
 
     def sample(self, sample: Sample, progress: Progress) -> None:
-        if isinstance(sample, Health) and sample.connected and sample.detail:
-            for warning in sample.detail.split("; "):
+        if isinstance(sample, Health):
+            for warning in sample.warnings():
                 if warning not in self._warned:
                     self._warned.add(warning)
                     self._emit(f"[{sample.t_s:8.1f} s] warning: {warning}",
                                {"type": "warning", "t_s": sample.t_s, "text": warning})
+        elif isinstance(sample, VehicleText):
+            self._emit(f"[{sample.t_s:8.1f} s] vehicle {sample.level}: {sample.text}",
+                       {"type": "vehicle", "t_s": sample.t_s, "severity": sample.severity,
+                        "text": sample.text})
         if progress.phase not in (Phase.SETTLE, Phase.COLLECT) or sample.t_s < self._next_progress:
             return
         self._next_progress = sample.t_s + self.every

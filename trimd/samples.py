@@ -21,6 +21,7 @@ __all__ = [
     "Release",
     "Sample",
     "Thrusters",
+    "VehicleText",
     "Velocity",
 ]
 
@@ -74,7 +75,12 @@ class Battery:
 
 @dataclass(frozen=True, slots=True)
 class Health:
-    """Link and vehicle state: heartbeat seen, mode name, armed, bad frames so far."""
+    """Link and vehicle state: heartbeat seen, mode name, armed, bad frames so far.
+
+    ``detail`` is the link's warnings (or, when not connected, why); ``vehicle`` names the
+    vehicle as the link identifies it (e.g. ``"sysid 1 ArduPilot submarine"``), "" when
+    the link cannot tell.
+    """
 
     t_s: float
     connected: bool
@@ -82,9 +88,31 @@ class Health:
     armed: bool
     bad_frames: int = 0
     detail: str = ""
+    vehicle: str = ""
+
+    def warnings(self) -> list[str]:
+        """The link's warnings so far (from ``detail`` while connected)."""
+        return self.detail.split("; ") if self.connected and self.detail else []
 
 
-Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health
+@dataclass(frozen=True, slots=True)
+class VehicleText:
+    """A message the vehicle sent for people (MAVLink STATUSTEXT), e.g. a failsafe.
+
+    ``severity`` follows MAV_SEVERITY: 0 emergency … 3 error, 4 warning … 7 debug.
+    """
+
+    t_s: float
+    severity: int
+    text: str
+
+    @property
+    def level(self) -> str:
+        """``"error"`` (severity 0–3), ``"warning"`` (4) or ``"info"`` (5–7)."""
+        return "error" if self.severity <= 3 else "warning" if self.severity == 4 else "info"
+
+
+Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText
 
 
 @dataclass(frozen=True, slots=True)

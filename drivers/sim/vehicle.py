@@ -180,7 +180,8 @@ class SimVehicle:
         if kind == "battery":
             return Battery(r.t_s, self.voltage_V)
         if kind == "health":
-            return Health(r.t_s, True, self.mode, self.armed)
+            return Health(r.t_s, True, self.mode, self.armed,
+                          vehicle=f"simulated {self.profile.name}")
         raise ValueError(f"unknown sample kind {kind!r} (known: {', '.join(SAMPLE_KINDS)})")
 
     @property

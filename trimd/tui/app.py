@@ -27,7 +27,13 @@ from trimd.tui.attitude_panel import AttitudePanel
 from trimd.tui.event_log import EventLog, describe_command
 from trimd.tui.help_screen import HelpScreen
 from trimd.tui.link_panel import LinkPanel
-from trimd.tui.messages import CommandSent, NoticeReceived, SessionEnded, TelemetryChanged
+from trimd.tui.messages import (
+    CommandSent,
+    LinkMessage,
+    NoticeReceived,
+    SessionEnded,
+    TelemetryChanged,
+)
 from trimd.tui.presenter import TuiPresenter
 from trimd.tui.quit_screen import QuitScreen
 from trimd.tui.replay_pace import PacedReplay
@@ -153,6 +159,10 @@ class TrimApp(App[SessionResult]):
         elif n.data in (Phase.FAILED, Phase.ABORTED):
             self.bell()
         self.refresh_bindings()
+
+    @on(LinkMessage)
+    def _link_message(self, message: LinkMessage) -> None:
+        self.query_one(EventLog).add(message.t_s, message.kind, message.text)
 
     @on(CommandSent)
     def _command(self, message: CommandSent) -> None:

@@ -1,4 +1,5 @@
-"""Link panel: transport, vehicle, mode, armed, message rates, bad frames, heartbeat age."""
+"""Link panel: transport, profile and vehicle id/type, mode, armed, message rates, bad
+frames, heartbeat age."""
 
 from __future__ import annotations
 
@@ -15,9 +16,11 @@ _AGE_REFRESH_S = 0.5
 
 
 class LinkPanel(Static):
-    """What the link carries. The heartbeat turns red (class ``-stale``) once
-    ``stale_after_s`` pass without one: half the procedure's link timeout, so the
-    operator sees it before the procedure gives up."""
+    """What the link carries; the vehicle's id and type (as the link names it) in the
+    title, the profile's name in the text (a replay's pace goes in the bottom border).
+    The heartbeat turns red (class ``-stale``) once ``stale_after_s`` pass without one:
+    half the procedure's link timeout, so the operator sees it before the procedure
+    gives up."""
 
     stale: reactive[bool] = reactive(False)
     closed: reactive[bool] = reactive(False)
@@ -47,6 +50,8 @@ class LinkPanel(Static):
         text = Text(no_wrap=True, overflow="ellipsis")
         text.append(f"{self.link_description}\n", style="bold")
         text.append(f"{self.vehicle}  ")
+        if h is not None and h.vehicle:
+            self.border_title = f"Link · {h.vehicle}"
         if h is None:
             text.append("no heartbeat yet\n", style="dim")
         else:

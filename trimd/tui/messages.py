@@ -15,7 +15,7 @@ from trimd.procedure import Notice, Progress
 from trimd.samples import Command
 from trimd.session import SessionResult
 
-__all__ = ["CommandSent", "NoticeReceived", "ProposalReady", "SessionEnded",
+__all__ = ["CommandSent", "LinkMessage", "NoticeReceived", "ProposalReady", "SessionEnded",
            "TelemetryChanged"]
 
 
@@ -35,6 +35,16 @@ class NoticeReceived(Message):
 
     notice: Notice
     progress: Progress
+
+
+@dataclass
+class LinkMessage(Message):
+    """A link warning or a vehicle's own message for the Messages panel (never
+    coalesced): ``kind`` is warning, error or info, as :class:`EventLog` styles them."""
+
+    t_s: float
+    kind: str
+    text: str
 
 
 @dataclass

@@ -9,8 +9,8 @@ from __future__ import annotations
 from textual.message_pump import MessagePump
 
 from trimd.procedure import Notice, Output, Progress
-from trimd.samples import Sample
-from trimd.tui.messages import CommandSent, NoticeReceived, TelemetryChanged
+from trimd.samples import Health, Sample, VehicleText
+from trimd.tui.messages import CommandSent, LinkMessage, NoticeReceived, TelemetryChanged
 from trimd.tui.telemetry import LiveState
 
 __all__ = ["TuiPresenter"]
@@ -22,6 +22,7 @@ class TuiPresenter:
     def __init__(self, target: MessagePump, state: LiveState) -> None:
         self.target = target
         self.state = state
+        self._warned: set[str] = set()
 
     def output(self, out: Output, progress: Progress) -> None:
         if isinstance(out, Notice):
@@ -31,5 +32,14 @@ class TuiPresenter:
             self.target.post_message(CommandSent(out, progress.t_s))
 
     def sample(self, sample: Sample, progress: Progress) -> None:
+        if isinstance(sample, VehicleText):
+            self.target.post_message(LinkMessage(sample.t_s, sample.level,
+                                                 f"vehicle: {sample.text}"))
+            return
+        if isinstance(sample, Health):
+            for warning in sample.warnings():
+                if warning not in self._warned:
+                    self._warned.add(warning)
+                    self.target.post_message(LinkMessage(sample.t_s, "warning", warning))
         self.state.sample(sample)
         self.target.post_message(TelemetryChanged(progress))
