@@ -186,6 +186,47 @@ def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None
     assert Silent.sent == []
 
 
+class _QuietAfterAHeartbeat:
+    """A link with a heartbeat and an attitude, then silence (no samples, no end)."""
+
+    description = "quiet"
+
+    async def samples(self) -> Any:
+        from trimd.samples import Attitude, Health
+
+        yield Health(10.0, True, "ALT_HOLD", True)
+        yield Attitude(10.0, 0, 0, 0, 0, 0, 0)
+        await asyncio.sleep(3600)
+
+    async def send(self, command: Command) -> None:
+        return None
+
+    async def close(self) -> None:
+        return None
+
+
+@pytest.mark.parametrize("wall_clock", [True, False])
+def test_only_a_live_link_times_out_on_the_wall_clock(sabertooth: Profile,
+                                                      wall_clock: bool) -> None:
+    from dataclasses import replace
+
+    quick = replace(sabertooth, procedure=replace(sabertooth.procedure, link_timeout_s=0.2))
+    session = Session(_QuietAfterAHeartbeat(), quick, recorder=None, presenters=[],
+                      confirmed=True, wall_clock=wall_clock)
+
+    async def main() -> Any:
+        task = asyncio.ensure_future(session.run())
+        await asyncio.sleep(1.0)  # five link timeouts of wall time
+        session.abort("test over")
+        return await task
+
+    result = asyncio.run(main())
+    if wall_clock:  # a live link that says nothing is lost
+        assert result.phase is Phase.FAILED and result.cause == "link", result
+    else:  # a recording's clock stands still while it is quiet (a paused replay)
+        assert result.phase is Phase.ABORTED and result.reason == "test over", result
+
+
 def test_headless_prints_each_link_warning_once_and_the_vehicle_s_messages() -> None:
     from trimd.procedure import Procedure
     from trimd.profile import load_profile

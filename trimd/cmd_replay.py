@@ -31,7 +31,7 @@ from trimd.estimate import StaticEstimate, estimate_static
 from trimd.headless import HeadlessPresenter
 from trimd.holdfile import TAU_COLUMNS, HoldFile, holds_from_table
 from trimd.model import tau_from_pwm
-from trimd.procedure import Event, Output, Phase, Procedure, Tick
+from trimd.procedure import Phase
 from trimd.profile import Profile, load_profile, parse_profile
 from trimd.resample import zoh_align
 from trimd.samples import Attitude, Battery, Sample, Thrusters
@@ -74,15 +74,6 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
     return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
 
 
-class _SampleClockProcedure(Procedure):
-    """The trim procedure on the recording's clock alone: the session's quiet-link Ticks
-    (wall clock) are dropped, so a paused or slowed replay times nothing out and any pace
-    gives the live result (the live session recorded no Ticks either)."""
-
-    def step(self, event: Event) -> list[Output]:
-        return [] if isinstance(event, Tick) else super().step(event)
-
-
 def _session(link: Any, profile: Profile, *, presenters: list[Presenter],
              method: str) -> Session:
     """The replay's session over ``link``: confirmed, proposing by ``method``."""
@@ -90,8 +81,8 @@ def _session(link: Any, profile: Profile, *, presenters: list[Presenter],
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=method)
 
-    return Session(link, profile, recorder=None, presenters=presenters, procedure=(
-        _SampleClockProcedure(profile, confirmed=True, propose=propose)))
+    return Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
+                   propose=propose, wall_clock=False)
 
 
 async def replay_session(path: str, profile: Profile, *, speed: float | None,
@@ -126,8 +117,8 @@ def _table(samples: list[Sample], profile: Profile, name: str) -> HoldFile:
     volts = (zoh_align(t, [b.t_s for b in batt], [b.voltage_V for b in batt]).values
              if batt else np.full(len(t), np.nan))
     ok = pwm.valid
-    tau = np.array([tau_from_pwm(profile, p, v if np.isfinite(v) else None)
-                    for p, v in zip(pwm.values[ok], volts[ok], strict=True)]).reshape(-1, 6)
+    volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
+    tau = tau_from_pwm(profile, pwm.values[ok], volts[ok])
     columns = {"time_s": t[ok], "roll_deg": np.degrees([a.phi for a in att])[ok],
                "pitch_deg": np.degrees([a.theta for a in att])[ok]}
     columns |= {c: tau[:, k] for k, c in enumerate(TAU_COLUMNS)}

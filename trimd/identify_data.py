@@ -123,9 +123,7 @@ def experiments_from_samples(samples: Iterable[Sample], profile: Profile, *,
     volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
     valid = pwm.valid & nu.valid
     tau = np.full((len(t_att), 6), np.nan)
-    for v in np.unique(volts[valid]):
-        sel = valid & (volts == v)
-        tau[sel] = tau_from_pwm(profile, pwm.values[sel], float(v))
+    tau[valid] = tau_from_pwm(profile, pwm.values[valid], volts[valid])
     h = float(np.median(np.diff(t_att))) if len(t_att) > 1 else 0.0
     breaks = np.flatnonzero(~valid | np.r_[True, np.diff(t_att) > 1.5 * h])
     out = []

@@ -5,8 +5,9 @@ The session is the only place where the procedure meets I/O. It
 * starts at the vehicle's first heartbeat (a Health sample), puts every sample on the
   session time base (seconds since then, to the millisecond) and passes it through the
   recorder, so the procedure sees exactly what a replay of the log will see;
-* feeds the procedure samples, operator events and, when the link goes quiet, Ticks
-  from the monotonic clock (so a dead link still times out);
+* feeds the procedure samples, operator events and, when a live link goes quiet, Ticks
+  from the monotonic clock (so a dead link still times out; a recording has its own
+  clock only);
 * sends the procedure's commands, records them, and hands notices and progress to the
   presenter (each presenter failure is logged, never fatal). A command is delivered in a
   task of its own: a link that waits for the vehicle to confirm a mode change (MAVLink,
@@ -87,11 +88,17 @@ class Session:
     def __init__(self, link: Any, profile: Profile, *, recorder: Recorder | None,
                  presenters: list[Presenter], confirmed: bool = False,
                  propose: Callable[[StaticEstimate], Any] | None = None,
-                 procedure: Any = None) -> None:
+                 procedure: Any = None, wall_clock: bool = True) -> None:
         """``procedure`` defaults to the trim :class:`Procedure`; any object with the same
         ``step``/``progress``/``phase``/``reason``/``cause``/``estimate``/``proposal``
-        (e.g. an excitation experiment) runs the same way."""
+        (e.g. an excitation experiment) runs the same way.
+
+        ``wall_clock=False`` is for a recording: time is the samples' alone, so no Ticks
+        (and no connect timeout) come from the monotonic clock; a paused or slowed replay
+        then times nothing out, and any pace gives the live result (the live session
+        recorded no Ticks either)."""
         self.link = link
+        self.wall_clock = wall_clock
         self.recorder = recorder
         self.presenters = presenters
         self.procedure = procedure or Procedure(profile, confirmed=confirmed, propose=propose)
@@ -158,11 +165,13 @@ class Session:
                                                  and sample.connected):
                         continue  # the session starts with the vehicle's first heartbeat
                     await self._feed(self._on_session_time(sample))
-                elif not done and self._t0 is not None:
+                elif done or not self.wall_clock:
+                    continue
+                elif self._t0 is not None:
                     # session time runs from the first heartbeat: no Tick before it (a
                     # replay has none either)
                     await self._feed(Tick(self._t_last + time.monotonic() - self._wall_last))
-                elif not done and time.monotonic() - started > connect_timeout:
+                elif time.monotonic() - started > connect_timeout:
                     await self._feed(Health(0.0, False, "", False, detail=(
                         f"no heartbeat from the vehicle within {connect_timeout:g} s")))
         finally:
