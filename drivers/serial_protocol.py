@@ -34,6 +34,7 @@ from trimd.samples import (
     Release,
     Sample,
     Thrusters,
+    VehicleText,
     Velocity,
 )
 
@@ -57,6 +58,9 @@ _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)")
 _INTEGER = re.compile(r"\d{1,10}")
 _MODE = re.compile(r"[A-Z][A-Z0-9_]{0,15}")
 _NAME = re.compile(r"[A-Za-z0-9_.\-]{1,32}")
+#: A vehicle message's text: printable ASCII without ``,`` (or ``$``, ``*``: the frame's).
+_TEXT = re.compile(r"[^,]{1,96}")
+_TEXT_CHARS = 96
 _FRAME = re.compile(rb"\$([\x20-\x23\x25-\x29\x2b-\x7e]*)\*([0-9A-Fa-f]{2})")
 
 Value = int | float | str
@@ -108,6 +112,7 @@ _SPECS: dict[tuple[str, str], tuple[Callable[[str], Value | None], ...]] = {
     (VEHICLE, "VEL"): (_T_MS, _SPEED, _SPEED, _SPEED),
     (VEHICLE, "BAT"): (_T_MS, _number(1, 100)),
     (VEHICLE, "STA"): (_T_MS, _token(_MODE), _BOOL, _token(re.compile("|".join(CONTROLS)))),
+    (VEHICLE, "TXT"): (_T_MS, _integer(0, 7), _token(_TEXT)),
     (VEHICLE, "VER"): _VERSION_FIELDS,
     (TRIMD, "VER"): _VERSION_FIELDS,
     (TRIMD, "HBT"): (),
@@ -278,6 +283,8 @@ def to_sample(s: Sentence, t_s: float, channels: Sequence[int]) -> Sample | Vers
         return Battery(t_s, float(v[1]))
     if s.kind == "STA":
         return Health(t_s, True, str(v[1]), v[2] == 1, detail=f"control {v[3]}")
+    if s.kind == "TXT":
+        return VehicleText(t_s, int(v[1]), str(v[2]))
     return Version(int(v[0]), str(v[1]))
 
 
@@ -308,7 +315,8 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
 
     Thrusters go out on ``outputs`` channels, thruster k on ``channels[k]``, the rest 0;
     Health becomes STA with ``control`` (one of :data:`CONTROLS`). Values outside the
-    protocol's ranges are clamped to them (a saturated sensor reads its full scale).
+    protocol's ranges are clamped to them (a saturated sensor reads its full scale); a
+    vehicle text is made to fit TXT (see below).
     """
     t = str(t_ms % 2**32)
     if isinstance(sample, Attitude):
@@ -331,7 +339,11 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
         return encode(VEHICLE, "BAT", [t, _f(_clamp(sample.voltage_V, 100, 1), 2)])
     if isinstance(sample, Health):
         return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
-    raise ValueError(f"the serial protocol (version 1) has no sentence for {sample!r}")
+    # a text the protocol cannot carry is made to fit: other characters become "?",
+    # commas ";", and it is cut to _TEXT_CHARS characters
+    text = "".join(";" if c == "," else c if " " <= c <= "~" and c not in "$*" else "?"
+                   for c in sample.text[:_TEXT_CHARS]) or " "
+    return encode(VEHICLE, "TXT", [t, str(min(max(sample.severity, 0), 7)), text])
 
 
 def _clamp(x: float, hi: float, lo: float | None = None) -> float:

@@ -37,7 +37,7 @@ from drivers.sim.vehicle import SimVehicle
 from trimd.cli import main
 from trimd.errors import LinkError
 from trimd.profile import Profile
-from trimd.samples import Attitude, Health, HoldAttitude, Release, Sample
+from trimd.samples import Attitude, Health, HoldAttitude, Release, Sample, VehicleText
 
 RATE = 10.0            # simulated seconds per wall second of the threaded server
 WALL_LIMIT_S = 30.0    # a hang guard, not a timed assertion
@@ -94,6 +94,11 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         write(frame("VHVER,1,bench") + frame("VHSTA,2000,ALT_HOLD,1,PILOT"))
         (h,) = await collect(link, lambda s: True)
         assert isinstance(h, Health) and h.connected and h.mode == "ALT_HOLD" and h.armed
+        assert h.vehicle == "bench"
+        write(frame("VHTXT,2100,4,Leak sensor dry"))
+        (text,) = await collect(link, lambda s: True)
+        assert isinstance(text, VehicleText) and (text.severity, text.text) == (
+            4, "Leak sensor dry")
         # the vehicle clock: across the uint32 wrap, 50 ms back, 99.85 s on, then a reboot
         for t_ms in (2**32 - 300, 200, 150, 100_000, 5):
             write(frame(f"VHATT,{t_ms},1,2,3,4,5,6"))
@@ -110,7 +115,7 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert isinstance(lost, Health) and not lost.connected
         assert "no data from the vehicle" in lost.detail
         assert 0.3 <= lost.t_s - stamps[4] < 0.3 + 1.0
-        assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 8
+        assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 9
         assert lost.bad_frames == link.parser.bad_lines
         write(frame("VHVER,2,future"))
         await asyncio.wait_for(until(lambda: link.vehicle is None), WALL_LIMIT_S)

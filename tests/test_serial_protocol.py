@@ -44,6 +44,7 @@ from trimd.samples import (
     Release,
     Sample,
     Thrusters,
+    VehicleText,
     Velocity,
 )
 
@@ -121,6 +122,8 @@ def test_depth_velocity_battery_status_version() -> None:
     assert vehicle_sample(frame("VHSTA,5,ALT_HOLD,1,HOLD")) == Health(
         7.0, True, "ALT_HOLD", True, detail="control HOLD")
     assert vehicle_sample(frame("VHVER,1,sabertooth-dh2")) == Version(1, "sabertooth-dh2")
+    assert vehicle_sample(frame("VHTXT,5,2,Leak detected: forward hull!")) == VehicleText(
+        7.0, 2, "Leak detected: forward hull!")
 
 
 def test_encode_samples_by_hand() -> None:
@@ -136,6 +139,11 @@ def test_encode_samples_by_hand() -> None:
     assert encode_sample(Battery(0.0, 15.926), 1) == frame("VHBAT,1,15.93")
     assert encode_sample(Health(0.0, True, "MANUAL", False), 9, control="OPEN") == frame(
         "VHSTA,9,MANUAL,0,OPEN")
+    # a text is made to fit: "," → ";", "$", "*" and non-ASCII → "?", at most 96 characters
+    assert encode_sample(VehicleText(0.0, 9, "Depth 5 m, 20 °C *$"), 3) == frame(
+        "VHTXT,3,7,Depth 5 m; 20 ?C ??")
+    long = encode_sample(VehicleText(0.0, 4, "x" * 200), 4_294_967_295)
+    assert len(long) < MAX_LINE_BYTES and vehicle_sample(long) == VehicleText(7.0, 4, "x" * 96)
 
 
 def test_heading() -> None:
@@ -203,6 +211,10 @@ def test_commands_the_protocol_cannot_carry_are_refused(command: OpenLoop | Hold
     (frame("VHSTA,1,alt_hold,1,HOLD"), "bad_value"),
     (frame("VHSTA,1,ALT_HOLD,2,HOLD"), "bad_value"),
     (frame("VHSTA,1,ALT_HOLD,1,AUTO"), "bad_value"),
+    (frame("VHTXT,1,8,severity 8"), "bad_value"),
+    (frame("VHTXT,1,4,"), "bad_value"),                        # no text
+    (frame("VHTXT,1,4,a,b"), "bad_fields"),                    # a comma in the text
+    (frame("VHTXT,1,4," + "x" * 97), "bad_value"),
 ])
 def test_each_bad_line_is_counted_once_and_dropped(line: bytes, counter: str) -> None:
     parser = LineParser(VEHICLE)
