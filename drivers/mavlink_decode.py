@@ -11,7 +11,8 @@ HEARTBEAT              :class:`Health` (ArduSub mode name, armed = base_mode bit
                        vehicle = sysid, autopilot and type) from the vehicle's
                        autopilot component only
 STATUSTEXT             :class:`VehicleText` (severity, text; MAVLink 2 chunks joined)
-                       from any component of the vehicle's system
+                       from any component of the vehicle's system; those sent before
+                       its first HEARTBEAT (the boot banner) follow that heartbeat
 ATTITUDE               :class:`Attitude` (rad, rad/s; already NED→FRD)
 SERVO_OUTPUT_RAW       :class:`Thrusters` (µs) in the profile's thruster order
 VFR_HUD                :class:`Depth` = −alt [m]            (``depth_source="vfr_hud"``)
@@ -100,6 +101,7 @@ _UINT16_MAX = 65535
 _FRAME_BODY_FRD = 12  # MAV_FRAME_BODY_FRD
 _TEXT_CHUNK = 50  # STATUSTEXT text bytes: a shorter chunk ends a multi-chunk text
 _TEXTS_PENDING = 8  # multi-chunk texts being joined at once (older ones are dropped)
+_TEXTS_EARLY = 32  # texts kept per system before the vehicle is known (the latest)
 _AUTOPILOTS = {3: "ArduPilot", 12: "PX4"}
 
 
@@ -261,7 +263,8 @@ class MavlinkDecoder:
         self.ignored = 0
         self._outputs: dict[int, int] = {}
         self._vehicle_name = ""
-        self._texts: dict[int, list[bytes]] = {}
+        self._texts: dict[tuple[int, int], list[bytes]] = {}  # (sysid, text id) → chunks
+        self._early_texts: dict[int, list[VehicleText]] = {}
         depth_type = {"vfr_hud": "VFR_HUD", "global_position": "GLOBAL_POSITION_INT",
                       "pressure": "SCALED_PRESSURE2"}[depth_source]
         self._handlers = {
@@ -288,10 +291,15 @@ class MavlinkDecoder:
             params.update(str(msg.param_id), float(msg.param_value))
             return []
         if kind == "STATUSTEXT":
-            if self.vehicle is None or source[0] != self.vehicle[0]:
+            if self.vehicle is None:  # kept per system until the vehicle is known
+                early = self._early_texts.setdefault(source[0], [])
+                early += self._statustext(msg, t_s)
+                del early[:-_TEXTS_EARLY]
+                return []
+            if source[0] != self.vehicle[0]:
                 self.ignored += 1
                 return []
-            return self._statustext(msg, t_s)
+            return list(self._statustext(msg, t_s))
         handler = self._handlers.get(kind)
         if handler is None:
             return []
@@ -320,19 +328,22 @@ class MavlinkDecoder:
             return []
         self.mode = mode_name(int(msg.custom_mode))
         self.armed = bool(msg.base_mode & _ARMED)
+        early = self._early_texts.pop(source[0], [])
+        self._early_texts.clear()
         return [Health(t_s, True, self.mode, self.armed, self.bad_frames,
-                       vehicle=self._vehicle_name)]
+                       vehicle=self._vehicle_name), *early]
 
-    def _statustext(self, msg: Any, t_s: float) -> list[Sample]:
+    def _statustext(self, msg: Any, t_s: float) -> list[VehicleText]:
         # pymavlink decodes the text as ASCII; the raw bytes keep UTF-8 (e.g. "°") whole
         raw = getattr(msg, "_text_raw", None)
         chunk = raw.split(b"\0", 1)[0] if isinstance(raw, bytes) else str(msg.text).encode()
         text_id = int(getattr(msg, "id", 0))  # MAVLink 1 has no chunks
         if text_id:
-            chunks = self._texts.pop(text_id, [])
+            key = (msg.get_srcSystem(), text_id)
+            chunks = self._texts.pop(key, [])
             chunks.append(chunk)
             if len(chunk) >= _TEXT_CHUNK:  # more to come
-                self._texts[text_id] = chunks
+                self._texts[key] = chunks
                 while len(self._texts) > _TEXTS_PENDING:
                     del self._texts[next(iter(self._texts))]
                 return []

@@ -14,7 +14,8 @@ MODE        :class:`Health`: ModeNum (ArduSub mode)
 ARM, EV     :class:`Health`: ArmState; events 10 ARMED / 11 DISARMED
 PARM        :class:`~drivers.mavlink_decode.VehicleParams` (FRAME_CONFIG, SERVOn_FUNCTION,
             MOT_n_DIRECTION), SERVOn_FUNCTION remaps RCOU outputs as for MAVLink
-MSG         firmware string ("ArduSub V…")
+MSG         :class:`VehicleText` (severity 6, info: the record has none); the first
+            "ArduSub V…" is the firmware string
 ==========  ===================================================================
 
 The field names come from the log's own FMT records; UNIT/MULT/FMTU metadata is never
@@ -53,11 +54,12 @@ from drivers.mavlink_decode import (
     checked_thrusters,
 )
 from trimd.errors import DataError
-from trimd.samples import Health, Sample
+from trimd.samples import Health, Sample, VehicleText
 
 __all__ = ["DataflashReader"]
 
 _EV_ARMED, _EV_DISARMED = 10, 11
+_MSG_SEVERITY = 6  # MAV_SEVERITY_INFO: a MSG record carries no severity
 
 
 @contextlib.contextmanager
@@ -178,8 +180,11 @@ class DataflashReader:
             return checked_battery(t_s, float(msg.Volt))
         if kind == "PARM":
             self.params.update(str(msg.Name), float(msg.Value))
-        elif kind == "MSG" and self.firmware is None and str(msg.Message).startswith("ArduSub"):
-            self.firmware = str(msg.Message)
+        elif kind == "MSG":
+            text = str(msg.Message)
+            if self.firmware is None and text.startswith("ArduSub"):
+                self.firmware = text
+            return VehicleText(t_s, _MSG_SEVERITY, text)
         elif kind == "MODE":
             self.mode = mode_name(int(getattr(msg, "ModeNum", msg.Mode)))
             return self._health(t_s)

@@ -52,6 +52,20 @@ def test_gat_report_modes_and_unknown_arming() -> None:
     assert r["samples"]["Attitude"] == 1998
 
 
+@pytest.mark.parametrize(("name", "expected"), [
+    ("mcqueen-small.tlog", ["ArduSub V4.1.1 BETA5 (66c674c1)", "Frame: VECTORED_6DOF"]),
+    ("mcqueen-small.BIN", ["ArduSub V4.1.0 (89639005)", "EKF3 IMU0 forced reset"]),
+    ("gat-00000029_filtered.BIN", ["rangefinder target is 2.06 meters"])])
+def test_the_vehicle_s_messages_are_reported(name: str, expected: list[str],
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    r = inspect_log(SHARED_DATA / name)
+    texts = [m["text"] for m in r["vehicle_messages"]]
+    assert all(e in texts for e in expected), texts
+    assert main(["inspect", str(SHARED_DATA / name)]) == 0
+    out = capsys.readouterr().out
+    assert f"vehicle messages: {len(texts)}" in out and f"info: {expected[-1]}" in out
+
+
 def synthetic_hold(path: Path, base_mode: int, mode: int, seconds: float = 40.0) -> None:
     """A vehicle holding roll 5°, pitch −3° at 10 Hz with a little sensor noise."""
     rng = np.random.default_rng(1)

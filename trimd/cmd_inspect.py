@@ -26,7 +26,7 @@ from replay.dataflash import DataflashReader
 from replay.tlog import TlogReader
 from trimd.errors import DataError
 from trimd.profile import Profile, load_profile
-from trimd.samples import Attitude, Depth, Health, Sample
+from trimd.samples import Attitude, Depth, Health, Sample, VehicleText
 from trimd.steady import SteadyCriteria, detect_steady
 
 __all__ = ["HOLD_MODES", "format_report", "inspect_log", "register", "run"]
@@ -39,6 +39,8 @@ DEFAULT_TOL_DEG, DEFAULT_RATE_TOL_DEG_S, DEFAULT_MIN_STEADY_S = 1.0, 1.0, 10.0
 #: Attitude resolution of ArduSub logs (DataFlash ATT is in centidegrees) [deg].
 LOG_RESOLUTION_DEG = 0.01
 _DATAFLASH_HEAD = b"\xa3\x95"
+#: Vehicle messages the report for people lists (the JSON report has all).
+_TEXTS_SHOWN = 12
 _SAMPLE_STREAMS = {"ATTITUDE", "SERVO_OUTPUT_RAW", "VFR_HUD", "GLOBAL_POSITION_INT",
                    "SCALED_PRESSURE2", "SYS_STATUS", "BATTERY_STATUS", "HEARTBEAT",
                    "ATT", "RATE", "RCOU", "CTUN", "BARO", "BAT"}
@@ -183,6 +185,8 @@ def inspect_log(path: str | Path, profile: Profile | None = None) -> dict[str, A
     att = [s for s in samples if isinstance(s, Attitude)]
     depth = [s.depth_m for s in samples if isinstance(s, Depth)]
     health = [s for s in samples if isinstance(s, Health)]
+    texts = [{"t_s": s.t_s, "severity": s.severity, "level": s.level, "text": s.text}
+             for s in samples if isinstance(s, VehicleText)]
     params: VehicleParams = info.pop("params")
     counts: Counter[str] = info.pop("counts")
     modes, armed = _periods(health, duration)
@@ -193,6 +197,7 @@ def inspect_log(path: str | Path, profile: Profile | None = None) -> dict[str, A
                     for k, n in counts.most_common()},
         "samples": dict(Counter(type(s).__name__ for s in samples)),
         "modes": modes, "armed_periods": armed if info["armed_known"] else None,
+        "vehicle_messages": texts,
         "roll_deg": _range([math.degrees(a.phi) for a in att]),
         "pitch_deg": _range([math.degrees(a.theta) for a in att]),
         "depth_m": _range(depth),
@@ -242,6 +247,13 @@ def format_report(r: dict[str, Any]) -> str:
         lines.append(f"warning: the last record is truncated at byte {r['truncated_at']}")
     if r.get("error"):
         lines.append(f"warning: {r['error']}")
+    texts = r["vehicle_messages"]
+    if texts:
+        more = len(texts) - _TEXTS_SHOWN
+        lines.append(f"vehicle messages: {len(texts)}"
+                     + (f" (the first {_TEXTS_SHOWN}; --json lists all)" if more > 0 else ""))
+        lines += [f"  {m['t_s']:7.1f} s {m['level']}: {m['text']}"
+                  for m in texts[:_TEXTS_SHOWN]]
     lines.append(f"attitude: roll {_fmt_range(r['roll_deg'], '°')}, "
                  f"pitch {_fmt_range(r['pitch_deg'], '°')}; depth {_fmt_range(r['depth_m'], 'm')}")
     for s in r["steady"]:
