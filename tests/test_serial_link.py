@@ -29,7 +29,14 @@ import pytest
 import trimd.cmd_run
 from drivers import open_link
 from drivers.serial_link import SerialLink, open_serial_link
-from drivers.serial_protocol import BAD_COUNTERS, MAX_LINE_BYTES, checksum
+from drivers.serial_protocol import (
+    BAD_COUNTERS,
+    MAX_LINE_BYTES,
+    VEHICLE,
+    LineParser,
+    checksum,
+    to_sample,
+)
 from drivers.sim.config import SimConfig
 from drivers.sim.pacing import run_paced
 from drivers.sim.serial_server import COMMAND_TIMEOUT_S, SerialServer
@@ -277,6 +284,24 @@ def test_vehicle_releases_when_trimd_falls_silent_and_trimd_sees_silence(
     finally:
         pause.set()
         thread.join(timeout=5)
+        server.close()
+
+
+def test_the_served_vehicle_says_why_it_released(sabertooth: Profile) -> None:
+    server = SerialServer(SimVehicle(sabertooth, SimConfig(seed=5)))
+    trimd = os.open(server.path, os.O_RDWR | os.O_NOCTTY)
+    try:
+        os.read(trimd, 4096)  # the boot VHVER
+        server.handle(HoldAttitude(5 * DEG, 0.0, 0.0))
+        server._heard = time.monotonic() - COMMAND_TIMEOUT_S - 0.1  # trimd fell silent
+        server.poll()
+        assert server.control == "PILOT"
+        parser = LineParser(VEHICLE)
+        [said] = parser.feed(os.read(trimd, 4096))
+        assert to_sample(said, 0.0, ()) == VehicleText(
+            0.0, 4, "trimd silent for 1.5 s: control back to the pilot")
+    finally:
+        os.close(trimd)
         server.close()
 
 

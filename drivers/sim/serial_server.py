@@ -12,8 +12,8 @@ of ``docs/serial-protocol.md``:
   axis inputs; TRARM: arm/disarm; TRREL, or a TRHBT while a trimd command is active, or
   no valid trimd sentence for :data:`COMMAND_TIMEOUT_S` of *wall-clock* time: release,
   back to the mode the vehicle had before trimd took control (level, same heading and
-  depth; MANUAL with neutral inputs). The silence timeout is a property of the link, so
-  it runs on the wall clock even at ``--rate X``.
+  depth; MANUAL with neutral inputs), saying so in a VHTXT after a silence. The silence
+  timeout is a property of the link, so it runs on the wall clock even at ``--rate X``.
 
 Bad lines from trimd are counted (:attr:`SerialServer.parser`) and dropped. Output the
 other end does not read is dropped beyond :data:`MAX_BACKLOG_BYTES` (counted).
@@ -44,7 +44,7 @@ from drivers.serial_protocol import (
 from drivers.sim.pacing import run_paced
 from drivers.sim.vehicle import SimVehicle
 from trimd.errors import LinkError
-from trimd.samples import Arm, Command, HoldAttitude, OpenLoop, Release
+from trimd.samples import Arm, Command, HoldAttitude, OpenLoop, Release, VehicleText
 
 __all__ = ["COMMAND_TIMEOUT_S", "MAX_BACKLOG_BYTES", "SerialServer"]
 
@@ -140,6 +140,7 @@ class SerialServer:
                 self.handle(to_command(sentence))
         if self.control != "PILOT" and time.monotonic() - self._heard > COMMAND_TIMEOUT_S:
             self._release()
+            self._say(4, f"trimd silent for {COMMAND_TIMEOUT_S:g} s: control back to the pilot")
 
     # ------------------------------------------------------------------ commands
     def handle(self, command: Command | Heartbeat | Version) -> None:
@@ -177,6 +178,11 @@ class SerialServer:
     # ------------------------------------------------------------------ output
     def _version(self) -> bytes:
         return encode(VEHICLE, "VER", [str(VERSION), self._name])
+
+    def _say(self, severity: int, text: str) -> None:
+        """A VHTXT message for people (MAV_SEVERITY ``severity``)."""
+        t = self.vehicle.t_s
+        self._send(encode_sample(VehicleText(t, severity, text), round(t * 1000)))
 
     def _sentence(self, kind: str) -> bytes:
         sample = self.vehicle.sample(kind)
