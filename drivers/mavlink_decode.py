@@ -101,6 +101,7 @@ _UINT16_MAX = 65535
 _FRAME_BODY_FRD = 12  # MAV_FRAME_BODY_FRD
 _TEXT_CHUNK = 50  # STATUSTEXT text bytes: a shorter chunk ends a multi-chunk text
 _TEXTS_PENDING = 8  # multi-chunk texts being joined at once (older ones are dropped)
+_SEVERITY_MAX = 7  # MAV_SEVERITY_DEBUG
 _TEXTS_EARLY = 32  # texts kept per system before the vehicle is known (the latest)
 _AUTOPILOTS = {3: "ArduPilot", 12: "PX4"}
 
@@ -348,8 +349,10 @@ class MavlinkDecoder:
                     del self._texts[next(iter(self._texts))]
                 return []
             chunk = b"".join(chunks)
-        text = chunk.decode("utf-8", errors="replace")
-        return [VehicleText(t_s, int(msg.severity), text)]
+        if not 0 <= msg.severity <= _SEVERITY_MAX:  # a corrupt message
+            self.rejected["STATUSTEXT"] += 1
+            return []
+        return [VehicleText(t_s, int(msg.severity), chunk.decode("utf-8", errors="replace"))]
 
     def _attitude(self, msg: Any, t_s: float) -> Attitude | None:
         return checked_attitude(t_s, msg.roll, msg.pitch, msg.yaw, msg.rollspeed,

@@ -19,7 +19,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from drivers.mavlink_decode import LIMITS, MavlinkDecoder
 from replay.tlog import TlogReader
 from tests.conftest import SHARED_DATA
-from trimd.samples import Attitude, Battery, Depth, Health, Sample, Thrusters
+from trimd.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, VehicleText
 
 settings.register_profile(
     "trimd-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "10000")),
@@ -56,6 +56,8 @@ def valid(s: Sample) -> bool:
         return ok(s.depth_m, "depth_m")
     if isinstance(s, Battery):
         return ok(s.voltage_V, "voltage_V")
+    if isinstance(s, VehicleText):
+        return 0 <= s.severity <= 7 and isinstance(s.text, str)
     return isinstance(s, Health) and isinstance(s.mode, str) and math.isfinite(s.t_s)
 
 

@@ -80,6 +80,8 @@ def test_statustext_of_the_vehicle_becomes_a_vehicle_text() -> None:
     # … but nothing from another system (the GCS, another vehicle)
     assert d.decode(statustext(b"from the GCS", sysid=255, compid=190), 3.0) == []
     assert d.ignored == 1
+    assert d.decode(statustext(b"severity 9 is corrupt", 9), 3.5) == []
+    assert d.rejected["STATUSTEXT"] == 1
 
 
 def test_chunked_statustext_is_joined() -> None:

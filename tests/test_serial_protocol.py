@@ -262,6 +262,8 @@ def valid_sample(s: Sample | Version | None) -> bool:
         return ok(s.voltage_V, "voltage_V")
     if isinstance(s, Health):
         return s.mode.isupper() or s.mode.isidentifier()
+    if isinstance(s, VehicleText):
+        return 0 <= s.severity <= 7 and 0 < len(s.text) <= 96 and "," not in s.text
     return s is None or isinstance(s, Version)
 
 
@@ -302,8 +304,8 @@ _EDGES = ["0", "1", "-1", "-0", ".5", "5.", "89.999", "90", "90.5", "-180", "180
 #: a valid line of each sentence, whose fields the fuzzer replaces by edge cases
 _TEMPLATES = {"VHATT": "1,0,0,0,0,0,0", "VHTHR": "1,8" + ",1500" * 8, "VHDPT": "1,5",
               "VHVEL": "1,0,0,0", "VHBAT": "1,16", "VHSTA": "1,MANUAL,1,PILOT",
-              "VHVER": "1,sim", "TRVER": "1,trimd", "TRHBT": "", "TRHLD": "0,0,0",
-              "TRREL": "", "TROPN": "0,0,0,0,0,0", "TRARM": "1", "VHXYZ": "1"}
+              "VHVER": "1,sim", "VHTXT": "1,4,Leak", "TRVER": "1,trimd", "TRHBT": "",
+              "TRHLD": "0,0,0", "TRREL": "", "TROPN": "0,0,0,0,0,0", "TRARM": "1", "VHXYZ": "1"}
 
 
 def _edge_line(address: str, edits: list[tuple[int, str]]) -> bytes:
