@@ -104,6 +104,14 @@ def test_operator_abort_releases_at_once(sabertooth: Profile,
     assert released_within(thesis_vehicle, 30.0, DT)
 
 
+def test_an_abort_before_any_sample_is_stamped_at_session_time_zero(
+        sabertooth: Profile) -> None:
+    proc = Procedure(sabertooth)
+    [notice] = proc.step(Abort("stopped by SIGTERM"))
+    assert isinstance(notice, Notice) and notice.t_s == 0.0 and proc.progress.t_s == 0.0
+    assert proc.phase is Phase.ABORTED
+
+
 def test_depth_excursion_aborts(sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
     proc = Procedure(sabertooth, confirmed=True)
     run(proc, thesis_vehicle, 8.0)  # through precheck with a steady depth

@@ -8,7 +8,13 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
+import pty
+import signal
+import subprocess
+import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,6 +22,7 @@ import pytest
 from drivers import open_link
 from drivers.sim.config import SimConfig
 from drivers.sim.vehicle import SimVehicle
+from tests.conftest import REPO
 from trimd.ballast import Proposal, propose_ballast
 from trimd.cli import main
 from trimd.estimate import StaticEstimate
@@ -106,3 +113,40 @@ def test_unknown_link_is_a_link_error(capsys: pytest.CaptureFixture[str]) -> Non
                  "--headless", "--yes", "--no-record"])
     assert code == 3
     assert "did you mean 'mavlink:udp:127.0.0.1:14550'" in capsys.readouterr().err
+
+
+def _headless_at_a_terminal(tmp_path: Path) -> tuple[Any, int]:
+    """``trimd run`` headless on the simulator with a pseudo-terminal for its stdin (so it
+    asks for confirmation), started up to its prompt; returns the process and the pty."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "trimd.cli", "run", "--link", "sim:payload=10@AftSB",
+         "--profile", "sabertooth-dh2", "--headless", "--record", str(tmp_path / "s.tlog")],
+        stdin=slave, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)})
+    os.close(slave)
+    assert proc.stdout is not None
+    seen = ""
+    while "type 'yes'" not in seen:  # the prompt ends without a newline
+        char = proc.stdout.read(1)
+        assert char, (seen, proc.wait(), proc.stderr.read() if proc.stderr else "")
+        seen += char
+    return proc, master
+
+
+@pytest.mark.parametrize("how", ["answer no", "SIGTERM"])
+def test_headless_confirmation_prompt_refuses_or_stops(tmp_path: Path, how: str) -> None:
+    proc, master = _headless_at_a_terminal(tmp_path)
+    try:
+        if how == "SIGTERM":  # nobody answers: a signal still ends the process
+            proc.send_signal(signal.SIGTERM)
+        else:
+            os.write(master, b"no\n")
+        out, err = proc.communicate(timeout=60)  # a hang guard, not a timed assertion
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        os.close(master)
+    reason = "stopped by SIGTERM" if how == "SIGTERM" else "not confirmed by the operator"
+    assert proc.returncode == 1 and reason in out + err, (out[-800:], err[-800:])
+    assert "command: hold" not in out  # nothing was commanded

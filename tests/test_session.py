@@ -186,6 +186,41 @@ def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None
     assert Silent.sent == []
 
 
+def test_stopping_before_the_vehicle_answers_leaves_a_clean_log_and_valid_json(
+        sabertooth: Profile, tmp_path: Any) -> None:
+    from replay.recorder import TlogRecorder
+    from replay.tlog import TlogReader
+
+    class Nobody:
+        description = "nobody"
+
+        async def samples(self) -> Any:
+            await asyncio.sleep(3600)
+            yield  # pragma: no cover - never reached
+
+        async def send(self, command: Command) -> None:
+            raise AssertionError("nothing may be sent")
+
+        async def close(self) -> None:
+            return None
+
+    out = io.StringIO()
+    log = tmp_path / "s.tlog"
+    session = Session(Nobody(), sabertooth, recorder=TlogRecorder(log, sabertooth, ""),
+                      presenters=[HeadlessPresenter(out, json_lines=True)], confirmed=True)
+    result = run(session, after=0.2, then=lambda: session.abort("stopped by SIGTERM"))
+    assert result.phase is Phase.ABORTED and result.reason == "stopped by SIGTERM"
+
+    def no_nan(constant: str) -> None:
+        raise AssertionError(f"{constant} is not JSON")
+
+    lines = [json.loads(line, parse_constant=no_nan) for line in out.getvalue().splitlines()]
+    assert lines[-1]["t_s"] == 0.0 and lines[-1]["text"] == "stopped by SIGTERM"
+    reader = TlogReader.open(log)
+    texts = [m.text for _, m in reader.messages() if m.get_type() == "STATUSTEXT"]
+    assert "stopped by SIGTERM" in texts and reader.stats.bad_frames == 0
+
+
 class _QuietAfterAHeartbeat:
     """A link with a heartbeat and an attitude, then silence (no samples, no end)."""
 

@@ -94,12 +94,33 @@ class _StdinConfirm:
         return None
 
     async def _ask(self) -> None:
-        prompt = "type 'yes' to let trimd command the vehicle, anything else aborts: "
-        answer = await asyncio.get_running_loop().run_in_executor(None, input, prompt)
+        print("type 'yes' to let trimd command the vehicle, anything else aborts: ",
+              end="", flush=True)
+        answer = await _read_line(sys.stdin.fileno())
         if answer.strip().lower() == "yes":
             self.session.confirm()
         else:
             self.session.abort("not confirmed by the operator")
+
+
+async def _read_line(fd: int) -> str:
+    """One line from ``fd`` ("" at end of file) without a thread: a blocked ``input()``
+    in an executor would keep the process alive after a signal ended the session."""
+    loop = asyncio.get_running_loop()
+    line: asyncio.Future[str] = loop.create_future()
+    buffer = bytearray()
+
+    def readable() -> None:
+        chunk = os.read(fd, 1024)
+        buffer.extend(chunk)
+        if (not chunk or b"\n" in chunk) and not line.done():
+            line.set_result(buffer.split(b"\n", 1)[0].decode(errors="replace"))
+
+    loop.add_reader(fd, readable)
+    try:
+        return await line
+    finally:
+        loop.remove_reader(fd)
 
 
 def _exit_code(result: SessionResult) -> int:

@@ -222,6 +222,8 @@ class Excite:
         return [Notice(self._t, "state", text, phase)]
 
     def _finish(self, phase: Phase, reason: str, cause: str = "") -> list[Output]:
+        if math.isnan(self._t):  # ended before any sample: at session time 0
+            self._t = 0.0
         self.cause = cause
         out: list[Output] = [Release()] if self._commanded else []
         self._commanded = False

@@ -545,6 +545,8 @@ class Procedure:
     def _finish(self, phase: Phase, reason: str, cause: str = "") -> list[Output]:
         """End in ``phase``; ``cause`` (link, timeout, envelope, vehicle, estimation,
         operator, internal) lets a shell choose its exit code."""
+        if math.isnan(self._t):  # ended before any sample: at session time 0
+            self._t = 0.0
         self.cause = cause
         commanding = self._holds and not self.phase.final
         out: list[Output] = [Release()] if commanding else []
