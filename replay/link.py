@@ -73,33 +73,42 @@ class ReplayLink:
         self.profile = profile
         self.speed = speed
         self.sent: list[Command] = []
-        self.warnings: list[str] = []
+        self._reader: DataflashReader | TlogReader | None = None
         self._dataflash = is_dataflash(path)
         self._closed = False
 
     def read_samples(self) -> Iterator[Sample]:
-        """Every sample of the log, in file order (warnings collected on the way)."""
-        channels = [t.channel for t in self.profile.thrusters]
+        """Every sample of the log, in file order (:attr:`warnings` grow on the way)."""
         if self._dataflash:
-            df = DataflashReader(self.path, channels)
+            df = self._reader = DataflashReader(
+                self.path, [t.channel for t in self.profile.thrusters])
             yield from df.samples()
-            if df.error:
-                self.warnings.append(f"{self.path}: {df.error}; replayed up to there")
-            if df.truncated_at is not None:
-                self.warnings.append(f"{self.path}: truncated record at byte "
-                                     f"{df.truncated_at}; replayed up to there")
-            if df.skipped_bytes:
-                self.warnings.append(f"{self.path}: {df.skipped_bytes} damaged bytes skipped "
-                                     f"(the first at byte {df.first_skip_at})")
-            return
-        reader = TlogReader.open(self.path)
-        yield from reader.samples(MavlinkDecoder.for_profile(self.profile))
-        st = reader.stats
-        if st.truncated_at is not None:
-            self.warnings.append(f"{self.path}: truncated record at byte {st.truncated_at}; "
-                                 "replayed up to there")
-        if st.bad_frames:
-            self.warnings.append(f"{self.path}: {st.bad_frames} bad frames skipped")
+        else:
+            reader = self._reader = TlogReader.open(self.path)
+            yield from reader.samples(MavlinkDecoder.for_profile(self.profile))
+
+    @property
+    def warnings(self) -> list[str]:
+        """The damage found in what has been read so far (a session may stop early)."""
+        r, out = self._reader, list[str]()
+        if isinstance(r, DataflashReader):
+            error, truncated_at, skipped, first_skip = (
+                r.error, r.truncated_at, r.skipped_bytes, r.first_skip_at)
+        elif isinstance(r, TlogReader):
+            error, truncated_at, skipped, first_skip = (
+                None, r.stats.truncated_at, r.stats.bad_frames, r.stats.first_bad_at)
+        else:
+            return out
+        if error:
+            out.append(f"{self.path}: {error}; replayed up to there")
+        if truncated_at is not None:
+            out.append(f"{self.path}: truncated record at byte {truncated_at}; "
+                       "replayed up to there")
+        if skipped:
+            what = "damaged bytes" if isinstance(r, DataflashReader) else "bad frames"
+            out.append(f"{self.path}: {skipped} {what} skipped (the first at byte "
+                       f"{first_skip})")
+        return out
 
     async def samples(self) -> AsyncIterator[Sample]:
         start_wall: float | None = None

@@ -63,7 +63,8 @@ class TlogStats:
 
     ``messages`` counts the good (CRC-checked) ones; ``gaps`` counts messages missing from
     each sender's sequence numbers, keyed by (system id, component id); frames lost to CRC
-    errors show up there too.
+    errors show up there too. ``first_bad_at`` is the byte offset of the first bad frame
+    (a CRC error or the start of a damaged stretch), None when there is none.
     """
 
     size_bytes: int = 0
@@ -74,6 +75,7 @@ class TlogStats:
     resyncs: int = 0
     skipped_bytes: int = 0
     truncated_at: int | None = None
+    first_bad_at: int | None = None
     unknown: int = 0
     unknown_bytes: int = 0
     gaps: Counter[tuple[int, int]] = field(default_factory=Counter)
@@ -156,6 +158,7 @@ class TlogReader:
             msg = self._decode(pos + 8, end) if plen > 0 and end <= n else None
             if msg is not None and not isinstance(msg, mavlink2.MAVLink_unknown):
                 if lost_from >= 0:
+                    self._bad_at(lost_from)
                     st.resyncs += 1
                     st.skipped_bytes += pos - lost_from
                     lost_from = -1
@@ -168,6 +171,7 @@ class TlogReader:
             elif lost_from < 0 and plen > 0 and end <= n and (
                     end + 9 > n or self._plausible(end, n, last_us)):
                 if msg is None:
+                    self._bad_at(pos)
                     st.bad_crc += 1
                     st.bad_crc_bytes += end - pos
                 else:
@@ -182,10 +186,15 @@ class TlogReader:
         if lost_from >= 0 and cut:
             st.truncated_at = lost_from
         elif lost_from >= 0:
+            self._bad_at(lost_from)
             st.resyncs += 1
             st.skipped_bytes += n - lost_from
         elif pos < n:
             st.truncated_at = pos
+
+    def _bad_at(self, pos: int) -> None:
+        if self.stats.first_bad_at is None:
+            self.stats.first_bad_at = pos
 
     def _count(self, msg: Any, buf: Any, i: int, seqs: dict[tuple[int, int], int]) -> None:
         st = self.stats

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -73,6 +74,14 @@ def test_truncated_recording_replays_up_to_the_damage(
     assert main(["replay", str(cut), "--json"]) == 1
     err = capsys.readouterr().err
     assert "truncated record at byte" in err and "Traceback" not in err
+    # damage in the middle: skipped, named by its byte offset, the rest replayed
+    middle = len(data) // 2
+    damaged = tmp_path / "damaged.tlog"
+    damaged.write_bytes(data[:middle] + bytes(5000) + data[middle + 5000:])
+    main(["replay", str(damaged), "--json"])
+    err = capsys.readouterr().err
+    assert re.search(r"1 bad frames skipped \(the first at byte \d+\)", err), err
+    assert "Traceback" not in err
 
 
 def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:

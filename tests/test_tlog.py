@@ -128,6 +128,7 @@ def test_a_damaged_stretch_is_skipped_and_reading_resumes() -> None:
     assert len(list(reader.messages())) == 8
     assert reader.stats.resyncs == 1 and reader.stats.skipped_bytes == len(garbage)
     assert reader.stats.accounted_bytes == len(data)
+    assert reader.stats.first_bad_at == sum(map(len, recs[:3]))
 
 
 def test_bad_crc_frame_is_counted_and_its_neighbours_kept() -> None:
@@ -137,6 +138,7 @@ def test_bad_crc_frame_is_counted_and_its_neighbours_kept() -> None:
     reader = TlogReader(b"".join([*recs[:2], bytes(broken), *recs[3:]]))
     assert [m.time_boot_ms for _, m in reader.messages()] == [0, 1, 3, 4, 5]
     assert reader.stats.bad_crc == 1 and reader.stats.gaps[(1, 1)] == 1
+    assert reader.stats.first_bad_at == sum(map(len, recs[:2]))
 
 
 def test_time_jump_is_damage() -> None:

@@ -92,6 +92,7 @@ def _read_tlog(path: Path, profile: Profile | None) -> tuple[dict[str, Any], lis
         "counts": counts, "params": decoder.params, "armed_known": decoder.armed is not None,
         "messages": st.messages, "bad_frames": st.bad_frames, "bad_crc": st.bad_crc,
         "skipped_bytes": st.skipped_bytes, "truncated_at": st.truncated_at,
+        "first_skip_at": st.first_bad_at,
         "sequence_gaps": {f"{s}/{c}": n for (s, c), n in sorted(st.gaps.items()) if n},
         "rejected": dict(decoder.rejected),
     }
@@ -238,8 +239,11 @@ def format_report(r: dict[str, Any]) -> str:
         f"{a:.1f}–{b:.1f} s" for a, b in armed) or "never"))
     if "bad_crc" in r:
         gaps = ", ".join(f"{k} {n}" for k, n in r["sequence_gaps"].items()) or "none"
+        first = (f", the first bad frame at byte {r['first_skip_at']}"
+                 if r["first_skip_at"] is not None else "")
         lines.append(f"bad frames: {r['bad_frames']} ({r['bad_crc']} bad CRC, "
-                     f"{r['skipped_bytes']} bytes skipped); sequence gaps (sys/comp): {gaps}")
+                     f"{r['skipped_bytes']} bytes skipped{first}); sequence gaps "
+                     f"(sys/comp): {gaps}")
     elif r["skipped_bytes"]:
         lines.append(f"warning: {r['skipped_bytes']} damaged bytes skipped (the first at byte "
                      f"{r['first_skip_at']})")
