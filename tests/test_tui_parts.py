@@ -126,3 +126,35 @@ def test_result_panel_says_when_the_passive_trim_is_undefined(sabertooth: Profil
     assert not proposal.trim.stable
     text = "\n".join(line.plain for line in ResultPanel(sabertooth)._footer(proposal, 80))
     assert "passive trim undefined: no static stability" in text and "nan" not in text
+
+
+@pytest.mark.asyncio
+async def test_a_many_slot_proposal_keeps_the_top_view_at_80x24(bluerov: Profile) -> None:
+    """The BlueROV2's 7-slot proposal in the result panel's 80×24 size (38×22 inside):
+    the slots shrink to letters and loads, so the top view and the whole verdict fit."""
+    from textual.app import App, ComposeResult
+
+    W, r_g = payload_truth(bluerov, 0.5, np.array(bluerov.slot("W-aft-stbd").position_m))
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov)
+    proposal = propose_ballast(est, bluerov, method="milp")
+    loaded = [s for s in proposal.slots if s.mass_kg or s.buoyancy_N]
+    assert len(loaded) >= 5  # enough to push the top view out at full length
+    panel = ResultPanel(bluerov)
+
+    class One(App[None]):
+        def compose(self) -> ComposeResult:
+            yield panel
+
+    async with One().run_test(size=(40, 24)) as pilot:
+        panel.show_result(est, proposal)
+        await pilot.pause()
+        width, height = panel.content_size.width, panel.content_size.height
+        assert len(panel._footer(proposal, width)) > height - 6 - 5  # full length too long
+        lines = panel.render().plain.splitlines()
+    assert len(lines) <= height
+    assert any("╭" in line for line in lines)  # the top view's outline
+    compact = "\n".join(lines)
+    for s in loaded:
+        assert f"+{s.weight_kg or s.float_kg:.2f}" in compact
+    if not proposal.feasible:
+        assert " ".join(lines).count("capacity") == " ".join(proposal.binding).count("capacity")

@@ -23,6 +23,9 @@ from trimd.tui.topview import BOTH, EMPTY, FLOAT, SLOT_LETTERS, WEIGHT, top_view
 
 __all__ = ["ResultPanel"]
 
+#: Fewest rows [lines] worth drawing the top view in.
+_MIN_VIEW_H = 5
+
 
 def _pieces(pieces: tuple[tuple[str, int], ...]) -> str:
     return ", ".join(f"{n}×{name}" for name, n in pieces)
@@ -126,9 +129,12 @@ class ResultPanel(Widget):
         head.append(switch.append("  (m)", style="dim"))
         foot = self._footer(p, width)
         view_h = height - len(head) - len(foot)
+        if view_h < _MIN_VIEW_H:  # make room for the top view: slot letters only
+            foot = self._footer(p, width, compact=True)
+            view_h = height - len(head) - len(foot)
         view = ([top_view(self.profile, width=width, height=view_h,
                           cg_m=(float(est.r_g_m[0]), float(est.r_g_m[1])),
-                          slot_styles=self._slot_styles(p))] if view_h >= 5 else [])
+                          slot_styles=self._slot_styles(p))] if view_h >= _MIN_VIEW_H else [])
         return Text("\n", no_wrap=True, overflow="ellipsis").join(head + view + foot)
 
     def _slot_styles(self, p: Proposal | None) -> list[str]:
@@ -137,24 +143,33 @@ class ResultPanel(Widget):
         return [BOTH if s.weight_kg and s.float_kg else WEIGHT if s.weight_kg
                 else FLOAT if s.float_kg else EMPTY for s in p.slots]
 
-    def _footer(self, p: Proposal | None, width: int) -> list[Text]:
+    def _footer(self, p: Proposal | None, width: int, *, compact: bool = False
+                ) -> list[Text]:
+        """The proposal below the top view: per slot its name, load and pieces, or with
+        ``compact`` only the slot's letter (as in the top view) and load, several a line."""
         if self.method in self.errors:
             return [Text(f"{self.method}: {self.errors[self.method]}", style="bold red")]
         if p is None:
             return [Text(f"computing {self.method}…" if self.busy else "no proposal",
                          style="dim")]
-        lines = []
+        lines: list[Text] = []
+        loads: list[Text] = []
         styles = self._slot_styles(p)
         for i, s in enumerate(p.slots):
             if not (s.mass_kg or s.buoyancy_N):
                 continue
-            load = Text(f"{SLOT_LETTERS[i % 26]} ", style=styles[i]).append(
-                f"{s.name}", style="")
+            load = Text(SLOT_LETTERS[i % 26], style=styles[i])
+            if not compact:
+                load.append(f" {s.name}", style="")
             if s.weight_kg:
                 load.append(f" +{s.weight_kg:.2f} kg", style=WEIGHT)
             if s.float_kg:
                 load.append(f" +{s.float_kg:.2f} kgf", style=FLOAT)
-            lines += _pack([load, Text(_pieces(s.pieces), style="dim")], width, indent=2)
+            if compact:
+                loads.append(load)
+            else:
+                lines += _pack([load, Text(_pieces(s.pieces), style="dim")], width, indent=2)
+        lines += _pack(loads, width)
         if not lines:
             lines.append(Text("no ballast needed", style="green"))
         t = p.trim
