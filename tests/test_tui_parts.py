@@ -37,6 +37,16 @@ def test_braille_plot_draws_lines_on_the_dot_grid() -> None:
     assert gap.plain == "  3.0│⠁⠈"  # NaN breaks the line: only the two end points
 
 
+def test_a_reversed_y_axis_draws_depth_deeper_lower_down() -> None:
+    def row_of(depth_m: float) -> int:
+        rows = braille_plot([Series([0.0, 1.0], [depth_m, depth_m], "yellow")], width=8,
+                            height=3, x_range=(0.0, 1.0), y_lim=(10.12, 9.88)).plain.split("\n")
+        (row,) = [k for k, line in enumerate(rows) if line[6:].strip("\u2800")]
+        return row
+
+    assert (row_of(9.9), row_of(10.0), row_of(10.1)) == (0, 1, 2)
+
+
 def test_top_view_places_slots_and_the_cg_arrow(sabertooth: Profile) -> None:
     _, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
     *lines, legend = top_view(sabertooth, width=41, height=22,

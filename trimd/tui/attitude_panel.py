@@ -1,5 +1,7 @@
-"""Attitude panel: roll, pitch, yaw and depth against their set-points, and a braille
-plot of roll and pitch over the last minute of sample time (its legend in the border)."""
+"""Attitude panel: roll, pitch, yaw and depth against their set-points, and braille plots
+over the last minute of sample time: roll and pitch (their legend in the border) and,
+when the panel is tall enough, depth below it. Yaw is numbers only: the vehicle holds
+its heading itself, and trimd commands the heading it found."""
 
 from __future__ import annotations
 
@@ -14,7 +16,11 @@ from trimd.tui.telemetry import HISTORY_S, LiveState
 
 __all__ = ["AttitudePanel"]
 
-_ROLL, _PITCH, _SET = "bold cyan", "bold magenta", "dim white"
+_ROLL, _PITCH, _SET, _DEPTH = "bold cyan", "bold magenta", "dim white", "bold yellow"
+#: Plot rows [lines] from which a depth plot (a third of them) goes below roll and pitch.
+_DEPTH_PLOT_FROM = 6
+#: Lines above the plots: the table's heading, now and set.
+_TABLE_H = 3
 
 
 def _cells(values: tuple[float | None, ...]) -> str:
@@ -31,8 +37,15 @@ class AttitudePanel(Widget):
         self.state = state
         self.border_title = "Attitude"
         # the plot's legend (the table's headings are coloured the same)
+        self._legend(with_depth=False)
+
+    def _legend(self, *, with_depth: bool) -> None:
+        depth = f" [{_DEPTH}]━ depth[/]" if with_depth else ""
         self.border_subtitle = (f"[{_ROLL}]━ roll[/] [{_PITCH}]━ pitch[/] [{_SET}]━ set[/]"
-                                f" · last {HISTORY_S:.0f} s")
+                                f"{depth} · last {HISTORY_S:.0f} s")
+
+    def on_resize(self) -> None:
+        self._legend(with_depth=self.content_size.height - _TABLE_H >= _DEPTH_PLOT_FROM)
 
     def render(self) -> Text:
         s, a, sp = self.state, self.state.attitude, self.state.setpoint
@@ -47,22 +60,42 @@ class AttitudePanel(Widget):
         text.append("now  " + _cells((*deg, depth)) + "\n")
         text.append("set  " + (_cells((sp.roll_deg, sp.pitch_deg, sp.yaw_deg, sp.depth_m))
                                    if sp else "  released") + "\n", style="dim")
-        height = self.content_size.height - 3
-        if height >= 2:
-            text.append_text(self._plot(self.content_size.width, height))
+        height, width = self.content_size.height - _TABLE_H, self.content_size.width
+        if height >= _DEPTH_PLOT_FROM:
+            depth_h = height // 3
+            text.append_text(self._plot(width, height - depth_h)).append("\n")
+            text.append_text(self._depth_plot(width, depth_h))
+        elif height >= 2:
+            text.append_text(self._plot(width, height))
         return text
 
-    def _plot(self, width: int, height: int) -> Text:
-        h, sp = self.state.history, self.state.setpoint
+    def _window(self) -> tuple[float, float]:
+        h = self.state.history
         t_end = h[-1].t_s if h else 0.0
+        return t_end - HISTORY_S, t_end
+
+    def _plot(self, width: int, height: int) -> Text:
+        """Roll and pitch [deg] and their set-points."""
+        h, sp = self.state.history, self.state.setpoint
         ts = [p.t_s for p in h]
         series = [Series(ts, [p.roll_deg for p in h], _ROLL),
                   Series(ts, [p.pitch_deg for p in h], _PITCH)]
         values = [v for s in series for v in s.ys]
         if sp is not None:
-            ends = [t_end - HISTORY_S, t_end]
-            series[:0] = [Series(ends, [sp.roll_deg] * 2, _SET),
-                          Series(ends, [sp.pitch_deg] * 2, _SET)]
+            series[:0] = [Series(self._window(), [sp.roll_deg] * 2, _SET),
+                          Series(self._window(), [sp.pitch_deg] * 2, _SET)]
             values += [sp.roll_deg, sp.pitch_deg]
-        return braille_plot(series, width=width, height=height,
-                            x_range=(t_end - HISTORY_S, t_end), y_lim=y_range(values, min_span=2.0))
+        return braille_plot(series, width=width, height=height, x_range=self._window(),
+                            y_lim=y_range(values, min_span=2.0))
+
+    def _depth_plot(self, width: int, height: int) -> Text:
+        """Depth [m] and the depth held, deeper lower down (the y axis reversed)."""
+        h, sp = self.state.history, self.state.setpoint
+        series = [Series([p.t_s for p in h], [p.depth_m for p in h], _DEPTH)]
+        values = list(series[0].ys)
+        if sp is not None and math.isfinite(sp.depth_m):
+            series.insert(0, Series(self._window(), [sp.depth_m] * 2, _SET))
+            values.append(sp.depth_m)
+        shallow, deep = y_range(values, min_span=0.2)
+        return braille_plot(series, width=width, height=height, x_range=self._window(),
+                            y_lim=(deep, shallow))

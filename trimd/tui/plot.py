@@ -46,13 +46,17 @@ def y_range(values: Sequence[float], *, min_span: float) -> tuple[float, float]:
 
 def braille_plot(series: Sequence[Series], *, width: int, height: int,
                  x_range: tuple[float, float], y_lim: tuple[float, float]) -> Text:
-    """``height`` lines of ``width`` cells: y labels on the left, then the plot."""
+    """``height`` lines of ``width`` cells: y labels on the left, then the plot.
+
+    ``y_lim`` is (bottom, top): give it reversed (bottom > top) for a quantity that grows
+    downwards, such as depth.
+    """
     cols, rows = max(1, width - _LABEL_W), max(1, height)
     bits = [[0] * cols for _ in range(rows)]
     colour: list[list[str | None]] = [[None] * cols for _ in range(rows)]
     (x0, x1), (y0, y1) = x_range, y_lim
     sx = (2 * cols - 1) / (x1 - x0) if x1 > x0 else 0.0
-    sy = (4 * rows - 1) / (y1 - y0) if y1 > y0 else 0.0
+    sy = (4 * rows - 1) / (y1 - y0) if y1 != y0 else 0.0
 
     def dot(px: int, py: int, style: str) -> None:
         if 0 <= px < 2 * cols and 0 <= py < 4 * rows:

@@ -41,11 +41,13 @@ _STREAMS: dict[type, str] = {Attitude: "att", Thrusters: "thr", Depth: "depth",
 
 @dataclass(frozen=True, slots=True)
 class Point:
-    """One history point: sample time [s], roll and pitch [deg]."""
+    """One history point: sample time [s], roll and pitch [deg], depth [m] (NaN: none
+    yet)."""
 
     t_s: float
     roll_deg: float
     pitch_deg: float
+    depth_m: float = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,6 +121,7 @@ class LiveState:
     def _remember(self, a: Attitude) -> None:
         if self.history and a.t_s - self.history[-1].t_s < _HISTORY_STEP_S:
             return
-        self.history.append(Point(a.t_s, math.degrees(a.phi), math.degrees(a.theta)))
+        self.history.append(Point(a.t_s, math.degrees(a.phi), math.degrees(a.theta),
+                                  self.depth.depth_m if self.depth else math.nan))
         while self.history[0].t_s < a.t_s - HISTORY_S:
             self.history.popleft()
