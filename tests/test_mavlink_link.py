@@ -37,6 +37,7 @@ from drivers.sim.mavlink_server import MavlinkServer
 from drivers.sim.vehicle import SimVehicle
 from replay.tlog import TlogReader
 from tests.conftest import REPO
+from tests.test_run_sim import assert_proposal_levels
 from trimd.errors import LinkError
 from trimd.profile import Profile, load_profile
 from trimd.samples import (
@@ -496,6 +497,8 @@ def test_trimd_run_over_mavlink_estimates_the_served_vehicle(
     print("estimate − truth: cg", err_cg, "m_ext", result["estimate"]["m_ext_kg"] - truth.m_ext_kg)
     assert np.all(np.abs(err_cg[:2]) < xy_tol) and abs(err_cg[2]) < z_tol, err_cg
     assert abs(result["estimate"]["m_ext_kg"] - truth.m_ext_kg) < m_tol
+    assert result["proposal"]["method"] == "milp"
+    assert_proposal_levels(load_profile(name), payload, result["proposal"])
     # the log holds the packets as received; replaying it gives the same numbers
     replayed = subprocess.run([*TRIMD, "replay", str(log), "--json"], capture_output=True,
                               text=True, cwd=REPO, timeout=120, check=True,

@@ -23,7 +23,7 @@ from drivers import open_link
 from drivers.sim.config import SimConfig
 from drivers.sim.vehicle import SimVehicle
 from tests.conftest import REPO
-from trimd.ballast import Proposal, propose_ballast
+from trimd.ballast import Proposal, proposal_to_dict, propose_ballast
 from trimd.cli import main
 from trimd.estimate import StaticEstimate
 from trimd.procedure import Phase
@@ -48,11 +48,12 @@ def trim(profile: Profile, payload: str, seed: int) -> tuple[SessionResult, SimV
     return asyncio.run(go())
 
 
-def ballast_payload(proposal: Proposal, profile: Profile) -> str:
-    """The proposal as simulator payload items: net kg down at each slot (negative: lift)."""
-    items = [f"{s.net_down_N / profile.gravity_m_s2:.6f}@{s.name}" for s in proposal.slots
-             if abs(s.net_down_N) > 0]
-    return "+".join(items)
+def ballast_payload(proposal: Proposal | dict[str, Any], profile: Profile) -> str:
+    """The proposal (or its JSON) as simulator payload items: net kg down at each slot
+    (negative: lift)."""
+    slots = (proposal_to_dict(proposal) if isinstance(proposal, Proposal) else proposal)["slots"]
+    return "+".join(f"{s['net_down_N'] / profile.gravity_m_s2:.6f}@{s['name']}" for s in slots
+                    if abs(s["net_down_N"]) > 0)
 
 
 def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
@@ -65,6 +66,16 @@ def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
         vehicle.run_for(0.1)
         angles.append(vehicle.truth.eta[3:5])
     return np.degrees(np.mean(angles, axis=0))
+
+
+def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any]
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Apply ``proposal`` to the simulated vehicle carrying ``payload``: with thrusters off
+    it must float within 0.5° of level. Returns roll and pitch [deg] before and after."""
+    before = passive_attitude_deg(profile, payload)
+    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
+    assert np.all(np.abs(after) < 0.5), (before, after)
+    return before, after
 
 
 @pytest.mark.parametrize(("name", "payload", "seed", "xy_tol", "z_tol", "m_tol"), CASES)
@@ -81,10 +92,8 @@ def test_trim_on_the_simulated_vehicle(name: str, payload: str, seed: int, xy_to
     assert abs(est.m_ext_kg - truth.m_ext_kg) < m_tol
     proposal: Proposal = result.proposal
     assert proposal.method == "milp"
-    before = passive_attitude_deg(profile, payload)
-    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
+    before, _ = assert_proposal_levels(profile, payload, proposal)
     assert np.max(np.abs(before)) > 1.0  # the payload really tilted it
-    assert np.all(np.abs(after) < 0.5), (before, after)
 
 
 def test_demo_headless_prints_estimate_proposal_and_truth(

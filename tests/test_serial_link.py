@@ -41,6 +41,7 @@ from drivers.sim.config import SimConfig
 from drivers.sim.pacing import run_paced
 from drivers.sim.serial_server import COMMAND_TIMEOUT_S, SerialServer
 from drivers.sim.vehicle import SimVehicle
+from tests.test_run_sim import assert_proposal_levels
 from trimd.cli import main
 from trimd.errors import LinkError
 from trimd.profile import Profile
@@ -392,6 +393,7 @@ def test_trimd_run_over_serial_against_trimd_sim(
     print(f"serial trim: r_g error {np.round(err * 1000, 4)} mm, m_ext error {m_err:+.3f} kg")
     assert np.all(np.abs(err[:2]) < 1e-3) and abs(err[2]) < 3e-3, err
     assert abs(m_err) < 0.2
+    assert_proposal_levels(sabertooth, payload, result["proposal"])  # milp, applied
     # every injected bad line counted under its own name, nothing else dropped
     counts = links[0].parser.counts
     assert sum(relay.injected.values()) == 120

@@ -1,5 +1,6 @@
-"""The TUI driven by Textual's pilot over a session on FakeLink: the whole procedure,
-method switching, the report, abort mid-hold, quitting."""
+"""The TUI driven by Textual's pilot over a session on FakeLink and on the in-process
+simulated vehicle: the whole procedure, method switching, the report, abort mid-hold,
+quitting."""
 
 from __future__ import annotations
 
@@ -12,17 +13,28 @@ import signal
 from collections.abc import AsyncIterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 from textual.message import Message
+from textual.pilot import Pilot
 
-from drivers import open_link
 from tests.fake_vehicle import FakeLink
-from tests.tui_helpers import app_for, never_times_out, thesis_vehicle, until
+from tests.test_run_sim import ballast_payload, passive_attitude_deg
+from tests.tui_helpers import (
+    RecordingSimLink,
+    app_for,
+    never_gives_up,
+    never_times_out,
+    recording_sim_link,
+    thesis_vehicle,
+    until,
+)
 from trimd.ballast import METHODS, propose_ballast
 from trimd.cmd_run import STOP_SIGNALS, stop_on_signals
 from trimd.procedure import Phase
 from trimd.profile import Profile
 from trimd.samples import Health, HoldAttitude, Release, Sample, VehicleText
+from trimd.session import SessionResult
 from trimd.tui.event_log import EventLog
 from trimd.tui.help_screen import HelpScreen
 from trimd.tui.link_panel import LinkPanel
@@ -35,6 +47,38 @@ from trimd.tui.stepper import Stepper
 def _phase(app: object) -> Phase | None:
     progress = app.query_one(Stepper).progress  # type: ignore[attr-defined]
     return None if progress is None else progress.phase
+
+
+async def _every_method(pilot: Pilot[object], panel: ResultPanel, result: SessionResult,
+                        profile: Profile) -> None:
+    """Press ``m`` through lp, line, general and back to milp: each proposal shows, is of
+    that method and is what ``trimd ballast`` proposes for the session's estimate."""
+    assert panel.method == "milp" and panel.proposal is result.proposal
+    for method in (*METHODS[:-1], "milp"):  # lp, line, general, back to milp
+        await pilot.press("m")
+        await until(pilot, lambda m=method: panel.method == m and not panel.busy)
+        assert panel.proposal is not None and panel.proposal.method == method
+        expected = propose_ballast(result.estimate, profile, method=method)
+        got = [(s.name, s.weight_kg, s.float_kg) for s in panel.proposal.slots]
+        assert got == [(s.name, s.weight_kg, s.float_kg) for s in expected.slots]
+    assert panel.proposal is result.proposal  # milp again: the kept one, not recomputed
+
+
+async def _saved_report(pilot: Pilot[object], directory: Path, result: SessionResult,
+                        profile: Profile) -> tuple[str, dict[str, object]]:
+    """Press ``r`` with the milp proposal shown; the markdown and JSON written, checked
+    for what every report of a finished session states."""
+    await pilot.press("r")
+    await pilot.pause()
+    stem = directory / f"trimd-{profile.name}"
+    md, report = stem.with_suffix(".md").read_text(), json.loads(
+        stem.with_suffix(".json").read_text())
+    assert report["estimate"]["m_ext_kg"] == pytest.approx(result.estimate.m_ext_kg)
+    assert report["method"] == report["proposal"]["method"] == "milp"
+    assert report["status"].startswith("done") and report["warnings"] == []
+    assert any("release control" in e["text"] for e in report["events"])
+    assert "- ballast method: milp" in md and "## Ballast proposal (milp)" in md
+    return md, report
 
 
 @pytest.mark.asyncio
@@ -55,24 +99,9 @@ async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path:
         assert panel.method == "milp" and panel.proposal is result.proposal
         assert app.has_class("-result")  # the result replaces the live view
 
-        for method in (*METHODS[:-1], "milp"):  # lp, line, general, back to milp
-            await pilot.press("m")
-            await until(pilot, lambda m=method: panel.method == m and not panel.busy)
-            assert panel.proposal is not None and panel.proposal.method == method
-            expected = propose_ballast(result.estimate, sabertooth, method=method)
-            got = [(s.name, s.weight_kg, s.float_kg) for s in panel.proposal.slots]
-            assert got == [(s.name, s.weight_kg, s.float_kg) for s in expected.slots]
-        assert panel.proposal is result.proposal  # milp again: the kept one, not recomputed
-
-        await pilot.press("r")
-        await pilot.pause()
-        md, js = tmp_path / "trimd-sabertooth-dh2.md", tmp_path / "trimd-sabertooth-dh2.json"
-        report = json.loads(js.read_text())
-        assert report["estimate"]["m_ext_kg"] == pytest.approx(result.estimate.m_ext_kg)
-        assert report["proposal"]["method"] == "milp"
-        assert report["status"].startswith("done")
-        assert any("release control" in e["text"] for e in report["events"])
-        assert "## Ballast proposal (milp)" in md.read_text()
+        await _every_method(pilot, panel, result, sabertooth)
+        _, report = await _saved_report(pilot, tmp_path, result, sabertooth)
+        assert report["link"] == "fake:10@AftSB" and report["truth"] == "10 kg at AftSB"
 
         await pilot.press("q")  # the session is over: quits without asking
         await pilot.pause()
@@ -83,22 +112,78 @@ async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path:
 
 
 @pytest.mark.asyncio
-async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile) -> None:
-    link = await open_link("sim:payload=10@AftSB,seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=False)
+async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile,
+                                                        tmp_path: Path) -> None:
+    """Start, confirm, the proposal, every method and the report, against the simulator;
+    the milp proposal then put on the simulated vehicle leaves it level."""
+    options = "payload=10@AftSB,seed=1"
+    link = await recording_sim_link(options, sabertooth)
+    app = app_for(sabertooth, link, confirmed=False, tmp_path=tmp_path,
+                  link_description=f"sim:{options}", truth=link.truth())
     async with app.run_test(size=(80, 24)) as pilot:
         await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        assert link.sent == []  # nothing commanded before the operator confirms
         await pilot.press("s")
         await until(pilot, lambda: app.result is not None)
         result = app.result
         assert result is not None and result.phase is Phase.DONE, result
-        assert abs(result.estimate.m_ext_kg - 10.0) < 0.2  # issue 6's tolerance
+        assert abs(result.estimate.m_ext_kg - link.vehicle.truth.m_ext_kg) < 0.2  # issue 6
+        assert [type(c) for c in link.sent] == [HoldAttitude, HoldAttitude, Release]
+        assert link.vehicle.controller.target[:2] == (0.0, 0.0)  # released: level again
         assert app.query_one(LinkPanel).border_title == "Link · simulated sabertooth-dh2"
         panel = app.query_one(ResultPanel)
         assert panel.proposal is result.proposal and result.proposal.feasible
-        await pilot.press("m")
-        await until(pilot, lambda: panel.method == "lp" and not panel.busy)
-        assert panel.proposal is not None and panel.proposal.method == "lp"
+
+        await _every_method(pilot, panel, result, sabertooth)
+        md, report = await _saved_report(pilot, tmp_path, result, sabertooth)
+        assert report["link"] == "sim:payload=10@AftSB,seed=1"
+        assert report["truth"] == link.truth() and "payload 10@AftSB" in report["truth"]
+        assert f"## Simulator truth\n\n{link.truth()}" in md
+        await pilot.press("q")
+        await pilot.pause()
+    assert app.return_value is result
+
+    ballasted = f"{link.vehicle.config.payload}+{ballast_payload(result.proposal, sabertooth)}"
+    assert np.all(np.abs(passive_attitude_deg(sabertooth, ballasted)) < 0.5)
+
+
+def _tilting_in_hold_2(link: RecordingSimLink) -> bool:
+    """The tilted hold (20° roll and pitch) reached the vehicle and it is on its way."""
+    if len(link.sent) < 2:
+        return False
+    phi, theta = link.vehicle.truth.eta[3:5]
+    return min(phi, theta) > math.radians(5.0)
+
+
+@pytest.mark.asyncio
+async def test_abort_mid_hold_on_the_simulated_vehicle_releases_it(sabertooth: Profile) -> None:
+    """Abort while the simulated vehicle tilts into hold 2 (frozen there, so the keypress
+    lands mid-hold however slow the runner): the Release reaches the link at that very
+    instant, the vehicle's controller drops the tilted set-point and it comes back level."""
+    profile = never_gives_up(sabertooth)
+    link = await recording_sim_link("payload=10@AftSB,seed=2", profile,
+                                    pause_when=_tilting_in_hold_2)
+    app = app_for(profile, link, confirmed=True)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: (link.paused_at is not None and _phase(app) is Phase.SETTLE)
+                    or app.result is not None)
+        assert app.result is None, app.result  # frozen in hold 2, not ended before it
+        held = link.vehicle.controller.target
+        assert held[:2] == pytest.approx((math.radians(20.0), math.radians(20.0)))
+        await pilot.press("a")
+        await until(pilot, lambda: app.result is not None)
+        assert app.result is not None and app.result.phase is Phase.ABORTED
+        assert app.result.reason == "aborted by the operator"
+        assert _phase(app) is Phase.ABORTED
+    assert [type(c) for c in link.sent] == [HoldAttitude, HoldAttitude, Release]
+    t_release, _ = link.commands[-1]
+    assert t_release == link.paused_at  # mid-hold: the vehicle took no step in between
+    v = link.vehicle
+    assert v.controller.target == (0.0, 0.0, held[2])  # level, same heading: not held
+    assert v.mode == "ALT_HOLD" and v.armed  # released to the pilot's depth hold
+    tilted = np.degrees(v.truth.eta[3:5])
+    v.run_for(30.0)  # the session is over: step the released vehicle on by hand
+    assert np.all(tilted > 5.0) and np.all(np.abs(np.degrees(v.truth.eta[3:5])) < 1.0)
 
 
 class ChattyLink(FakeLink):

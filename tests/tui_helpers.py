@@ -1,4 +1,5 @@
-"""Shared set-up of the TUI tests: a Session over FakeLink and a way to wait on the app."""
+"""Shared set-up of the TUI tests: a Session over FakeLink or the in-process simulated
+vehicle (recording what it was sent) and a way to wait on the app."""
 
 from __future__ import annotations
 
@@ -7,16 +8,19 @@ import dataclasses
 import time
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from textual.pilot import Pilot
 
+from drivers import open_link
+from drivers.sim.link import SimLink
 from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeLink, FakeVehicle
 from trimd.ballast import propose_ballast
 from trimd.profile import Profile
-from trimd.samples import Sample
+from trimd.samples import Command, Sample
 from trimd.session import Session
 from trimd.tui import TrimApp, make_app
 
@@ -38,13 +42,57 @@ class PausedLink(FakeLink):
             yield s
 
 
-def app_for(profile: Profile, link: FakeLink, *, confirmed: bool, tmp_path: Path | None = None
+class RecordingSimLink(SimLink):
+    """The in-process simulated vehicle (a ``sim:`` link) keeping, as FakeLink does, the
+    commands that reached it: ``sent`` in order, ``commands`` with the simulated time [s]
+    each was applied at (both after the vehicle took it).
+
+    ``pause_when(link)``, asked before each sample is handed over, freezes the simulation
+    for good once true (the stream goes silent without ending, as PausedLink;
+    ``paused_at``: the simulated time it froze at): the vehicle stays mid-manoeuvre while
+    a test presses keys, however slowly the runner goes, and still takes commands.
+    """
+
+    def __init__(self, link: SimLink, *,
+                 pause_when: Callable[[RecordingSimLink], bool] | None = None) -> None:
+        super().__init__(link.vehicle)
+        self.description = link.description
+        self.sent: list[Command] = []
+        self.commands: list[tuple[float, Command]] = []
+        self.pause_when = pause_when
+        self.paused_at: float | None = None
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        async for s in super().samples():
+            if self.paused_at is None and self.pause_when is not None and self.pause_when(self):
+                self.paused_at = self.vehicle.t_s
+                await asyncio.Event().wait()
+            yield s
+
+    async def send(self, command: Command) -> None:
+        await super().send(command)
+        self.sent.append(command)
+        self.commands.append((self.vehicle.t_s, command))
+
+
+async def recording_sim_link(options: str, profile: Profile, *,
+                             pause_when: Callable[[RecordingSimLink], bool] | None = None
+                             ) -> RecordingSimLink:
+    """The simulated vehicle of ``sim:options``, opened as ``trimd run --link`` opens it,
+    recording what it is sent (see :class:`RecordingSimLink`)."""
+    link = await open_link(f"sim:{options}", profile)
+    assert isinstance(link, SimLink), link
+    return RecordingSimLink(link, pause_when=pause_when)
+
+
+def app_for(profile: Profile, link: Any, *, confirmed: bool, tmp_path: Path | None = None,
+            link_description: str = "fake:10@AftSB", truth: str | None = "10 kg at AftSB"
             ) -> TrimApp:
     """The TUI over a session on ``link`` with the milp proposal, as ``trimd run`` builds it."""
     session = Session(link, profile, recorder=None, presenters=[], confirmed=confirmed,
                       propose=lambda est: propose_ballast(est, profile, method="milp"))
-    return make_app(session, profile, link_description="fake:10@AftSB",
-                    truth="10 kg at AftSB", report_dir=tmp_path, clock=lambda: FIXED_CLOCK)
+    return make_app(session, profile, link_description=link_description,
+                    truth=truth, report_dir=tmp_path, clock=lambda: FIXED_CLOCK)
 
 
 def never_times_out(profile: Profile) -> Profile:
@@ -52,6 +100,14 @@ def never_times_out(profile: Profile) -> Profile:
     a hold however fast the fake link runs while a test presses keys."""
     return dataclasses.replace(profile, procedure=dataclasses.replace(
         profile.procedure, settle_timeout_s=1e9))
+
+
+def never_gives_up(profile: Profile) -> Profile:
+    """:func:`never_times_out`, and a link may fall silent for ever (RecordingSimLink's
+    pause) without the session failing on it while a test presses keys."""
+    patient = never_times_out(profile)
+    return dataclasses.replace(patient, procedure=dataclasses.replace(
+        patient.procedure, link_timeout_s=1e9))
 
 
 def thesis_vehicle(profile: Profile, stuck_at_deg: float | None = None) -> FakeVehicle:
