@@ -42,7 +42,7 @@ class HeadlessPresenter:
         print(line, file=self.stream or sys.stdout, flush=True)
 
     def output(self, out: Output, progress: Progress) -> None:
-        t = progress.t_s
+        t = out.t_s if isinstance(out, Notice) else progress.t_s
         if isinstance(out, Notice):
             if out.kind == "result":
                 estimate, proposal = out.data

@@ -146,6 +146,8 @@ class Session:
         next_operator = asyncio.ensure_future(self._operator.get())
         started = time.monotonic()
         connect_timeout = self.procedure.profile.procedure.connect_timeout_s
+        self._say(Notice(0.0, "state", f"waiting for the vehicle on "
+                         f"{getattr(self.link, 'description', 'the link')}", Phase.CONNECT))
         try:
             while not self.procedure.phase.final:
                 done, _ = await asyncio.wait({next_sample, next_operator}, timeout=TICK_S,
@@ -203,12 +205,18 @@ class Session:
     async def _feed(self, event: Event) -> None:
         for out in self.procedure.step(event):
             if isinstance(out, Notice):
-                if self.recorder:
-                    self.recorder.notice(out)
+                self._say(out)
             else:
                 self._send(out)
-            for presenter in self.presenters:
-                self._safely(presenter.output, out, self.procedure.progress)
+                for presenter in self.presenters:
+                    self._safely(presenter.output, out, self.procedure.progress)
+
+    def _say(self, notice: Notice) -> None:
+        """Record ``notice`` and hand it to the presenters."""
+        if self.recorder:
+            self.recorder.notice(notice)
+        for presenter in self.presenters:
+            self._safely(presenter.output, notice, self.procedure.progress)
 
     def _send(self, command: Command) -> None:
         """Record ``command`` and start delivering it (commands leave in order)."""
