@@ -60,6 +60,8 @@ TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
 VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
 SESSION_START = "trimd session start"
 _STATUSTEXT_BYTES = 50
+#: Longest time [s, wall clock] a written record waits before it is synced to the disk.
+FLUSH_EVERY_S = 1.0
 _UNKNOWN_MODE = 255  # written for a mode name ArduSub does not have
 _SEVERITY = {"warning": 4, "state": 6, "info": 6, "result": 6}
 
@@ -110,8 +112,13 @@ class TlogRecorder:
         """Record a packet (e.g. as received from a MAVLink link) at session time ``t_s``."""
         stamp = self._epoch_us + round(t_s * 1e6)
         self._file.write(struct.pack(">Q", stamp) + packet)
+        self.flush_due()
+
+    def flush_due(self) -> None:
+        """Flush if the last flush is a second old or more (called on every write, and
+        by the session while the link is quiet)."""
         now = time.monotonic()
-        if now - self._last_flush >= 1.0:
+        if now - self._last_flush >= FLUSH_EVERY_S:
             self.flush()
             self._last_flush = now
 

@@ -41,6 +41,9 @@ class ListRecorder:
     def notice(self, notice: Notice) -> None:
         self.notices.append(notice)
 
+    def flush_due(self) -> None:
+        return None
+
     def close(self) -> None:
         self.closed = True
 
@@ -238,6 +241,37 @@ class _QuietAfterAHeartbeat:
 
     async def close(self) -> None:
         return None
+
+
+def test_a_quiet_link_still_gets_its_last_records_to_the_disk(sabertooth: Profile,
+                                                              tmp_path: Any) -> None:
+    """Nothing arrives after the first samples: the session's quiet-link ticks flush them
+    (a kill -9 then loses at most a second), without waiting for the next write."""
+    from dataclasses import replace
+
+    from replay.recorder import TlogRecorder
+    from replay.tlog import TlogReader
+
+    log = tmp_path / "s.tlog"
+    patient = replace(sabertooth, procedure=replace(sabertooth.procedure, link_timeout_s=1e9))
+    session = Session(_QuietAfterAHeartbeat(), patient, confirmed=True, presenters=[],
+                      recorder=TlogRecorder(log, sabertooth, ""))
+
+    def on_disk() -> list[str]:
+        return [m.get_type() for _, m in TlogReader(log.read_bytes()).messages()]
+
+    async def main() -> list[str]:
+        task = asyncio.ensure_future(session.run())
+        for _ in range(200):  # a hang guard of 20 s, not a timed assertion
+            await asyncio.sleep(0.1)
+            if "ATTITUDE" in (kinds := on_disk()):
+                assert not task.done()  # flushed while the session runs, not at its end
+                break
+        session.abort("test over")
+        await task
+        return kinds
+
+    assert "ATTITUDE" in asyncio.run(main())  # read while the session still ran
 
 
 @pytest.mark.parametrize("wall_clock", [True, False])

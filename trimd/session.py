@@ -58,6 +58,10 @@ class Recorder(Protocol):
 
     def notice(self, notice: Notice) -> None: ...
 
+    def flush_due(self) -> None:
+        """Push what is written to the disk if it has waited a second or more."""
+        ...
+
     def close(self) -> None: ...
 
 
@@ -173,6 +177,8 @@ class Session:
                     # session time runs from the first heartbeat: no Tick before it (a
                     # replay has none either)
                     await self._feed(Tick(self._t_last + time.monotonic() - self._wall_last))
+                    if self.recorder:  # a quiet link: what came last reaches the disk too
+                        self.recorder.flush_due()
                 elif time.monotonic() - started > connect_timeout:
                     await self._feed(Health(0.0, False, "", False, detail=(
                         f"no heartbeat from the vehicle within {connect_timeout:g} s")))
