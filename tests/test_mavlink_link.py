@@ -538,3 +538,30 @@ def test_trimd_run_exits_3_with_an_intact_log_when_the_vehicle_dies(tmp_path: Pa
                               cwd=REPO, timeout=60, env={**os.environ, "PYTHONPATH": str(REPO)})
     assert "link lost" in replayed.stdout + replayed.stderr, (
         replayed.returncode, replayed.stdout[-1500:], replayed.stderr[-1500:], texts[-8:])
+
+
+@pytest.mark.parametrize(("link", "url"), [
+    ("mavlink:udpin:127.0.0.1:0", "mavlink:udpin:127.0.0.1:0?sysid=7"),
+    ("mavlink:udpin:127.0.0.1:0?timeout=2", "mavlink:udpin:127.0.0.1:0?timeout=2&sysid=7"),
+    ("mavlink:udpin:127.0.0.1:0?sysid=2", None),   # asked twice
+    ("sim:payload=10@AftSB", None),                # not a MAVLink link
+])
+def test_sysid_option_goes_into_the_mavlink_url(
+        link: str, url: str | None, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import trimd.cmd_run
+    from trimd.cli import main
+
+    opened: list[str] = []
+
+    async def fake_open(u: str, profile: object) -> object:
+        opened.append(u)
+        raise LinkError("stop here")
+
+    monkeypatch.setattr(trimd.cmd_run, "open_link", fake_open)
+    code = main(["run", "--link", link, "--profile", "sabertooth-dh2", "--sysid", "7",
+                 "--headless", "--yes", "--no-record"])
+    if url is None:
+        assert code == 2 and opened == [] and "--sysid is for a mavlink" in capsys.readouterr().err
+    else:
+        assert code == 3 and opened == [url]

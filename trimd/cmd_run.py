@@ -51,6 +51,9 @@ def register(sub: Any) -> None:
     p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
                    "serial:<dev>[,baud] | replay:<path>")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--sysid", type=_system_id, metavar="N",
+                   help="mavlink: the vehicle's system id (the URL's ?sysid=N); default: "
+                   "the first autopilot that is not a ground station")
     _common(p)
     p.set_defaults(func=run)
     d: argparse.ArgumentParser = sub.add_parser(
@@ -59,6 +62,13 @@ def register(sub: Any) -> None:
         "ending with the simulator's truth beside the estimate.")
     _common(d)
     d.set_defaults(func=run_demo, link=DEMO_LINK, profile=DEMO_PROFILE)
+
+
+def _system_id(text: str) -> int:
+    """A MAVLink system id, 1…255 (argparse type)."""
+    if not text.isdigit() or not 1 <= int(text) <= 255:
+        raise argparse.ArgumentTypeError(f"a system id is a whole number 1…255, not {text!r}")
+    return int(text)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -243,6 +253,13 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.sysid is not None:
+        scheme, _, rest = args.link.partition(":")
+        if scheme != "mavlink" or "sysid=" in rest:
+            print("trimd run: --sysid is for a mavlink: link without ?sysid= in its URL",
+                  file=sys.stderr)
+            return 2
+        args.link += f"{'&' if '?' in rest else '?'}sysid={args.sysid}"
     return _start(args, truth=False)
 
 
