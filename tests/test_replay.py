@@ -38,6 +38,18 @@ def test_replay_reproduces_the_live_result_exactly(
     assert live["type"] == replayed["type"] == "result"
     assert replayed["estimate"] == live["estimate"]
     assert replayed["proposal"] == live["proposal"]
+    # a damaged profile block (one bad frame in it): --profile stands in for it
+    data = bytearray(log.read_bytes())
+    block = data.index(b"\xff\xbe\x83\x00\x00")  # trimd's first ENCAPSULATED_DATA
+    data[block + 20] ^= 0xFF
+    damaged = tmp_path / "damaged.tlog"
+    damaged.write_bytes(bytes(data))
+    assert main(["replay", str(damaged), "--json"]) == 2
+    assert "pass --profile" in capsys.readouterr().err
+    assert main(["replay", str(damaged), "--json", "--profile", "bluerov2-heavy"]) == 0
+    out, err = capsys.readouterr()
+    assert "replaying with --profile bluerov2-heavy" in err
+    assert last_json(out)["estimate"] == live["estimate"]
 
 
 def test_replay_link_in_trimd_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

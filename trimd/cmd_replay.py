@@ -54,7 +54,7 @@ def register(sub: Any) -> None:
     p.add_argument("path", help="a .tlog or DataFlash .bin file")
     p.add_argument("--profile", help="vehicle profile (a trimd recording carries its own)")
     pace = p.add_mutually_exclusive_group()
-    pace.add_argument("--speed", type=float, help="pace at this many times real time")
+    pace.add_argument("--speed", type=_speed, help="pace at this many times real time")
     pace.add_argument("--fast", action="store_true", help="as fast as possible (the default "
                       "headless; the TUI starts at real time)")
     p.add_argument("--headless", action="store_true", help="no terminal UI")
@@ -63,9 +63,27 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _speed(text: str) -> float:
+    """A replay pace: a positive number of times real time (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"a pace is a positive number (e.g. 2 for twice "
+                                         f"real time), not {text!r}")
+    return value
+
+
 def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
     """The profile to use and whether the log is a trimd recording."""
-    text = recorded_profile_yaml(path)
+    try:
+        text = recorded_profile_yaml(path)
+    except DataError as exc:  # a trimd recording whose profile block is damaged
+        if not name:
+            raise DataError(f"{exc}: pass --profile to replay it with that profile") from None
+        print(f"trimd: warning: {exc}; replaying with --profile {name}", file=sys.stderr)
+        return load_profile(name), True
     if name:
         return load_profile(name), text is not None
     if text is None:
