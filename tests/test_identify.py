@@ -34,14 +34,15 @@ from trimd.samples import Attitude, Sample
 
 
 def record(truth: Profile, design_profile: Profile, stage: str, duration: float, seed: int,
-           recorder: Any = None) -> list[Sample]:
-    """An excitation experiment of ``stage`` on a simulated vehicle built from ``truth``,
-    designed from ``design_profile``, through Excite + Session (DVL on, default noise),
-    written to ``recorder`` when given."""
+           recorder: Any = None, payload: str = "") -> list[Sample]:
+    """An excitation experiment of ``stage`` on a simulated vehicle built from ``truth``
+    (carrying the hidden ``payload``), designed from ``design_profile``, through Excite +
+    Session (DVL on, default noise), written to ``recorder`` when given."""
     sig = design_signal(design_profile, stage, duration_s=duration, seed=seed,
                         depth_excursion_m=20.0)
     vehicle = SimVehicle(truth, SimConfig(seed=seed, dvl=True, depth_m=40.0, attitude_hz=50.0,
-                                           thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0))
+                                           thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0,
+                                           payload=payload))
     excite = Excite(design_profile, sig, confirmed=True, depth_excursion_m=20.0)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), design_profile, excite,
                                                  recorder=recorder))
@@ -202,31 +203,41 @@ def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,
     assert set(HYDRO_NAMES) >= set(STAGES["uvwpqr"].free_names)
 
 
-def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile,
-                                                        tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def uvr_logs(sabertooth: Profile, tmp_path_factory: pytest.TempPathFactory) -> list[str]:
+    """Two recorded uvr sessions (.tlog, 30 s and 20 s) of the Sabertooth."""
+    from replay.recorder import TlogRecorder
+
+    logs = []
+    directory = tmp_path_factory.mktemp("uvr-logs")
+    for seed, duration in ((7, 30.0), (8, 20.0)):
+        path = directory / f"uvr-{seed}.tlog"
+        recorder = TlogRecorder(path, sabertooth,
+                                Path(sabertooth.source).read_text(encoding="utf-8"))
+        record(sabertooth, sabertooth, "uvr", duration, seed, recorder=recorder)
+        logs.append(str(path))
+    return logs
+
+
+def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile, tmp_path: Path,
+                                                        uvr_logs: list[str]) -> None:
     """`trimd identify --out` on recorded logs: the YAML, the JSON and one PNG per
     validation log, each a PNG that decodes to a plotted image."""
     import json
 
     from matplotlib.image import imread
 
-    from replay.recorder import TlogRecorder
     from trimd.cmd_identify import run_identify
 
-    logs = []
-    for seed, duration in ((7, 30.0), (8, 20.0)):
-        path = tmp_path / f"uvr-{seed}.tlog"
-        recorder = TlogRecorder(path, sabertooth,
-                                Path(sabertooth.source).read_text(encoding="utf-8"))
-        record(sabertooth, sabertooth, "uvr", duration, seed, recorder=recorder)
-        logs.append(str(path))
     out = tmp_path / "out"
-    args = argparse.Namespace(logs=logs[:1], validate=logs[1:], profile=sabertooth.source,
-                              stage="uvr", segment=FitOptions.segment_s, out=str(out))
+    args = argparse.Namespace(logs=uvr_logs[:1], validate=uvr_logs[1:],
+                              profile=sabertooth.source, stage="uvr",
+                              segment=FitOptions.segment_s, out=str(out))
     assert run_identify(args) == 0
     assert (out / "fragment.yaml").is_file()
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["stages"]["uvr"]["validation"]
+    assert summary["stages"]["uvr"]["not_excited"] == []
     pngs = sorted(out.glob("*.png"))
     assert len(pngs) == len(summary["stages"]["uvr"]["validation"])
     for png in pngs:
@@ -234,3 +245,183 @@ def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile,
         image = imread(png)
         assert image.shape[0] > 300 and image.shape[1] > 600
         assert float(image[..., :3].std()) > 0.05      # not a blank canvas
+
+
+def test_uvr_logs_fitted_as_uwq_flag_heave_and_pitch(
+        sabertooth: Profile, tmp_path: Path, uvr_logs: list[str],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The audit's case: a uvr experiment fitted as uwq. Heave and pitch were not excited:
+    their parameters are neither fitted nor written as identified, the report and the JSON
+    say so, the CLI says what to record and exits 1; surge is still identified."""
+    import json
+
+    import yaml
+
+    from trimd.cli import main
+
+    out = tmp_path / "out"
+    code = main(["identify", uvr_logs[0], "--profile", sabertooth.source, "--stage", "uwq",
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "heave and pitch were not excited" in err and "trimd excite --stage uwq" in err
+    assert "Traceback" not in err
+    stage = json.loads((out / "summary.json").read_text(encoding="utf-8"))["stages"]["uwq"]
+    assert stage["not_excited"] == ["heave", "pitch"]
+    assert stage["excitation"]["surge"]["excited"]
+    assert stage["excitation"]["heave"]["ratio"] < 0.02 > stage["excitation"]["pitch"]["ratio"]
+    prior = prior_values(sabertooth)
+    for name in STAGES["uwq"].free_names:
+        p = stage["parameters"][name]
+        if name.startswith(("X_", "T_")):
+            assert p["free"], name
+        else:
+            assert not p["free"] and p["note"].startswith("not excited"), (name, p)
+            assert p["value"] == prior[name] and name not in stage["free"]
+    frag = yaml.safe_load((out / "fragment.yaml").read_text(encoding="utf-8"))
+    assert frag["damping"]["quadratic"]["pitch"] == sabertooth.quadratic_damping[4]
+    assert frag["damping"]["quadratic"]["heave"] == sabertooth.quadratic_damping[2]
+    assert "heave: not excited" in (out / "fragment.yaml").read_text(encoding="utf-8")
+
+
+def test_excitation_is_the_spread_of_tau_against_the_authority(sabertooth: Profile) -> None:
+    """A constant trim force is no excitation; a doublet train of 5 % of the authority
+    is; the threshold is a share of what the thrusters give on that axis."""
+    from trimd.excitation import axis_authority
+    from trimd.identify import excitation_of
+    from trimd.identify_data import Experiment
+
+    n = 1000
+    t = np.linspace(0.0, 0.02 * (n - 1), n)
+    tau = np.zeros((n, 6))
+    authority = axis_authority(sabertooth)
+    tau[:, 2] = 0.3 * authority[2]                                  # trim offset only
+    tau[:, 4] = 0.05 * authority[4] * np.sign(np.sin(2 * np.pi * t / 4.0))
+    tau[:, 0] = 0.015 * authority[0] * np.sign(np.sin(2 * np.pi * t / 3.0))
+    e = Experiment(t, np.zeros((n, 6)), np.zeros((n, 6)), tau, "synthetic")
+    exc = {d.name: d for d in excitation_of([e], sabertooth, STAGES["uwq"])}
+    assert not exc["heave"].excited and exc["heave"].ratio < 1e-12
+    assert exc["pitch"].excited and exc["pitch"].ratio == pytest.approx(0.05, rel=0.01)
+    assert not exc["surge"].excited and exc["surge"].ratio == pytest.approx(0.015, rel=0.01)
+
+
+def test_jacobian_covariance_keeps_weakly_determined_directions() -> None:
+    """Columns 10¹² apart in scale (the audit's −2.4e6 ± 0.06 came from a pseudo-inverse
+    of the unscaled JᵀJ cutting the weak direction off): every standard deviation as the
+    exact s²·(JᵀJ)⁻¹, an ineffective parameter infinitely uncertain."""
+    from trimd.identify import jacobian_covariance
+
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(400, 4))
+    scale = np.array([1e6, 1.0, 1e-3, 1e-6])
+    r = rng.normal(size=400)
+    std, corr = jacobian_covariance(X * scale, r)
+    s2 = float(r @ r) / (400 - 4)
+    exact = np.sqrt(s2 * np.diag(np.linalg.inv(X.T @ X))) / scale
+    assert std == pytest.approx(exact, rel=1e-8)
+    assert np.allclose(np.diag(corr), 1.0) and np.all(np.abs(corr) <= 1.0 + 1e-12)
+    std, corr = jacobian_covariance(np.column_stack([X, np.zeros(400)]), r)
+    assert np.isinf(std[-1]) and np.all(np.isfinite(std[:-1])) and np.isnan(corr[0, -1])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["excite", "--amplitude", "5"], "--amplitude: expected a number in (0, 1]"),
+    (["excite", "--amplitude", "0"], "--amplitude: expected a number in (0, 1]"),
+    (["excite", "--amplitude", "-0.5"], "--amplitude: expected a number in (0, 1]"),
+    (["excite", "--amplitude", "nan"], "--amplitude: expected a number in (0, 1]"),
+    (["excite", "--duration", "0"], "--duration: expected a number in (0, 3600]"),
+    (["excite", "--duration", "-5"], "--duration: expected a number in (0, 3600]"),
+    (["excite", "--duration", "inf"], "--duration: expected a number in (0, 3600]"),
+    (["excite", "--max-depth-excursion", "-1"], "--max-depth-excursion: expected a number "
+                                                 "in (0, ∞)"),
+    (["excite", "--max-depth-excursion", "0"], "--max-depth-excursion: expected a number"),
+    (["excite", "--seed", "-1"], "--seed: expected an integer ≥ 0"),
+    (["identify", "x.tlog", "--segment", "nan"], "--segment: expected a number in (0, ∞)"),
+    (["identify", "x.tlog", "--segment", "0"], "--segment: expected a number in (0, ∞)"),
+    (["identify", "x.tlog", "--segment", "-1"], "--segment: expected a number in (0, ∞)"),
+    (["identify", "x.tlog", "--segment", "abc"], "--segment: expected a number in (0, ∞)"),
+])
+def test_bad_numbers_are_usage_errors(argv: list[str], message: str,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """Refused at argument parsing: exit 2 (argparse's SystemExit) and one error line
+    naming the allowed range, before any link is opened or log read."""
+    from trimd.cli import main
+
+    common = (["--link", "sim", "--stage", "uvr", "--yes", "--no-record"]
+              if argv[0] == "excite" else [])
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, "--profile", "sabertooth-dh2", *common])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert [line for line in err.splitlines() if "error:" in line] == [
+        line for line in err.splitlines() if line.startswith(f"trimd {argv[0]}: error:")]
+
+
+def _truth_estimate(profile: Profile, payload: str) -> Any:
+    """The static estimate a perfect `trimd solve` would give for ``payload``."""
+    from drivers.sim.payload import mass_properties, parse_payload
+    from trimd.estimate import StaticEstimate
+
+    m = mass_properties(profile, parse_payload(payload, profile))
+    return StaticEstimate(q=m.net, q_cov=np.zeros((4, 4)), weight_N=m.W, buoyancy_N=m.B,
+                          r_b_m=m.r_b, r_g_m=m.r_g, cov=np.zeros((4, 4)),
+                          m_ext_kg=m.mass_kg - profile.mass_kg,
+                          gravity_m_s2=profile.gravity_m_s2, holds=(), dofs_used=(),
+                          residual_rms=np.zeros(6))
+
+
+def test_estimate_file_shapes_are_read(sabertooth: Profile, tmp_path: Path) -> None:
+    """--estimate takes trimd solve --json, trimd run's report JSON and trimd run --json
+    lines; a session without estimate or a non-JSON file is a DataError."""
+    import json
+
+    from trimd.cmd_identify import read_statics
+    from trimd.errors import DataError
+    from trimd.estimate_io import estimate_to_dict
+
+    est = estimate_to_dict(_truth_estimate(sabertooth, "10@AftSB"))
+    shapes = {"solve.json": json.dumps(est),
+              "report.json": json.dumps({"status": "done", "estimate": est}),
+              "run.jsonl": "\n\n".join(json.dumps(x) for x in (
+                  {"type": "state", "text": "hold 1"}, {"type": "result", "estimate": est,
+                                                        "proposal": None}))}
+    for name, text in shapes.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+        statics = read_statics(str(tmp_path / name))
+        assert statics.mass_kg == pytest.approx(sabertooth.mass_kg + 10.0)
+        assert statics.q_rest == pytest.approx([est["net_force_N"], *est["net_moment_Nm"]])
+    (tmp_path / "none.json").write_text(json.dumps({"estimate": None}), encoding="utf-8")
+    (tmp_path / "bad.json").write_text("not json", encoding="utf-8")
+    for name, match in (("none.json", "no estimate"), ("bad.json", "not valid JSON")):
+        with pytest.raises(DataError, match=match):
+            read_statics(str(tmp_path / name))
+
+
+def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
+        sabertooth: Profile) -> None:
+    """10 kg aft starboard (method.md §3): W − B +40 N (the profile: −58 N) and −101 N·m
+    of pitch moment the profile does not know. With the restoring terms and the mass from
+    the estimate, the uwq fit finds the truth and validates; with the profile's nominal
+    vehicle it cannot."""
+    from trimd.identify_model import statics_from_estimate
+
+    payload = "10@AftSB"
+    statics = statics_from_estimate(_truth_estimate(sabertooth, payload), "truth")
+    fit_data = experiments_from_samples(
+        record(sabertooth, sabertooth, "uwq", 30.0, 5, payload=payload), sabertooth)
+    val_data = experiments_from_samples(
+        record(sabertooth, sabertooth, "uwq", 30.0, 6, payload=payload), sabertooth)
+    names = ("Z_wdot", "I_y+M_qdot", "Z_w", "M_q")
+    results = {}
+    for label, given in (("profile", None), ("estimate", statics)):
+        fit = fit_stage(fit_data, sabertooth, "uwq", FitOptions(max_nfev=15), statics=given)
+        val = validate(fit.values(), val_data, sabertooth, "uwq", statics=given)
+        results[label] = (relative_errors(fit.values(), sabertooth, names),
+                          min(min(v.nrmse) for v in val))
+    (err_with, nrmse_with), (err_without, nrmse_without) = (results["estimate"],
+                                                            results["profile"])
+    assert max(err_with.values()) < 0.1, err_with
+    assert nrmse_with >= 80.0
+    assert max(err_without.values()) > 0.5, err_without
+    assert nrmse_without < nrmse_with - 30.0

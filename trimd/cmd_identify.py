@@ -1,7 +1,11 @@
 """``trimd excite`` (an open-loop excitation experiment, recorded) and ``trimd identify``
 (the grey-box fit of recorded experiments, :mod:`trimd.identify`).
 
-Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error, 3 link error.
+Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error (and logs that
+excite none of the stage's degrees of freedom), 3 link error. ``trimd identify`` exits 1
+when some degree of freedom of the stage was not excited in the logs: it still prints
+(and with ``--out`` writes) what it identified, the rest keeps the profile's values, but
+the stage is incomplete and a script must not take the fragment for a full result.
 """
 
 from __future__ import annotations
@@ -9,25 +13,72 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from trimd.errors import DataError
+from trimd.estimate_io import estimate_from_dict
 from trimd.excitation import KINDS, design_signal
 from trimd.excite import Excite
-from trimd.identify import FitOptions, StageFit, Validation, fit_stage, validate
+from trimd.identify import (
+    FitOptions,
+    StageFit,
+    Validation,
+    fit_stage,
+    not_excited_message,
+    validate,
+)
 from trimd.identify_data import Experiment, experiments_from_samples
-from trimd.identify_model import STAGES
+from trimd.identify_model import STAGES, Statics, statics_from_estimate
 from trimd.identify_report import best_values, format_fit, profile_fragment, summary_dict
 from trimd.procedure import Notice, Output, Phase, Progress
 from trimd.profile import Profile, load_profile
 from trimd.samples import Sample
 from trimd.session import Session, SessionResult
 
-__all__ = ["SampleCollector", "read_log", "register", "run_excite", "run_identify"]
+__all__ = ["SampleCollector", "bounded", "read_log", "read_statics", "register",
+           "run_excite", "run_identify"]
+
+#: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
+MAX_DURATION_S = 3600.0
+
+
+def bounded(low: float, high: float = math.inf, *, include_high: bool = True,
+            include_low: bool = False) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in the interval from ``low`` to ``high``
+    (open at ``low`` unless ``include_low``; closed at a finite ``high`` unless not
+    ``include_high``); anything else is a usage error naming the interval."""
+    interval = (("[" if include_low else "(") + f"{low:g}, "
+                + (f"{high:g}" + ("]" if include_high else ")") if math.isfinite(high)
+                   else "∞)"))
+
+    def parse(text: str) -> float:
+        try:
+            x = float(text)
+        except ValueError:
+            x = math.nan
+        above = x >= low if include_low else x > low
+        below = x <= high if include_high else x < high
+        if not (math.isfinite(x) and above and below):
+            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got '{text}'")
+        return x
+
+    return parse
+
+
+def _seed(text: str) -> int:
+    """An argparse ``type``: a non-negative integer (numpy's generators refuse others)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer ≥ 0, got '{text}'")
+    return n
 
 
 def register(sub: Any) -> None:
@@ -40,11 +91,14 @@ def register(sub: Any) -> None:
     e.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
     e.add_argument("--stage", required=True, choices=tuple(STAGES))
     e.add_argument("--signal", choices=KINDS, default="multistep")
-    e.add_argument("--amplitude", type=float, default=0.6, help="largest input (0, 1]")
-    e.add_argument("--duration", type=float, default=120.0, help="seconds of excitation")
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--max-depth-excursion", type=float, default=5.0, metavar="M",
-                   help="abort beyond this depth change from the start [m]")
+    e.add_argument("--amplitude", type=bounded(0.0, 1.0), default=0.6, metavar="A",
+                   help="largest input, in (0, 1] (default 0.6)")
+    e.add_argument("--duration", type=bounded(0.0, MAX_DURATION_S), default=120.0,
+                   metavar="S", help=f"seconds of excitation, in (0, {MAX_DURATION_S:g}] "
+                   "(default 120)")
+    e.add_argument("--seed", type=_seed, default=0, help="random seed, ≥ 0")
+    e.add_argument("--max-depth-excursion", type=bounded(0.0), default=5.0, metavar="M",
+                   help="abort beyond this depth change from the start [m], > 0 (default 5)")
     e.add_argument("--yes", action="store_true", help="confirm up front")
     e.add_argument("--record", metavar="PATH", help="session log (default: a timestamped "
                    "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions, as trimd run)")
@@ -58,8 +112,13 @@ def register(sub: Any) -> None:
     i.add_argument("--stage", choices=tuple(STAGES), default="uvwpqr")
     i.add_argument("--validate", nargs="+", default=[], metavar="LOG",
                    help="held-out sessions for the NRMSE fit")
-    i.add_argument("--segment", type=float, default=FitOptions.segment_s, metavar="S",
-                   help="simulation horizon of each segment [s]")
+    i.add_argument("--segment", type=bounded(0.0), default=FitOptions.segment_s, metavar="S",
+                   help=f"simulation horizon of each segment [s], > 0 (default "
+                   f"{FitOptions.segment_s:g})")
+    i.add_argument("--estimate", metavar="EST.json", help="hold the weight and the restoring "
+                   "terms (W − B, W·r_g − B·r_b) at a measured static estimate: the JSON of "
+                   "trimd solve --json, the report JSON of trimd run, or trimd run --json "
+                   "lines (default: the profile's nominal vehicle, r_g = 0)")
     i.add_argument("--out", metavar="DIR", help="write fragment.yaml, summary.json and PNG "
                    "plots (measured vs simulated per output, residuals) here")
     i.set_defaults(func=run_identify)
@@ -144,29 +203,82 @@ def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
     return [e for p in paths for e in read_log(p, profile)]
 
 
-def run_identify(args: argparse.Namespace) -> int:
-    from trimd.identify_plots import write_plots
+def _estimate_object(text: str, path: str) -> object:
+    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
+    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
+    of ``trimd run --json``."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        lines = []
+        for line in filter(str.strip, text.splitlines()):
+            try:
+                lines.append(json.loads(line))
+            except json.JSONDecodeError:
+                raise DataError(f"{path}: not valid JSON ({exc})") from None
+        results = [x for x in lines if isinstance(x, dict) and x.get("type") == "result"]
+        if not results:
+            raise DataError(f"{path}: no result line (trimd run --json)") from None
+        data = results[-1]
+    if isinstance(data, dict) and "weight_N" not in data and "estimate" in data:
+        if data["estimate"] is None:
+            raise DataError(f"{path}: that session produced no estimate")
+        return data["estimate"]
+    return data
 
+
+def read_statics(path: str) -> Statics:
+    """Mass and restoring terms from a static estimate file (:func:`_estimate_object`);
+    DataError naming the file for anything unusable."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
+    try:
+        est = estimate_from_dict(_estimate_object(text, path), path)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        if isinstance(exc, DataError):
+            raise
+        raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
+                        "the output of trimd solve --json") from None
+    return statics_from_estimate(est, f"estimate {Path(path).name}")
+
+
+def run_identify(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
+    estimate = getattr(args, "estimate", None)
+    statics = read_statics(estimate) if estimate else None
     experiments = _load(args.logs, profile)
     fit: StageFit = fit_stage(experiments, profile, args.stage,
-                              FitOptions(segment_s=args.segment))
+                              FitOptions(segment_s=args.segment), statics=statics)
     validations: list[Validation] = []
     for e in _load(args.validate, profile):
-        validations += validate(fit.values(), [e], profile, args.stage)
+        validations += validate(fit.values(), [e], profile, args.stage, statics=statics)
     print(format_fit(fit, validations))
-    fragment = profile_fragment(best_values([fit]), profile)
+    comments = [f"{d.name}: not excited in the fitted logs, the profile's values kept"
+                for d in fit.not_excited]
+    fragment = profile_fragment(best_values([fit]), profile, comments)
     print("\n" + fragment)
     if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
-        (out / "summary.json").write_text(json.dumps(
-            summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
-        # without held-out logs, plot the free run of the fitted ones (not a validation)
-        shown = validations or [v for e in experiments
-                                for v in validate(fit.values(), [e], profile, args.stage)]
-        plots = write_plots(shown, out, args.stage)
-        print(f"wrote {out / 'fragment.yaml'}, {out / 'summary.json'} and {len(plots)} "
-              "plots (measured vs simulated, residuals)", file=sys.stderr)
+        _write(Path(args.out), fit, fragment, validations or [
+            v for e in experiments   # without held-out logs: the free run of the fitted ones
+            for v in validate(fit.values(), [e], profile, args.stage, statics=statics)],
+            validations)
+    if fit.not_excited:
+        print(f"trimd: {not_excited_message(fit.stage, fit.not_excited)}", file=sys.stderr)
+        return 1
     return 0
+
+
+def _write(out: Path, fit: StageFit, fragment: str, shown: Sequence[Validation],
+           validations: Sequence[Validation]) -> None:
+    """fragment.yaml, summary.json and a PNG per series of ``shown`` in ``out``."""
+    from trimd.identify_plots import write_plots
+
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(
+        summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
+    plots = write_plots(shown, out, fit.stage)
+    print(f"wrote {out / 'fragment.yaml'}, {out / 'summary.json'} and {len(plots)} "
+          "plots (measured vs simulated, residuals)", file=sys.stderr)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.estimate import StaticEstimate
 from trimd.model import restoring_matrix
 from trimd.profile import Profile
 
@@ -42,10 +43,13 @@ __all__ = [
     "STAGES",
     "STATE_NAMES",
     "Stage",
+    "Statics",
     "lagged_thrust",
     "prior_values",
     "restoring_vector",
     "simulate",
+    "statics_from_estimate",
+    "statics_of_profile",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -116,6 +120,34 @@ def restoring_vector(profile: Profile) -> FloatArray:
     """
     B = profile.buoyancy_N
     return np.concatenate([[profile.weight_N - B], -B * np.asarray(profile.r_b_m, float)])
+
+
+@dataclass(frozen=True, eq=False)
+class Statics:
+    """What the identification holds fixed about mass and restoring forces.
+
+    Attributes
+    ----------
+    mass_kg : rigid-body mass m [kg] (M_u = m + X_u̇, likewise v, w).
+    q_rest : q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b, W·z_g − B·z_b] [N, N·m], so that
+        g(η) = G(φ, θ)·q (:func:`trimd.model.restoring_matrix`).
+    source : where they come from, for reports ("profile NAME" or the estimate's file).
+    """
+
+    mass_kg: float
+    q_rest: FloatArray
+    source: str
+
+
+def statics_of_profile(profile: Profile) -> Statics:
+    """The nominal vehicle of ``profile``: its mass and :func:`restoring_vector` (r_g = 0)."""
+    return Statics(profile.mass_kg, restoring_vector(profile), f"profile {profile.name}")
+
+
+def statics_from_estimate(est: StaticEstimate, source: str) -> Statics:
+    """A measured static estimate (``trimd solve --json``, ``trimd run``): m = W/g and its
+    net quantities q = [W − B, W·r_g − B·r_b] (payload and ballast included)."""
+    return Statics(est.weight_N / est.gravity_m_s2, np.asarray(est.q, float).copy(), source)
 
 
 def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = None

@@ -17,7 +17,8 @@ from trimd.identify import StageFit, Validation
 from trimd.identify_model import HYDRO_NAMES
 from trimd.profile import Profile
 
-__all__ = ["best_values", "format_fit", "profile_fragment", "summary_dict"]
+__all__ = ["best_values", "excitation_dict", "format_fit", "profile_fragment",
+           "statics_dict", "summary_dict"]
 
 _DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 _ADDED = ("surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2")
@@ -35,9 +36,13 @@ def best_values(fits: Sequence[StageFit]) -> dict[str, float]:
     return {k: v for k, (v, _) in best.items()}
 
 
-def profile_fragment(values: Mapping[str, float], profile: Profile) -> str:
-    """YAML text of ``added_mass``, ``inertia_kg_m2`` and ``damping`` (module docstring)."""
+def profile_fragment(values: Mapping[str, float], profile: Profile,
+                     comments: Sequence[str] = ()) -> str:
+    """YAML text of ``added_mass``, ``inertia_kg_m2`` and ``damping`` (module docstring);
+    ``comments`` are added as comment lines under the heading (e.g. what was not
+    identified)."""
     lines = [f"# identified by trimd identify for profile {profile.name}"]
+    lines += [f"# {c}" for c in comments]
     inertia = list(profile.inertia_kg_m2)
     added = list(profile.added_mass)
     notes = []
@@ -70,10 +75,29 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def excitation_dict(fit: StageFit) -> dict[str, Any]:
+    """Per DOF of the stage: τ spread and the thrusters' authority [N or N·m], their ratio,
+    the threshold, and whether it counts as excited."""
+    return {d.name: {"tau_spread": d.spread, "authority": d.authority, "ratio": d.ratio,
+                     "threshold": d.threshold, "excited": d.excited}
+            for d in fit.excitation}
+
+
+def statics_dict(fit: StageFit) -> dict[str, Any] | None:
+    """The mass [kg] and restoring terms [N, N·m] the fit held fixed, and their source."""
+    s = fit.statics
+    if s is None:
+        return None
+    return {"source": s.source, "mass_kg": s.mass_kg, "net_force_N": float(s.q_rest[0]),
+            "net_moment_Nm": [float(v) for v in s.q_rest[1:]]}
+
+
 def summary_dict(fits: Sequence[StageFit], validations: Mapping[str, Sequence[Validation]]
                  ) -> dict[str, Any]:
     """JSON-ready summary: per stage every parameter (value, std, prior, free, note),
-    warnings, correlations of the free parameters, and the validation NRMSE per output."""
+    the excitation of each DOF and the DOFs not excited, the fixed mass and restoring
+    terms, warnings, correlations of the free parameters, and the validation NRMSE per
+    output."""
     out: dict[str, Any] = {"stages": {}}
     for fit in fits:
         out["stages"][fit.stage] = {
@@ -81,6 +105,9 @@ def summary_dict(fits: Sequence[StageFit], validations: Mapping[str, Sequence[Va
                                     "free": p.free, "note": p.note}
                            for p in fit.parameters},
             "free": list(fit.free_names),
+            "excitation": excitation_dict(fit),
+            "not_excited": [d.name for d in fit.not_excited],
+            "statics": statics_dict(fit),
             "correlation": [[_num(float(c)) for c in row] for row in fit.correlation],
             "rms_residual": fit.rms_residual, "samples": fit.n_samples,
             "simulations": fit.nfev, "warnings": list(fit.warnings),
@@ -91,10 +118,28 @@ def summary_dict(fits: Sequence[StageFit], validations: Mapping[str, Sequence[Va
     return out
 
 
+def _context(fit: StageFit) -> list[str]:
+    """The excitation per DOF and the fixed mass and restoring terms, one line each."""
+    rows = []
+    if fit.excitation:
+        rows.append(f"  excitation (τ spread / thrusters' authority, at least "
+                    f"{100 * fit.excitation[0].threshold:g} %): " + ", ".join(
+                        f"{d.name} {100 * d.ratio:.3g} %" + ("" if d.excited
+                                                             else " NOT EXCITED")
+                        for d in fit.excitation))
+    if fit.statics is not None:
+        q = fit.statics.q_rest
+        rows.append(f"  mass and restoring terms from {fit.statics.source}: m "
+                    f"{fit.statics.mass_kg:.4g} kg, W − B {q[0]:+.4g} N, W·r_g − B·r_b ("
+                    + ", ".join(f"{v + 0.0:+.4g}" for v in q[1:]) + ") N·m")
+    return rows
+
+
 def format_fit(fit: StageFit, validations: Sequence[Validation] = ()) -> str:
-    """Table of estimate ± std beside the profile's value, warnings and validation fits."""
+    """Table of estimate ± std beside the profile's value, the excitation per DOF, the
+    fixed mass and restoring terms, warnings and validation fits."""
     rows = [f"stage {fit.stage}: {fit.n_samples} samples, {fit.nfev} simulations, "
-            f"RMS weighted residual {fit.rms_residual:.4g}",
+            f"RMS weighted residual {fit.rms_residual:.4g}", *_context(fit),
             f"  {'parameter':<12} {'estimate':>12} {'± std':>10} {'profile':>12}"]
     for p in fit.parameters:
         if p.free or p.note:
