@@ -13,13 +13,13 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import math
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from trimd.argtypes import bounded, whole_number
 from trimd.errors import DataError
 from trimd.estimate_io import estimate_from_dict
 from trimd.excitation import KINDS, design_signal
@@ -40,45 +40,11 @@ from trimd.profile import Profile, load_profile
 from trimd.samples import Sample
 from trimd.session import Session, SessionResult
 
-__all__ = ["SampleCollector", "bounded", "read_log", "read_statics", "register",
-           "run_excite", "run_identify"]
+__all__ = ["SampleCollector", "read_log", "read_statics", "register", "run_excite",
+           "run_identify"]
 
 #: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
 MAX_DURATION_S = 3600.0
-
-
-def bounded(low: float, high: float = math.inf, *, include_high: bool = True,
-            include_low: bool = False) -> Callable[[str], float]:
-    """An argparse ``type``: a finite number in the interval from ``low`` to ``high``
-    (open at ``low`` unless ``include_low``; closed at a finite ``high`` unless not
-    ``include_high``); anything else is a usage error naming the interval."""
-    interval = (("[" if include_low else "(") + f"{low:g}, "
-                + (f"{high:g}" + ("]" if include_high else ")") if math.isfinite(high)
-                   else "∞)"))
-
-    def parse(text: str) -> float:
-        try:
-            x = float(text)
-        except ValueError:
-            x = math.nan
-        above = x >= low if include_low else x > low
-        below = x <= high if include_high else x < high
-        if not (math.isfinite(x) and above and below):
-            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got '{text}'")
-        return x
-
-    return parse
-
-
-def _seed(text: str) -> int:
-    """An argparse ``type``: a non-negative integer (numpy's generators refuse others)."""
-    try:
-        n = int(text)
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer ≥ 0, got '{text}'")
-    return n
 
 
 def register(sub: Any) -> None:
@@ -96,7 +62,7 @@ def register(sub: Any) -> None:
     e.add_argument("--duration", type=bounded(0.0, MAX_DURATION_S), default=120.0,
                    metavar="S", help=f"seconds of excitation, in (0, {MAX_DURATION_S:g}] "
                    "(default 120)")
-    e.add_argument("--seed", type=_seed, default=0, help="random seed, ≥ 0")
+    e.add_argument("--seed", type=whole_number, default=0, help="random seed, ≥ 0")
     e.add_argument("--max-depth-excursion", type=bounded(0.0), default=5.0, metavar="M",
                    help="abort beyond this depth change from the start [m], > 0 (default 5)")
     e.add_argument("--yes", action="store_true", help="confirm up front")

@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 
 from replay.link import ReplayLink, recorded_profile_yaml
+from trimd.argtypes import bounded
 from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
 from trimd.cmd_inspect import format_report, inspect_log
 from trimd.cmd_run import format_result, run_in_tui, wants_tui
@@ -54,25 +55,13 @@ def register(sub: Any) -> None:
     p.add_argument("path", help="a .tlog or DataFlash .bin file")
     p.add_argument("--profile", help="vehicle profile (a trimd recording carries its own)")
     pace = p.add_mutually_exclusive_group()
-    pace.add_argument("--speed", type=_speed, help="pace at this many times real time")
+    pace.add_argument("--speed", type=bounded(0.0), help="pace at this many times real time (> 0)")
     pace.add_argument("--fast", action="store_true", help="as fast as possible (the default "
                       "headless; the TUI starts at real time)")
     p.add_argument("--headless", action="store_true", help="no terminal UI")
     p.add_argument("--json", action="store_true", help="headless, one JSON object per line")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
     p.set_defaults(func=run)
-
-
-def _speed(text: str) -> float:
-    """A replay pace: a positive number of times real time (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"a pace is a positive number (e.g. 2 for twice "
-                                         f"real time), not {text!r}")
-    return value
 
 
 def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
