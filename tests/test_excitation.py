@@ -123,3 +123,45 @@ def test_the_hold_pushes_back_towards_level(bluerov: Profile) -> None:
     base = sig.at(4.1 - 2.0)
     assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]     # roll right → left, etc.
     assert cmd.axes[:3] == base[:3] and cmd.axes[5] == base[5]
+
+
+def test_a_depth_hold_only_where_the_stage_leaves_heave_alone(sabertooth: Profile) -> None:
+    """Triple pole at −ω with the prior damping as the derivative term (module docstring)."""
+    assert all(design_signal(sabertooth, s, duration_s=60.0).depth_hold is None
+               for s in ("uwq", "uvwpqr"))
+    h = design_signal(sabertooth, "uvr", duration_s=60.0).depth_hold
+    assert h is not None and h.axis == 2 and h.kd == 0.0
+    prior = prior_values(sabertooth)
+    M, D = sabertooth.mass_kg + prior["Z_wdot"], -prior["Z_w"]
+    w = D / (3 * M)
+    a = axis_forces(sabertooth)[2, 2]
+    assert h.bandwidth_rad_s == pytest.approx(w)
+    assert (h.kp * a, h.ki * a) == (pytest.approx(3 * M * w**2), pytest.approx(M * w**3))
+    # closed loop M·s³ + D·s² + kp·s + ki: all three poles at −ω
+    poles = np.roots([M, D, h.kp * a, h.ki * a])
+    np.testing.assert_allclose(poles.real, -w, rtol=1e-3)
+
+
+def test_the_depth_hold_pushes_back_towards_the_start_depth(sabertooth: Profile) -> None:
+    sig = design_signal(sabertooth, "uvr", duration_s=60.0, seed=0)
+    e = Excite(sabertooth, sig, confirmed=True)
+    _ready(e)
+    assert e.phase is Phase.COLLECT
+    base = sig.at(4.1 - 2.0)[2]
+    heave = []
+    for t, depth in ((4.0, 9.5), (4.2, 10.5)):  # above, then below the start depth, 10 m
+        e.step(Depth(t, depth))
+        out = e.step(Attitude(t + 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        heave.append([o for o in out if isinstance(o, OpenLoop)][-1].axes[2])
+    assert heave[0] > base > heave[1]  # heave input is positive down
+
+
+def test_uvr_completes_within_the_default_depth_envelope(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The Sabertooth's 58 N of buoyancy is an input inside the deadband: without the depth
+    hold it rose 5 m in 79 s of the default 120 s experiment."""
+    from trimd.cli import main
+
+    assert main(["excite", "--link", "sim", "--profile", "sabertooth-dh2", "--stage", "uvr",
+                 "--yes", "--no-record"]) == 0
+    assert "excitation complete (120.0 s)" in capsys.readouterr().out

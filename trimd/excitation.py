@@ -45,6 +45,14 @@ thruster authority): they only size the experiment, the fit never starts from th
   half, ``_MIN_HOLD_S``, is safe open loop). The thruster outputs
   are recorded whatever computed them, so the fit sees the total τ, feedback included
   (no process noise enters the loop other than through measured τ).
+* **Depth hold** (``Signal.depth_hold``) in a stage that does not excite heave (uvr): the
+  heave trim offset alone cannot keep the depth, since a small one falls inside the
+  thrusters' deadband (the Sabertooth's 58 N of buoyancy is input 0.035) and the vehicle
+  drifts out of the depth envelope. A PI loop on the depth error, added to the offset,
+  does: with the prior heave mass M and linear damping D as the loop's derivative term,
+  M·s³ + D·s² + kp·s + ki has a triple pole at −ω for kp = 3·M·ω², ki = M·ω³ and
+  ω = D/(3·M) (at most 0.5 rad/s); its integral winds through the deadband. Its output
+  is in the recorded τ like any other.
 """
 
 from __future__ import annotations
@@ -63,6 +71,11 @@ __all__ = ["KINDS", "AxisDesign", "HoldAxis", "Signal", "axis_authority", "axis_
            "design_signal"]
 
 FloatArray = NDArray[np.float64]
+_HEAVE = 2
+#: Largest depth-hold integral output [input]: the trim of W − B, with room to spare.
+_MAX_TRIM_INPUT = 0.5
+#: Largest bandwidth of the depth hold [rad/s].
+_MAX_DEPTH_BANDWIDTH_RAD_S = 0.5
 
 #: Signal kinds for the velocity axes.
 KINDS = ("multistep", "prbs", "doublet")
@@ -115,6 +128,7 @@ class Signal:
     offsets: tuple[float, ...]
     axes: tuple[AxisDesign, ...]
     hold: tuple[HoldAxis, ...] = ()
+    depth_hold: HoldAxis | None = None
 
     def at(self, t_s: float) -> tuple[float, float, float, float, float, float]:
         """The six axis inputs at ``t_s`` [s after the start]."""
@@ -226,6 +240,23 @@ def _design_hold(profile: Profile, axes: tuple[int, ...], amplitudes: dict[int, 
     return tuple(out)
 
 
+def _design_depth_hold(profile: Profile, axes: tuple[int, ...]) -> HoldAxis | None:
+    """The depth hold of a stage that does not excite heave (module docstring): PID on
+    the depth error with a triple pole at −ω, ω = D/(3·M) from the prior heave mass M and
+    linear damping D (the damping is the loop's derivative term), at most
+    :data:`_MAX_DEPTH_BANDWIDTH_RAD_S`; None when the stage excites heave."""
+    if _HEAVE in axes:
+        return None
+    prior = prior_values(profile)
+    M = profile.mass_kg + prior["Z_wdot"]
+    D = abs(prior["Z_w"])
+    if D <= 0:
+        return None  # without damping a PI loop on a mass is not stable
+    w = min(D / (3 * M), _MAX_DEPTH_BANDWIDTH_RAD_S)
+    a = float(axis_authority(profile)[_HEAVE])
+    return HoldAxis(_HEAVE, 3 * M * w * w / a, M * w ** 3 / a, 0.0, w, _MAX_TRIM_INPUT)
+
+
 def _axis_series(d: AxisDesign, duration_s: float, rng: np.random.Generator
                  ) -> list[tuple[float, float]]:
     """(start time, level) pairs of one axis."""
@@ -289,6 +320,7 @@ def design_signal(profile: Profile, stage: str, *, kind: str = "multistep",
     amplitudes = {i: max(amplitude, floor) if i in _POSITION_AXES else amplitude
                   for i in axes}
     hold = _design_hold(profile, axes, amplitudes, max_tilt, hold_bandwidth_rad_s)
+    depth_hold = _design_depth_hold(profile, axes)
     rng = np.random.default_rng(seed)
     designs = tuple(_design_axis(profile, i, kind, amplitudes[i], offsets[i],
                                  depth_excursion_m, max_tilt) for i in axes)
@@ -301,4 +333,4 @@ def design_signal(profile: Profile, stage: str, *, kind: str = "multistep",
         v_ax = np.array([v for _, v in s])
         idx = np.searchsorted(t_ax, times, side="right") - 1
         levels[:, axis] = np.clip(v_ax[np.maximum(idx, 0)], -1.0, 1.0)
-    return Signal(times, levels, duration_s, offsets, designs, hold)
+    return Signal(times, levels, duration_s, offsets, designs, hold, depth_hold)

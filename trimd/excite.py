@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from trimd.excitation import Signal
+from trimd.excitation import HoldAxis, Signal
 from trimd.procedure import (
     ENVELOPE_MARGIN_DEG,
     Abort,
@@ -72,6 +72,9 @@ class Excite:
         self._commanded = False
         self._integral = {h.axis: 0.0 for h in signal.hold}
         self._t_hold = math.nan
+        self._depth_integral = 0.0
+        self._t_depth = math.nan
+        self._heave = 0.0  # the depth hold's output [input], added to the heave offset
 
     # ---------------------------------------------------------------- interface
     def step(self, event: Event) -> list[Output]:
@@ -122,6 +125,8 @@ class Excite:
             return self._precheck()
         if isinstance(s, Depth):
             self._depth = s.depth_m
+            if self.phase is Phase.COLLECT and self.signal.depth_hold is not None:
+                self._hold_depth(s, self.signal.depth_hold)
             if (self.phase is Phase.COLLECT
                     and abs(s.depth_m - self._depth_ref) > self.depth_limit):
                 return self._finish(Phase.FAILED, (
@@ -174,6 +179,8 @@ class Excite:
         if elapsed >= self.signal.duration_s:
             return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s)")
         axes = self.signal.at(elapsed)
+        if self._heave:
+            axes = (axes[0], axes[1], max(-1.0, min(1.0, axes[2] + self._heave)), *axes[3:])
         if attitude is not None and self.signal.hold:
             axes = self._hold(axes, attitude)
         if axes == self._last:
@@ -200,6 +207,17 @@ class Excite:
             out[h.axis] = max(-1.0, min(1.0, axes[h.axis] + h.kp * error + i_term
                                         - h.kd * rate))
         return (out[0], out[1], out[2], out[3], out[4], out[5])
+
+    def _hold_depth(self, d: Depth, h: HoldAxis) -> None:
+        """PI towards the start depth (heave input is positive down); the integral term is
+        clamped to ± the hold's limit."""
+        dt = 0.0 if math.isnan(self._t_depth) else max(0.0, d.t_s - self._t_depth)
+        self._t_depth = d.t_s
+        error = self._depth_ref - d.depth_m  # above the start depth: push down
+        self._depth_integral += error * dt
+        i_term = max(-h.i_limit, min(h.i_limit, h.ki * self._depth_integral))
+        self._depth_integral = i_term / h.ki
+        self._heave = h.kp * error + i_term
 
     def _check_time(self) -> list[Output]:
         if self.phase.final:
