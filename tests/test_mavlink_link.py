@@ -565,3 +565,15 @@ def test_sysid_option_goes_into_the_mavlink_url(
         assert code == 2 and opened == [] and "--sysid is for a mavlink" in capsys.readouterr().err
     else:
         assert code == 3 and opened == [url]
+
+
+@pytest.mark.parametrize("sysid", ["0", "256", "one"])
+def test_sysid_option_out_of_range_is_a_usage_error(
+        sysid: str, capsys: pytest.CaptureFixture[str]) -> None:
+    from trimd.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", "--link", "mavlink:udpin:127.0.0.1:0", "--profile", "sabertooth-dh2",
+              "--sysid", sysid])
+    assert exit_.value.code == 2
+    assert "--sysid: expected an integer in 1…255" in capsys.readouterr().err

@@ -7,7 +7,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["bounded", "whole_number"]
+__all__ = ["bounded", "integer"]
 
 
 def bounded(low: float, high: float = math.inf) -> Callable[[str], float]:
@@ -27,12 +27,17 @@ def bounded(low: float, high: float = math.inf) -> Callable[[str], float]:
     return parse
 
 
-def whole_number(text: str) -> int:
-    """An argparse ``type``: a non-negative integer (e.g. a random seed)."""
-    try:
-        n = int(text)
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer ≥ 0, got '{text}'")
-    return n
+def integer(low: int, high: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type``: a whole number ≥ ``low`` (and ≤ ``high`` when given)."""
+    wanted = f"≥ {low}" if high is None else f"in {low}…{high}"
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            n = low - 1
+        if n < low or (high is not None and n > high):
+            raise argparse.ArgumentTypeError(f"expected an integer {wanted}, got '{text}'")
+        return n
+
+    return parse

@@ -29,7 +29,8 @@ def register(sub: Any) -> None:
         "and slightly positive with no thruster effort, and check it by physics "
         "(see docs/ballast.md).")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
-    p.add_argument("--estimate", required=True, help="EST.json written by trimd solve --json")
+    p.add_argument("--estimate", required=True, help="EST.json: the output of trimd solve "
+                   "--json, trimd run's report JSON, or trimd run --json lines")
     p.add_argument("--method", choices=METHODS, default="milp",
                    help="lp, line, general or milp (default: milp, the real pieces)")
     p.add_argument("--time-limit", type=float, default=TIME_LIMIT_S, metavar="S",
@@ -39,18 +40,41 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _estimate_json(text: str, path: str | Path) -> object:
+    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
+    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
+    of ``trimd run --json``."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        lines = []
+        for line in filter(str.strip, text.splitlines()):
+            try:
+                lines.append(json.loads(line))
+            except json.JSONDecodeError:
+                raise DataError(f"{path}: not valid JSON ({exc})") from None
+        results = [x for x in lines if isinstance(x, dict) and x.get("type") == "result"]
+        if not results:
+            raise DataError(f"{path}: no result line (trimd run --json)") from None
+        data = results[-1]
+    if isinstance(data, dict) and "weight_N" not in data and "estimate" in data:
+        if data["estimate"] is None:
+            raise DataError(f"{path}: that session produced no estimate")
+        return data["estimate"]
+    return data
+
+
 def read_estimate(path: str | Path) -> StaticEstimate:
-    """The estimate in ``path``; DataError naming the file for anything unusable."""
+    """The estimate in ``path`` (any form :func:`_estimate_json` takes); DataError naming
+    the file for anything unusable."""
     try:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
     try:
-        return estimate_from_dict(json.loads(text), str(path))
+        return estimate_from_dict(_estimate_json(text, path), str(path))
     except DataError:
         raise
-    except json.JSONDecodeError as exc:
-        raise DataError(f"{path}: not valid JSON ({exc})") from None
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
                         "the output of trimd solve --json") from None

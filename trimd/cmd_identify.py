@@ -19,9 +19,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from trimd.argtypes import bounded, whole_number
+from trimd.argtypes import bounded, integer
+from trimd.cmd_ballast import read_estimate
 from trimd.errors import DataError
-from trimd.estimate_io import estimate_from_dict
 from trimd.excitation import KINDS, design_signal
 from trimd.excite import Excite
 from trimd.identify import (
@@ -62,7 +62,7 @@ def register(sub: Any) -> None:
     e.add_argument("--duration", type=bounded(0.0, MAX_DURATION_S), default=120.0,
                    metavar="S", help=f"seconds of excitation, in (0, {MAX_DURATION_S:g}] "
                    "(default 120)")
-    e.add_argument("--seed", type=whole_number, default=0, help="random seed, ≥ 0")
+    e.add_argument("--seed", type=integer(0), default=0, help="random seed, ≥ 0")
     e.add_argument("--max-depth-excursion", type=bounded(0.0), default=5.0, metavar="M",
                    help="abort beyond this depth change from the start [m], > 0 (default 5)")
     e.add_argument("--yes", action="store_true", help="confirm up front")
@@ -169,51 +169,16 @@ def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
     return [e for p in paths for e in read_log(p, profile)]
 
 
-def _estimate_object(text: str, path: str) -> object:
-    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
-    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
-    of ``trimd run --json``."""
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        lines = []
-        for line in filter(str.strip, text.splitlines()):
-            try:
-                lines.append(json.loads(line))
-            except json.JSONDecodeError:
-                raise DataError(f"{path}: not valid JSON ({exc})") from None
-        results = [x for x in lines if isinstance(x, dict) and x.get("type") == "result"]
-        if not results:
-            raise DataError(f"{path}: no result line (trimd run --json)") from None
-        data = results[-1]
-    if isinstance(data, dict) and "weight_N" not in data and "estimate" in data:
-        if data["estimate"] is None:
-            raise DataError(f"{path}: that session produced no estimate")
-        return data["estimate"]
-    return data
-
-
 def read_statics(path: str) -> Statics:
-    """Mass and restoring terms from a static estimate file (:func:`_estimate_object`);
-    DataError naming the file for anything unusable."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
-    try:
-        est = estimate_from_dict(_estimate_object(text, path), path)
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
-        if isinstance(exc, DataError):
-            raise
-        raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
-                        "the output of trimd solve --json") from None
-    return statics_from_estimate(est, f"estimate {Path(path).name}")
+    """Mass and restoring terms from a static estimate file (any form
+    :func:`trimd.cmd_ballast.read_estimate` takes); DataError naming the file for anything
+    unusable."""
+    return statics_from_estimate(read_estimate(path), f"estimate {Path(path).name}")
 
 
 def run_identify(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    estimate = getattr(args, "estimate", None)
-    statics = read_statics(estimate) if estimate else None
+    statics = read_statics(args.estimate) if args.estimate else None
     experiments = _load(args.logs, profile)
     fit: StageFit = fit_stage(experiments, profile, args.stage,
                               FitOptions(segment_s=args.segment), statics=statics)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from drivers import open_link
 from replay.recorder import TlogRecorder
+from trimd.argtypes import integer
 from trimd.ballast import METHODS, format_proposal, proposal_to_dict, propose_ballast
 from trimd.cmd_solve import format_estimate
 from trimd.errors import ProfileError
@@ -51,7 +52,7 @@ def register(sub: Any) -> None:
     p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
                    "serial:<dev>[,baud] | replay:<path>")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
-    p.add_argument("--sysid", type=_system_id, metavar="N",
+    p.add_argument("--sysid", type=integer(1, 255), metavar="N",
                    help="mavlink: the vehicle's system id (the URL's ?sysid=N); default: "
                    "the first autopilot that is not a ground station")
     _common(p)
@@ -62,13 +63,6 @@ def register(sub: Any) -> None:
         "ending with the simulator's truth beside the estimate.")
     _common(d)
     d.set_defaults(func=run_demo, link=DEMO_LINK, profile=DEMO_PROFILE)
-
-
-def _system_id(text: str) -> int:
-    """A MAVLink system id, 1…255 (argparse type)."""
-    if not text.isdigit() or not 1 <= int(text) <= 255:
-        raise argparse.ArgumentTypeError(f"a system id is a whole number 1…255, not {text!r}")
-    return int(text)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
