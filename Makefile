@@ -20,7 +20,7 @@ demo: $(STAMP)
 	$(BIN)/trimd demo
 
 lint: $(STAMP)
-	$(BIN)/ruff check trimd drivers replay tests bench
+	$(BIN)/ruff check trimd tests bench examples
 	$(BIN)/mypy
 
 test: lint

@@ -9,11 +9,12 @@ import time
 import numpy as np
 
 from bench.timing import best_time
-from trimd.ballast import TIME_LIMIT_S, propose_ballast
-from trimd.ballast_lp import build_programme, piece_items, solve_programme
-from trimd.estimate import HoldSamples, StaticEstimate, estimate_static
-from trimd.model import restoring_forces
-from trimd.profile import Profile, load_profile
+from trimd.ballast.lp import build_programme, piece_items, solve_programme
+from trimd.ballast.propose import TIME_LIMIT_S, propose_ballast
+from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.model import restoring_forces
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
 
 #: A payload per vehicle: mass [kg] at a position [m] (the thesis case for the Sabertooth),
 #: and the largest mass [kg] of the random payloads (inside the weight slots' footprint).

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from bench.timing import best_time
-from trimd.estimate import HoldSamples, estimate_static
-from trimd.model import restoring_forces, restoring_matrix
-from trimd.profile import load_profile
+from trimd.core.estimate import HoldSamples, estimate_static
+from trimd.core.model import restoring_forces, restoring_matrix
+from trimd.core.profile_yaml import load_profile
 
 
 def main() -> None:

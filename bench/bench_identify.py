@@ -16,17 +16,18 @@ import time
 
 import numpy as np
 
-from drivers.sim.config import SimConfig
-from drivers.sim.link import SimLink
-from drivers.sim.vehicle import SimVehicle
-from trimd.cmd_identify import run_experiment
-from trimd.excitation import design_signal
-from trimd.excite import Excite
-from trimd.identify import FitOptions, StageFit, fit_stage, validate
-from trimd.identify_data import Experiment, experiments_from_samples
-from trimd.identify_model import STAGES, prior_values, restoring_vector
-from trimd.identify_problem import Problem
-from trimd.profile import Profile, load_profile
+from trimd.app.experiment import run_experiment
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.vehicle import SimVehicle
+from trimd.identify.data import Experiment, experiments_from_samples
+from trimd.identify.experiment import Excite
+from trimd.identify.fit import FitOptions, StageFit, fit_stage, validate
+from trimd.identify.model import STAGES, prior_values, restoring_vector
+from trimd.identify.problem import Problem
+from trimd.identify.signals import design_signal
 
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0

@@ -2,7 +2,7 @@
 
 The file is the real traffic of ``mcqueen-small.tlog`` (its good records, every kind of
 message a QGroundControl log holds), repeated and re-timestamped to 200 000 messages in a
-temporary directory. trimd's path (:class:`replay.tlog.TlogReader` + the MAVLink decoder
+temporary directory. trimd's path (:class:`trimd.logs.tlog.TlogReader` + the MAVLink decoder
 into typed samples) is timed against ``mavutil.mavlink_connection(path).recv_msg()`` until
 the end of the same file, which only parses. Both read every message; the ratio is
 pymavlink's time over trimd's (≥ 1: trimd is faster; the issue asks ≥ 0.7).
@@ -17,12 +17,12 @@ from pathlib import Path
 from pymavlink import mavutil
 
 from bench.timing import best_time
-from drivers.mavlink_decode import MavlinkDecoder
-from replay.tlog import TlogReader
-from trimd.profile import load_profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.logs.tlog import TlogReader
 
 MESSAGES = 200_000
-SOURCE = Path(__file__).resolve().parents[2] / "shared" / "data" / "ardusub" / "mcqueen-small.tlog"
+SOURCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "ardusub" / "mcqueen-small.tlog"
 
 
 def write_tlog(path: Path, n: int = MESSAGES) -> None:

@@ -17,14 +17,15 @@ from pathlib import Path
 from pymavlink import mavutil
 
 from bench.timing import best_time
-from drivers import open_link
-from drivers.sim.config import SimConfig
-from drivers.sim.link import SimLink
-from drivers.sim.vehicle import SimVehicle
-from replay.link import ReplayLink
-from replay.recorder import TlogRecorder
-from trimd.profile import Profile, load_profile
-from trimd.session import Session
+from trimd.app.connect import open_link
+from trimd.app.session import Session
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.vehicle import SimVehicle
+from trimd.logs.recorder import TlogRecorder
+from trimd.logs.replay import ReplayLink
 
 HOUR_S = 3600.0
 

@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bench.timing import best_time
-from drivers.sim.config import SimConfig
-from drivers.sim.dynamics import RigidBody, initial_state
-from drivers.sim.vehicle import SimVehicle
-from trimd.profile import load_profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.dynamics import RigidBody, initial_state
+from trimd.drivers.sim.vehicle import SimVehicle
 
 FloatArray = NDArray[np.float64]
 

@@ -3,7 +3,7 @@
 Used by ``make demo`` until the full procedure runs on the simulated vehicle, and as a
 worked example of the CSV format. The payload is the thesis case: 10 kg at AftSB.
 
-    python examples/make_holds.py profiles/sabertooth-dh2.yaml 10@AftSB out.csv
+    python examples/make_holds.py trimd/profiles/sabertooth-dh2.yaml 10@AftSB out.csv
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import sys
 
 import numpy as np
 
-from trimd.model import restoring_forces
-from trimd.profile import load_profile
+from trimd.core.model import restoring_forces
+from trimd.core.profile_yaml import load_profile
 
 
 def main(profile_path: str, payload: str, out: str, seed: int = 1) -> None:

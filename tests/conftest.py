@@ -7,22 +7,24 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trimd.estimate import HoldSamples
-from trimd.model import restoring_forces
-from trimd.profile import Profile, load_profile
+from trimd.core.estimate import HoldSamples
+from trimd.core.model import restoring_forces
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED_DATA = REPO.parent / "shared" / "data" / "ardusub"
+PROFILES = REPO / "trimd" / "profiles"  # the shipped profiles (package data)
+ARDUSUB_LOGS = REPO / "tests" / "data" / "ardusub"  # real logs, MIT: see SOURCES.md there
 
 
 @pytest.fixture(scope="session")
 def sabertooth() -> Profile:
-    return load_profile(REPO / "profiles" / "sabertooth-dh2.yaml")
+    return load_profile(PROFILES / "sabertooth-dh2.yaml")
 
 
 @pytest.fixture(scope="session")
 def bluerov() -> Profile:
-    return load_profile(REPO / "profiles" / "bluerov2-heavy.yaml")
+    return load_profile(PROFILES / "bluerov2-heavy.yaml")
 
 
 def payload_truth(profile: Profile, m_ext: float, r_ext: np.ndarray) -> tuple[float, np.ndarray]:

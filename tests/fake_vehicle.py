@@ -11,9 +11,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from trimd.model import pwm_from_thrust, restoring_forces, thrust_configuration
-from trimd.profile import Profile
-from trimd.samples import Attitude, Command, Depth, Health, HoldAttitude, Release, Sample, Thrusters
+from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
+from trimd.core.profile import Profile
+from trimd.core.samples import (
+    Attitude,
+    Command,
+    Depth,
+    Health,
+    HoldAttitude,
+    Release,
+    Sample,
+    Thrusters,
+)
 
 
 @dataclass

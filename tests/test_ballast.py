@@ -2,7 +2,7 @@
 
 Every proposal is checked here by independent physics: the vehicle, the payload and
 the proposed ballast are summed as point masses and buoyancies, and the passive
-attitude is found by a numerical root of Fossen's moment rows (trimd.model), never by
+attitude is found by a numerical root of Fossen's moment rows (trimd.core.model), never by
 the code under test.
 """
 
@@ -18,14 +18,15 @@ import pytest
 from scipy.optimize import root
 
 from tests.conftest import equilibrium_holds, payload_truth
-from trimd.ballast import METHODS, Proposal, format_proposal, proposal_to_dict, propose_ballast
-from trimd.ballast_line import line_split
-from trimd.cli import main
-from trimd.errors import DataError, ProfileError
-from trimd.estimate import StaticEstimate, estimate_static
-from trimd.estimate_io import estimate_to_dict
-from trimd.model import restoring_forces
-from trimd.profile import BallastSlot, Profile
+from trimd.app.report import format_proposal
+from trimd.ballast.line import line_split
+from trimd.ballast.propose import METHODS, Proposal, proposal_to_dict, propose_ballast
+from trimd.cli.main import main
+from trimd.core.errors import DataError, ProfileError
+from trimd.core.estimate import StaticEstimate, estimate_static
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.model import restoring_forces
+from trimd.core.profile import BallastSlot, Profile
 
 Vec3 = tuple[float, float, float]
 

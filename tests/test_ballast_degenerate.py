@@ -19,16 +19,17 @@ import numpy as np
 import pytest
 from scipy.optimize import OptimizeResult
 
-import trimd.ballast_lp as ballast_lp
+import trimd.ballast.lp as ballast_lp
 from tests.test_ballast import estimate_for
-from trimd.ballast import METHODS, Proposal, format_proposal, proposal_to_dict, propose_ballast
-from trimd.ballast_check import equilibrium_attitude
-from trimd.ballast_lp import moment_resolution
-from trimd.cli import main
-from trimd.errors import DataError
-from trimd.estimate import StaticEstimate
-from trimd.estimate_io import estimate_to_dict
-from trimd.profile import Profile
+from trimd.app.report import format_proposal
+from trimd.ballast.check import equilibrium_attitude
+from trimd.ballast.lp import moment_resolution
+from trimd.ballast.propose import METHODS, Proposal, proposal_to_dict, propose_ballast
+from trimd.cli.main import main
+from trimd.core.errors import DataError
+from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.profile import Profile
 
 #: The audited estimate's 1σ of q = [W − B, m_x, m_y, m_z] [N, N·m].
 Q_STD = (0.04, 0.097, 0.095, 0.306)

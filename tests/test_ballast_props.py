@@ -16,7 +16,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.conftest import REPO
 from tests.test_ballast import (
     Payload,
     ballast_bodies,
@@ -24,10 +23,11 @@ from tests.test_ballast import (
     estimate_for,
     true_bodies,
 )
-from trimd.ballast import METHODS, Proposal, propose_ballast
-from trimd.profile import Profile, load_profile
+from trimd.ballast.propose import METHODS, Proposal, propose_ballast
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
 
-PROFILES = {name: load_profile(REPO / "profiles" / f"{name}.yaml")
+PROFILES = {name: load_profile(name)
             for name in ("sabertooth-dh2", "bluerov2-heavy")}
 #: Largest payload mass [kg] and displacement [kgf], and the z range [m], per vehicle:
 #: small enough that every method can counter it within the slot limits.

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from tests.conftest import REPO, equilibrium_holds, payload_truth
-from trimd.cli import main
-from trimd.estimate import HoldSamples
-from trimd.model import pwm_from_thrust, thrust_configuration
-from trimd.profile import Profile
+from trimd.cli.main import main
+from trimd.core.estimate import HoldSamples
+from trimd.core.model import pwm_from_thrust, thrust_configuration
+from trimd.core.profile import Profile
 
 TAU_HEADER = "time_s,roll_deg,pitch_deg,X_N,Y_N,Z_N,K_Nm,M_Nm,N_Nm"
 
@@ -141,7 +141,7 @@ def test_missing_file_and_bad_profile_without_traceback(tmp_path: Path) -> None:
     bad_profile.write_text("name: x\nmass_kgs: 3\n")
     for args in (["solve", str(tmp_path / "none.csv"), "--profile", "sabertooth-dh2"],
                  ["solve", str(tmp_path / "none.csv"), "--profile", str(bad_profile)]):
-        proc = subprocess.run([sys.executable, "-m", "trimd.cli", *args], cwd=REPO,
+        proc = subprocess.run([sys.executable, "-m", "trimd.cli.main", *args], cwd=REPO,
                               capture_output=True, text=True, check=False)
         assert proc.returncode == 2
         assert proc.stderr.startswith("trimd: error: ") and "Traceback" not in proc.stderr
@@ -149,9 +149,9 @@ def test_missing_file_and_bad_profile_without_traceback(tmp_path: Path) -> None:
 
 def test_estimate_json_round_trip_and_bad_holds(tmp_path: Path, thesis_holds: list[HoldSamples],
                                                 sabertooth: Profile) -> None:
-    from trimd.errors import DataError
-    from trimd.estimate import estimate_static
-    from trimd.estimate_io import estimate_from_dict, estimate_to_dict
+    from trimd.core.errors import DataError
+    from trimd.core.estimate import estimate_static
+    from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
 
     d = estimate_to_dict(estimate_static(thesis_holds, sabertooth))
     back = estimate_to_dict(estimate_from_dict(json.loads(json.dumps(d))))

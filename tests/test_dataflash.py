@@ -9,13 +9,13 @@ from typing import Any
 import pytest
 from pymavlink import DFReader
 
-from replay.dataflash import DataflashReader
-from tests.conftest import SHARED_DATA
-from trimd.errors import DataError
-from trimd.samples import Attitude, Battery, Depth, Health, Thrusters
+from tests.conftest import ARDUSUB_LOGS
+from trimd.core.errors import DataError
+from trimd.core.samples import Attitude, Battery, Depth, Health, Thrusters
+from trimd.logs.dataflash import DataflashReader
 
-SMALL = SHARED_DATA / "mcqueen-small.BIN"
-GAT = SHARED_DATA / "gat-00000029_filtered.BIN"
+SMALL = ARDUSUB_LOGS / "mcqueen-small.BIN"
+GAT = ARDUSUB_LOGS / "gat-00000029_filtered.BIN"
 
 
 def raw(path: Path, kind: str) -> list[Any]:

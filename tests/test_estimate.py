@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import equilibrium_holds, payload_truth
-from trimd.errors import EstimationError
-from trimd.estimate import HoldSamples, estimate_static, measurable_dofs
-from trimd.profile import Profile
+from trimd.core.errors import EstimationError
+from trimd.core.estimate import HoldSamples, estimate_static, measurable_dofs
+from trimd.core.profile import Profile
 
 
 @pytest.mark.parametrize("m_ext", [1.0, 5.0, 10.0, 15.0, 20.0])

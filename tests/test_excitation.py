@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from trimd.excitation import axis_forces, design_signal
-from trimd.excite import Excite
-from trimd.identify_model import HYDRO_NAMES, STAGES, prior_values
-from trimd.procedure import Abort, Confirm, Phase, Tick
-from trimd.profile import Profile
-from trimd.samples import Attitude, Depth, Health, OpenLoop, Release
+from trimd.core.procedure import Abort, Confirm, Phase, Tick
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release
+from trimd.identify.experiment import Excite
+from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values
+from trimd.identify.signals import axis_forces, design_signal
 
 
 @pytest.mark.parametrize("stage", list(STAGES))
@@ -160,7 +160,7 @@ def test_uvr_completes_within_the_default_depth_envelope(
         capsys: pytest.CaptureFixture[str]) -> None:
     """The Sabertooth's 58 N of buoyancy is an input inside the deadband: without the depth
     hold it rose 5 m in 79 s of the default 120 s experiment."""
-    from trimd.cli import main
+    from trimd.cli.main import main
 
     assert main(["excite", "--link", "sim", "--profile", "sabertooth-dh2", "--stage", "uvr",
                  "--yes", "--no-record"]) == 0

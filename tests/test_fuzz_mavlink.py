@@ -16,17 +16,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from drivers.mavlink_decode import LIMITS, MavlinkDecoder
-from replay.tlog import TlogReader
-from tests.conftest import SHARED_DATA
-from trimd.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, VehicleText
+from tests.conftest import ARDUSUB_LOGS
+from trimd.core.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, VehicleText
+from trimd.drivers.mavlink.decode import LIMITS, MavlinkDecoder
+from trimd.logs.tlog import TlogReader
 
 settings.register_profile(
     "trimd-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "10000")),
     deadline=None, suppress_health_check=[HealthCheck.too_slow])
 FUZZ = settings.get_profile("trimd-fuzz")
 
-REAL = (SHARED_DATA / "mcqueen-small.tlog").read_bytes()
+REAL = (ARDUSUB_LOGS / "mcqueen-small.tlog").read_bytes()
 
 
 def _real_records() -> list[tuple[bytes, str]]:

@@ -13,24 +13,25 @@ from typing import Any
 import numpy as np
 import pytest
 
-from drivers.sim.config import SimConfig
-from drivers.sim.link import SimLink
-from drivers.sim.vehicle import SimVehicle
-from trimd.cmd_identify import run_experiment
-from trimd.excitation import design_signal
-from trimd.excite import Excite
-from trimd.identify import FitOptions, StageFit, Validation, fit_stage, nrmse, validate
-from trimd.identify_data import experiments_from_samples
-from trimd.identify_model import (
+from trimd.app.experiment import run_experiment
+from trimd.core.procedure import Phase
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import parse_profile
+from trimd.core.samples import Attitude, Sample
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.vehicle import SimVehicle
+from trimd.identify.data import experiments_from_samples
+from trimd.identify.experiment import Excite
+from trimd.identify.fit import FitOptions, StageFit, Validation, fit_stage, nrmse, validate
+from trimd.identify.model import (
     HYDRO_NAMES,
     STAGES,
     lagged_thrust,
     prior_values,
 )
-from trimd.identify_report import profile_fragment
-from trimd.procedure import Phase
-from trimd.profile import Profile, parse_profile
-from trimd.samples import Attitude, Sample
+from trimd.identify.report import profile_fragment
+from trimd.identify.signals import design_signal
 
 
 def record(truth: Profile, design_profile: Profile, stage: str, duration: float, seed: int,
@@ -195,7 +196,7 @@ def test_lagged_thrust_is_the_exact_first_order_response() -> None:
 def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,
                                             sabertooth_uvr: tuple[list[Sample],
                                                                   list[Sample]]) -> None:
-    from trimd.errors import EstimationError
+    from trimd.core.errors import EstimationError
 
     exps = experiments_from_samples(sabertooth_uvr[1], sabertooth)
     with pytest.raises(EstimationError, match="unknown parameters"):
@@ -206,7 +207,7 @@ def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,
 @pytest.fixture(scope="module")
 def uvr_logs(sabertooth: Profile, tmp_path_factory: pytest.TempPathFactory) -> list[str]:
     """Two recorded uvr sessions (.tlog, 30 s and 20 s) of the Sabertooth."""
-    from replay.recorder import TlogRecorder
+    from trimd.logs.recorder import TlogRecorder
 
     logs = []
     directory = tmp_path_factory.mktemp("uvr-logs")
@@ -227,7 +228,7 @@ def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile, tmp
 
     from matplotlib.image import imread
 
-    from trimd.cmd_identify import run_identify
+    from trimd.cli.identify import run_identify
 
     out = tmp_path / "out"
     args = argparse.Namespace(logs=uvr_logs[:1], validate=uvr_logs[1:],
@@ -257,7 +258,7 @@ def test_uvr_logs_fitted_as_uwq_flag_heave_and_pitch(
 
     import yaml
 
-    from trimd.cli import main
+    from trimd.cli.main import main
 
     out = tmp_path / "out"
     code = main(["identify", uvr_logs[0], "--profile", sabertooth.source, "--stage", "uwq",
@@ -287,9 +288,9 @@ def test_uvr_logs_fitted_as_uwq_flag_heave_and_pitch(
 def test_excitation_is_the_spread_of_tau_against_the_authority(sabertooth: Profile) -> None:
     """A constant trim force is no excitation; a doublet train of 5 % of the authority
     is; the threshold is a share of what the thrusters give on that axis."""
-    from trimd.excitation import axis_authority
-    from trimd.identify import excitation_of
-    from trimd.identify_data import Experiment
+    from trimd.identify.data import Experiment
+    from trimd.identify.fit import excitation_of
+    from trimd.identify.signals import axis_authority
 
     n = 1000
     t = np.linspace(0.0, 0.02 * (n - 1), n)
@@ -309,7 +310,7 @@ def test_jacobian_covariance_keeps_weakly_determined_directions() -> None:
     """Columns 10¹² apart in scale (the audit's −2.4e6 ± 0.06 came from a pseudo-inverse
     of the unscaled JᵀJ cutting the weak direction off): every standard deviation as the
     exact s²·(JᵀJ)⁻¹, an ineffective parameter infinitely uncertain."""
-    from trimd.identify import jacobian_covariance
+    from trimd.identify.fit import jacobian_covariance
 
     rng = np.random.default_rng(3)
     X = rng.normal(size=(400, 4))
@@ -345,7 +346,7 @@ def test_bad_numbers_are_usage_errors(argv: list[str], message: str,
                                       capsys: pytest.CaptureFixture[str]) -> None:
     """Refused at argument parsing: exit 2 (argparse's SystemExit) and one error line
     naming the allowed range, before any link is opened or log read."""
-    from trimd.cli import main
+    from trimd.cli.main import main
 
     common = (["--link", "sim", "--stage", "uvr", "--yes", "--no-record"]
               if argv[0] == "excite" else [])
@@ -360,8 +361,8 @@ def test_bad_numbers_are_usage_errors(argv: list[str], message: str,
 
 def _truth_estimate(profile: Profile, payload: str) -> Any:
     """The static estimate a perfect `trimd solve` would give for ``payload``."""
-    from drivers.sim.payload import mass_properties, parse_payload
-    from trimd.estimate import StaticEstimate
+    from trimd.core.estimate import StaticEstimate
+    from trimd.drivers.sim.payload import mass_properties, parse_payload
 
     m = mass_properties(profile, parse_payload(payload, profile))
     return StaticEstimate(q=m.net, q_cov=np.zeros((4, 4)), weight_N=m.W, buoyancy_N=m.B,
@@ -376,9 +377,9 @@ def test_estimate_file_shapes_are_read(sabertooth: Profile, tmp_path: Path) -> N
     lines; a session without estimate or a non-JSON file is a DataError."""
     import json
 
-    from trimd.cmd_identify import read_statics
-    from trimd.errors import DataError
-    from trimd.estimate_io import estimate_to_dict
+    from trimd.app.files import read_statics
+    from trimd.core.errors import DataError
+    from trimd.core.estimate_json import estimate_to_dict
 
     est = estimate_to_dict(_truth_estimate(sabertooth, "10@AftSB"))
     shapes = {"solve.json": json.dumps(est),
@@ -404,7 +405,7 @@ def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
     of pitch moment the profile does not know. With the restoring terms and the mass from
     the estimate, the uwq fit finds the truth and validates; with the profile's nominal
     vehicle it cannot."""
-    from trimd.identify_model import statics_from_estimate
+    from trimd.identify.model import statics_from_estimate
 
     payload = "10@AftSB"
     statics = statics_from_estimate(_truth_estimate(sabertooth, payload), "truth")

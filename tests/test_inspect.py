@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from tests.conftest import SHARED_DATA
-from trimd.cli import main
-from trimd.cmd_inspect import inspect_log
+from tests.conftest import ARDUSUB_LOGS
+from trimd.cli.inspect import inspect_log
+from trimd.cli.main import main
 
 ARMED, DISARMED, ALT_HOLD, MANUAL = 128 | 81, 81, 2, 19
 
@@ -21,7 +21,7 @@ ARMED, DISARMED, ALT_HOLD, MANUAL = 128 | 81, 81, 2, 19
                                   "mcqueen-small.BIN", "gat-00000029_filtered.BIN"])
 def test_real_logs_end_with_a_clear_statement(name: str, capsys: pytest.CaptureFixture[str]
                                               ) -> None:
-    assert main(["inspect", str(SHARED_DATA / name)]) == 0
+    assert main(["inspect", str(ARDUSUB_LOGS / name)]) == 0
     out = capsys.readouterr().out
     assert "Traceback" not in out
     assert out.rstrip().endswith("No steady attitude holds in this log (nothing to estimate "
@@ -30,8 +30,8 @@ def test_real_logs_end_with_a_clear_statement(name: str, capsys: pytest.CaptureF
 
 
 def test_bad_crc_log_report(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["inspect", str(SHARED_DATA / "mcqueen-bad-crc.tlog"), "--json",
-                 "--profile", "profiles/bluerov2-heavy.yaml"]) == 0
+    assert main(["inspect", str(ARDUSUB_LOGS / "mcqueen-bad-crc.tlog"), "--json",
+                 "--profile", "trimd/profiles/bluerov2-heavy.yaml"]) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["format"] == "MAVLink tlog" and r["bad_frames"] == 1967
     assert r["firmware"].startswith("ArduSub V4.1.0") and r["frame_config"] == 2
@@ -44,7 +44,7 @@ def test_bad_crc_log_report(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_gat_report_modes_and_unknown_arming() -> None:
-    r = inspect_log(SHARED_DATA / "gat-00000029_filtered.BIN")
+    r = inspect_log(ARDUSUB_LOGS / "gat-00000029_filtered.BIN")
     assert [m["mode"] for m in r["modes"]] == ["SURFTRAK", "GUIDED", "ALT_HOLD", "GUIDED",
                                               "STABILIZE", "GUIDED"]
     assert r["armed_periods"] is None  # not logged
@@ -58,10 +58,10 @@ def test_gat_report_modes_and_unknown_arming() -> None:
     ("gat-00000029_filtered.BIN", ["rangefinder target is 2.06 meters"])])
 def test_the_vehicle_s_messages_are_reported(name: str, expected: list[str],
                                              capsys: pytest.CaptureFixture[str]) -> None:
-    r = inspect_log(SHARED_DATA / name)
+    r = inspect_log(ARDUSUB_LOGS / name)
     texts = [m["text"] for m in r["vehicle_messages"]]
     assert all(e in texts for e in expected), texts
-    assert main(["inspect", str(SHARED_DATA / name)]) == 0
+    assert main(["inspect", str(ARDUSUB_LOGS / name)]) == 0
     out = capsys.readouterr().out
     assert f"vehicle messages: {len(texts)}" in out and f"info: {expected[-1]}" in out
 

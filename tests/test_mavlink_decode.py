@@ -8,9 +8,9 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from drivers.mavlink_decode import MavlinkDecoder, VehicleParams, motor_function
-from trimd.profile import Profile
-from trimd.samples import Attitude, Battery, Depth, Health, Thrusters, VehicleText
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Battery, Depth, Health, Thrusters, VehicleText
+from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams, motor_function
 
 SUB, ARDUPILOT, GCS, INVALID = 12, 3, 6, 8
 ARMED_MANUAL = 128 | 81

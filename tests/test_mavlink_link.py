@@ -1,6 +1,6 @@
 """The live MAVLink link end to end on UDP loopback (127.0.0.1 only).
 
-Against the simulated vehicle served as ArduSub (``drivers.sim.mavlink_server``), in a
+Against the simulated vehicle served as ArduSub (``trimd.drivers.sim.mavlink_server``), in a
 thread and as ``trimd sim`` in a subprocess, and against a hand-made vehicle that sends
 exactly the packets a test needs. Rates are judged per vehicle heartbeat (the vehicle's
 own 1 Hz clock), holds on the vehicle's simulated time; the wall-clock limits only keep a
@@ -29,18 +29,13 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from drivers import open_link
-from drivers.mavlink import MavlinkLink
-from drivers.sim.config import SimConfig
-from drivers.sim.dynamics import euler_from_quaternion
-from drivers.sim.mavlink_server import MavlinkServer
-from drivers.sim.vehicle import SimVehicle
-from replay.tlog import TlogReader
-from tests.conftest import REPO
+from tests.conftest import PROFILES, REPO
 from tests.test_run_sim import assert_proposal_levels
-from trimd.errors import LinkError
-from trimd.profile import Profile, load_profile
-from trimd.samples import (
+from trimd.app.connect import open_link
+from trimd.core.errors import LinkError
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.core.samples import (
     Arm,
     Attitude,
     Battery,
@@ -51,9 +46,15 @@ from trimd.samples import (
     Sample,
     Thrusters,
 )
+from trimd.drivers.mavlink.link import MavlinkLink
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.dynamics import euler_from_quaternion
+from trimd.drivers.sim.mavlink_server import MavlinkServer
+from trimd.drivers.sim.vehicle import SimVehicle
+from trimd.logs.tlog import TlogReader
 
 WALL_LIMIT_S = 30.0     # hang guard for one wait, not a timed assertion
-TRIMD = [sys.executable, "-m", "trimd.cli"]
+TRIMD = [sys.executable, "-m", "trimd.cli.main"]
 
 
 def free_udp_port() -> int:
@@ -435,7 +436,7 @@ def fast_profile(tmp_path: Path, name: str) -> Path:
     """Profile ``name`` with 3 s instead of 10 s of steadiness before collecting and at most
     60 s of collecting per hold: the served simulator runs 10× faster than the wall clock
     the live procedure measures."""
-    text = (REPO / "profiles" / f"{name}.yaml").read_text(encoding="utf-8")
+    text = (PROFILES / f"{name}.yaml").read_text(encoding="utf-8")
     assert "min_steady_s: 10.0" in text
     text = re.sub(r"collect_max_s: [\d.]+", "collect_max_s: 60.0", text, count=1)
     path = tmp_path / f"{name}.yaml"
@@ -549,8 +550,8 @@ def test_trimd_run_exits_3_with_an_intact_log_when_the_vehicle_dies(tmp_path: Pa
 def test_sysid_option_goes_into_the_mavlink_url(
         link: str, url: str | None, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    import trimd.cmd_run
-    from trimd.cli import main
+    import trimd.cli.run
+    from trimd.cli.main import main
 
     opened: list[str] = []
 
@@ -558,7 +559,7 @@ def test_sysid_option_goes_into_the_mavlink_url(
         opened.append(u)
         raise LinkError("stop here")
 
-    monkeypatch.setattr(trimd.cmd_run, "open_link", fake_open)
+    monkeypatch.setattr(trimd.cli.run, "open_link", fake_open)
     code = main(["run", "--link", link, "--profile", "sabertooth-dh2", "--sysid", "7",
                  "--headless", "--yes", "--no-record"])
     if url is None:
@@ -570,7 +571,7 @@ def test_sysid_option_goes_into_the_mavlink_url(
 @pytest.mark.parametrize("sysid", ["0", "256", "one"])
 def test_sysid_option_out_of_range_is_a_usage_error(
         sysid: str, capsys: pytest.CaptureFixture[str]) -> None:
-    from trimd.cli import main
+    from trimd.cli.main import main
 
     with pytest.raises(SystemExit) as exit_:
         main(["run", "--link", "mavlink:udpin:127.0.0.1:0", "--profile", "sabertooth-dh2",

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from trimd.model import (
+from trimd.core.model import (
     pwm_from_thrust,
     restoring_forces,
     restoring_matrix,
@@ -16,7 +16,7 @@ from trimd.model import (
     thrust_configuration,
     thrust_from_pwm,
 )
-from trimd.profile import Profile, ThrustCurve, Thruster, ThrustTable
+from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
 
 
 def test_level_restoring_forces_by_hand() -> None:

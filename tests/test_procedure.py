@@ -10,9 +10,9 @@ import pytest
 
 from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeVehicle
-from trimd.procedure import Abort, Confirm, Notice, Phase, Procedure, Tick
-from trimd.profile import Profile
-from trimd.samples import HoldAttitude, Release
+from trimd.core.procedure import Abort, Confirm, Notice, Phase, Procedure, Tick
+from trimd.core.profile import Profile
+from trimd.core.samples import HoldAttitude, Release
 
 DT = 0.01
 

@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 import yaml
 
-from tests.conftest import REPO
-from trimd.errors import ProfileError
-from trimd.model import thrust_configuration
-from trimd.profile import Profile, load_profile, parse_profile
+from tests.conftest import PROFILES
+from trimd.core.errors import ProfileError
+from trimd.core.model import thrust_configuration
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile, parse_profile
 
-SABERTOOTH = REPO / "profiles" / "sabertooth-dh2.yaml"
+SABERTOOTH = PROFILES / "sabertooth-dh2.yaml"
 
 
 def raw() -> dict[str, Any]:

@@ -10,14 +10,11 @@ from pathlib import Path
 import numpy as np
 from pymavlink import mavutil
 
-from drivers.mavlink_decode import MavlinkDecoder
-from replay.recorder import TlogRecorder
-from replay.tlog import TlogReader
-from tests.conftest import REPO
-from trimd.model import quaternion_from_euler
-from trimd.procedure import Notice
-from trimd.profile import Profile
-from trimd.samples import (
+from tests.conftest import PROFILES
+from trimd.core.model import quaternion_from_euler
+from trimd.core.procedure import Notice
+from trimd.core.profile import Profile
+from trimd.core.samples import (
     Attitude,
     Battery,
     Depth,
@@ -27,10 +24,13 @@ from trimd.samples import (
     Thrusters,
     VehicleText,
 )
+from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.logs.recorder import TlogRecorder
+from trimd.logs.tlog import TlogReader
 
 
 def record(path: Path, profile: Profile) -> list[object]:
-    rec = TlogRecorder(path, profile, (REPO / "profiles" / "bluerov2-heavy.yaml").read_text())
+    rec = TlogRecorder(path, profile, (PROFILES / "bluerov2-heavy.yaml").read_text())
     out = [
         rec.sample(Health(0.0, True, "ALT_HOLD", True)),
         rec.sample(Attitude(0.05, 0.1234567891, -0.2, 1.5, 0.01, 0.02, 0.03)),
@@ -78,7 +78,7 @@ def test_samples_come_back_as_recorded(tmp_path: Path, bluerov: Profile) -> None
 def test_vehicle_texts_replay_whole_and_trimd_texts_stay_trimd_s(tmp_path: Path,
                                                                   bluerov: Profile) -> None:
     path = tmp_path / "s.tlog"
-    rec = TlogRecorder(path, bluerov, (REPO / "profiles" / "bluerov2-heavy.yaml").read_text())
+    rec = TlogRecorder(path, bluerov, (PROFILES / "bluerov2-heavy.yaml").read_text())
     texts = ["Failsafe: pilot input lost, disarming", "PreArm: " + "0123456789" * 11,
              "y" * 100, "Mode change to GUIDED denied — 2 chunks with ° signs " * 2]
     rec.sample(Health(0.0, True, "ALT_HOLD", True))
@@ -120,7 +120,7 @@ def test_quaternion_of_a_pure_yaw() -> None:
 
 
 def test_body_velocity_is_recorded_as_odometry(tmp_path: Path, bluerov: Profile) -> None:
-    from trimd.samples import Velocity
+    from trimd.core.samples import Velocity
 
     path = tmp_path / "v.tlog"
     rec = TlogRecorder(path, bluerov, "name: x\n")

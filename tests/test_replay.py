@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from replay.link import recorded_profile_yaml
-from tests.conftest import REPO, SHARED_DATA
-from trimd.cli import main
+from tests.conftest import ARDUSUB_LOGS, PROFILES, REPO
+from trimd.cli.main import main
+from trimd.logs.replay import recorded_profile_yaml
 
 LIVE = ["run", "--link", "sim:payload=0.4@W-aft-port,seed=4", "--profile", "bluerov2-heavy",
         "--headless", "--yes", "--json"]
@@ -32,7 +32,7 @@ def test_replay_reproduces_the_live_result_exactly(
     log = tmp_path / "live.tlog"
     assert main([*LIVE, "--record", str(log)]) == 0
     live = last_json(capsys.readouterr().out)
-    assert recorded_profile_yaml(log) == (REPO / "profiles" / "bluerov2-heavy.yaml").read_text()
+    assert recorded_profile_yaml(log) == (PROFILES / "bluerov2-heavy.yaml").read_text()
     assert main(["replay", str(log), "--json"]) == 0  # no --profile: the log carries it
     replayed = last_json(capsys.readouterr().out)
     assert live["type"] == replayed["type"] == "result"
@@ -65,13 +65,13 @@ def test_replay_link_in_trimd_run(tmp_path: Path, capsys: pytest.CaptureFixture[
                                   "mcqueen-small.BIN", "gat-00000029_filtered.BIN"])
 def test_real_logs_without_holds_end_clearly(name: str,
                                              capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["replay", str(SHARED_DATA / name), "--profile", "bluerov2-heavy"]) == 1
+    assert main(["replay", str(ARDUSUB_LOGS / name), "--profile", "bluerov2-heavy"]) == 1
     out = capsys.readouterr().out
     assert "No steady attitude holds" in out and " s (starts at" in out  # duration
 
 
 def test_foreign_log_needs_a_profile(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["replay", str(SHARED_DATA / "mcqueen-small.tlog")]) == 2
+    assert main(["replay", str(ARDUSUB_LOGS / "mcqueen-small.tlog")]) == 2
     assert "pass --profile" in capsys.readouterr().err
 
 
@@ -100,7 +100,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     """The daemon is killed mid-procedure; at most a second is lost and the file replays."""
     log = tmp_path / "killed.tlog"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli", "run", "--link",
+    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli.main", "run", "--link",
                              "sim:payload=10@AftSB", "--profile", "sabertooth-dh2", "--headless",
                              "--yes", "--record", str(log)], cwd=REPO, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -112,7 +112,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     assert log.stat().st_size > 1000
-    replay = subprocess.run([sys.executable, "-m", "trimd.cli", "replay", str(log)], cwd=REPO,
+    replay = subprocess.run([sys.executable, "-m", "trimd.cli.main", "replay", str(log)], cwd=REPO,
                             capture_output=True, text=True, timeout=300, check=False)
     assert replay.returncode == 1  # the recording ends before a result
     assert "Traceback" not in replay.stderr
@@ -121,7 +121,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
 
 def test_sigterm_releases_and_closes_the_log(tmp_path: Path) -> None:
     log = tmp_path / "term.tlog"
-    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli", "run", "--link",
+    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli.main", "run", "--link",
                              "sim:payload=10@AftSB", "--profile", "sabertooth-dh2", "--headless",
                              "--yes", "--record", str(log)], cwd=REPO,
                             env=dict(os.environ, PYTHONUNBUFFERED="1"),

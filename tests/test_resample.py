@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from trimd.errors import DataError
-from trimd.resample import zoh_align
+from trimd.core.errors import DataError
+from trimd.core.resample import zoh_align
 
 
 def test_holds_the_latest_value_without_look_ahead() -> None:

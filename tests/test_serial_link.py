@@ -26,10 +26,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import trimd.cmd_run
-from drivers import open_link
-from drivers.serial_link import SerialLink, open_serial_link
-from drivers.serial_protocol import (
+import trimd.cli.run
+from tests.test_run_sim import assert_proposal_levels
+from trimd.app.connect import open_link
+from trimd.cli.main import main
+from trimd.core.errors import LinkError
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Health, HoldAttitude, Release, Sample, VehicleText
+from trimd.drivers.serial.link import SerialLink, open_serial_link
+from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
     VEHICLE,
@@ -37,15 +42,10 @@ from drivers.serial_protocol import (
     checksum,
     to_sample,
 )
-from drivers.sim.config import SimConfig
-from drivers.sim.pacing import run_paced
-from drivers.sim.serial_server import COMMAND_TIMEOUT_S, SerialServer
-from drivers.sim.vehicle import SimVehicle
-from tests.test_run_sim import assert_proposal_levels
-from trimd.cli import main
-from trimd.errors import LinkError
-from trimd.profile import Profile
-from trimd.samples import Attitude, Health, HoldAttitude, Release, Sample, VehicleText
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.pacing import run_paced
+from trimd.drivers.sim.serial_server import COMMAND_TIMEOUT_S, SerialServer
+from trimd.drivers.sim.vehicle import SimVehicle
 
 RATE = 10.0            # simulated seconds per wall second of the threaded server
 WALL_LIMIT_S = 30.0    # a hang guard, not a timed assertion
@@ -361,7 +361,7 @@ def test_trimd_run_over_serial_against_trimd_sim(
         sabertooth: Profile, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str], payload: str) -> None:
     sim = subprocess.Popen(
-        [sys.executable, "-m", "trimd.cli", "sim", "--profile", "sabertooth-dh2",
+        [sys.executable, "-m", "trimd.cli.main", "sim", "--profile", "sabertooth-dh2",
          "--payload", payload, "--serve", "serial:pty", "--rate", "20",
          "--options", "armed=1,mode=ALT_HOLD"], stdout=subprocess.PIPE, text=True,
         cwd=Path(__file__).resolve().parent.parent)
@@ -378,7 +378,7 @@ def test_trimd_run_over_serial_against_trimd_sim(
             link = await open_link(url, profile)
             links.append(link)  # type: ignore[arg-type]
             return link
-        monkeypatch.setattr(trimd.cmd_run, "open_link", capture)
+        monkeypatch.setattr(trimd.cli.run, "open_link", capture)
         code = main(["run", "--link", f"serial:{relay.path}", "--profile", "sabertooth-dh2",
                      "--headless", "--yes", "--no-record", "--json"])
     finally:

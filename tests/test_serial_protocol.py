@@ -15,8 +15,22 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drivers.mavlink_decode import LIMITS
-from drivers.serial_protocol import (
+from trimd.core.samples import (
+    Arm,
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    HoldAttitude,
+    OpenLoop,
+    Release,
+    Sample,
+    Thrusters,
+    VehicleText,
+    Velocity,
+)
+from trimd.drivers.mavlink.decode import LIMITS
+from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
     TRIMD,
@@ -32,20 +46,6 @@ from drivers.serial_protocol import (
     heading_deg,
     to_command,
     to_sample,
-)
-from trimd.samples import (
-    Arm,
-    Attitude,
-    Battery,
-    Depth,
-    Health,
-    HoldAttitude,
-    OpenLoop,
-    Release,
-    Sample,
-    Thrusters,
-    VehicleText,
-    Velocity,
 )
 
 settings.register_profile(

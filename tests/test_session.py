@@ -12,11 +12,11 @@ import pytest
 
 from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeLink, FakeVehicle
-from trimd.headless import HeadlessPresenter
-from trimd.procedure import Notice, Output, Phase, Progress
-from trimd.profile import Profile
-from trimd.samples import Command, HoldAttitude, Release, Sample
-from trimd.session import Session
+from trimd.app.headless import HeadlessPresenter
+from trimd.app.session import Session
+from trimd.core.procedure import Notice, Output, Phase, Progress
+from trimd.core.profile import Profile
+from trimd.core.samples import Command, HoldAttitude, Release, Sample
 
 
 class ListRecorder:
@@ -165,7 +165,7 @@ def test_waits_for_confirmation_then_commands(sabertooth: Profile, link: FakeLin
 def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None:
     from dataclasses import replace
 
-    from trimd.samples import Attitude
+    from trimd.core.samples import Attitude
 
     class Silent:
         description = "silent"
@@ -191,8 +191,8 @@ def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None
 
 def test_stopping_before_the_vehicle_answers_leaves_a_clean_log_and_valid_json(
         sabertooth: Profile, tmp_path: Any) -> None:
-    from replay.recorder import TlogRecorder
-    from replay.tlog import TlogReader
+    from trimd.logs.recorder import TlogRecorder
+    from trimd.logs.tlog import TlogReader
 
     class Nobody:
         description = "nobody"
@@ -230,7 +230,7 @@ class _QuietAfterAHeartbeat:
     description = "quiet"
 
     async def samples(self) -> Any:
-        from trimd.samples import Attitude, Health
+        from trimd.core.samples import Attitude, Health
 
         yield Health(10.0, True, "ALT_HOLD", True)
         yield Attitude(10.0, 0, 0, 0, 0, 0, 0)
@@ -249,8 +249,8 @@ def test_a_quiet_link_still_gets_its_last_records_to_the_disk(sabertooth: Profil
     (a kill -9 then loses at most a second), without waiting for the next write."""
     from dataclasses import replace
 
-    from replay.recorder import TlogRecorder
-    from replay.tlog import TlogReader
+    from trimd.logs.recorder import TlogRecorder
+    from trimd.logs.tlog import TlogReader
 
     log = tmp_path / "s.tlog"
     patient = replace(sabertooth, procedure=replace(sabertooth.procedure, link_timeout_s=1e9))
@@ -297,9 +297,9 @@ def test_only_a_live_link_times_out_on_the_wall_clock(sabertooth: Profile,
 
 
 def test_headless_prints_each_link_warning_once_and_the_vehicle_s_messages() -> None:
-    from trimd.procedure import Procedure
-    from trimd.profile import load_profile
-    from trimd.samples import Health, VehicleText
+    from trimd.core.procedure import Procedure
+    from trimd.core.profile_yaml import load_profile
+    from trimd.core.samples import Health, VehicleText
 
     out = io.StringIO()
     presenter = HeadlessPresenter(out)

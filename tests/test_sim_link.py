@@ -8,12 +8,10 @@ from collections import Counter
 
 import pytest
 
-from drivers import open_link
-from drivers.sim.config import SimConfig, parse_sim_options
-from drivers.sim.link import SimLink
-from trimd.errors import LinkError
-from trimd.profile import Profile
-from trimd.samples import (
+from trimd.app.connect import open_link
+from trimd.core.errors import LinkError
+from trimd.core.profile import Profile
+from trimd.core.samples import (
     Arm,
     Attitude,
     Battery,
@@ -26,6 +24,8 @@ from trimd.samples import (
     Thrusters,
     Velocity,
 )
+from trimd.drivers.sim.config import SimConfig, parse_sim_options
+from trimd.drivers.sim.link import SimLink
 
 
 async def _collect(link: SimLink, seconds: float) -> list[Sample]:

@@ -15,12 +15,12 @@ from typing import Any
 
 import pytest
 
-from drivers.sim.config import SimConfig
-from drivers.sim.mavlink_server import MavlinkServer, open_mavlink2
-from drivers.sim.vehicle import SimVehicle
-from trimd.errors import LinkError
-from trimd.model import quaternion_from_euler
-from trimd.profile import Profile
+from trimd.core.errors import LinkError
+from trimd.core.model import quaternion_from_euler
+from trimd.core.profile import Profile
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.mavlink_server import MavlinkServer, open_mavlink2
+from trimd.drivers.sim.vehicle import SimVehicle
 
 RATE = 10.0            # simulated seconds per wall second
 WALL_LIMIT_S = 60.0    # a hang guard, not a timed assertion

@@ -10,14 +10,14 @@ import pytest
 from scipy.optimize import fsolve
 
 from bench.bench_sim import numpy_derivative
-from drivers.sim.config import SimConfig
-from drivers.sim.dynamics import RigidBody, initial_state
-from drivers.sim.payload import mass_properties, parse_payload
-from drivers.sim.vehicle import SimVehicle
 from tests.conftest import payload_truth
-from trimd.errors import ProfileError
-from trimd.model import restoring_forces, tau_from_pwm
-from trimd.profile import Profile
+from trimd.core.errors import ProfileError
+from trimd.core.model import restoring_forces, tau_from_pwm
+from trimd.core.profile import Profile
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.dynamics import RigidBody, initial_state
+from trimd.drivers.sim.payload import mass_properties, parse_payload
+from trimd.drivers.sim.vehicle import SimVehicle
 
 QUIET = SimConfig(noise=0.0)
 

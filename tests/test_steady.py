@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from trimd.steady import (
+from trimd.core.steady import (
     RatioTest,
     SteadyCriteria,
     detect_steady,

@@ -11,12 +11,12 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from drivers.mavlink_decode import MavlinkDecoder
-from replay.tlog import TlogReader
-from tests.conftest import SHARED_DATA
-from trimd.errors import DataError
-from trimd.profile import Profile
-from trimd.samples import Attitude, Battery, Depth, Health, Thrusters
+from tests.conftest import ARDUSUB_LOGS
+from trimd.core.errors import DataError
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Battery, Depth, Health, Thrusters
+from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.logs.tlog import TlogReader
 
 
 def pymavlink_pass(path: Path) -> tuple[Counter[str], list[Any]]:
@@ -33,7 +33,7 @@ def pymavlink_pass(path: Path) -> tuple[Counter[str], list[Any]]:
 @pytest.mark.parametrize(("name", "bad"), [("mcqueen-bad-crc.tlog", 1967),
                                            ("mcqueen-small.tlog", 4)])
 def test_real_logs_count_bad_frames_and_keep_every_good_message(name: str, bad: int) -> None:
-    path = SHARED_DATA / name
+    path = ARDUSUB_LOGS / name
     reader = TlogReader.open(path)
     ours = Counter(msg.get_type() for _, msg in reader.messages())
     theirs, _ = pymavlink_pass(path)
@@ -47,7 +47,7 @@ def test_real_logs_count_bad_frames_and_keep_every_good_message(name: str, bad: 
 
 
 def test_real_bad_crc_frames_are_the_companion_distance_sensor() -> None:
-    reader = TlogReader.open(SHARED_DATA / "mcqueen-bad-crc.tlog")
+    reader = TlogReader.open(ARDUSUB_LOGS / "mcqueen-bad-crc.tlog")
     good = sum(1 for _, m in reader.messages() if m.get_type() == "DISTANCE_SENSOR")
     assert good == 919
     # the lost DISTANCE_SENSOR frames show up as gaps in component 194's sequence
@@ -55,7 +55,7 @@ def test_real_bad_crc_frames_are_the_companion_distance_sensor() -> None:
 
 
 def test_small_tlog_decodes_into_every_kind_of_sample(bluerov: Profile) -> None:
-    path = SHARED_DATA / "mcqueen-small.tlog"
+    path = ARDUSUB_LOGS / "mcqueen-small.tlog"
     reader = TlogReader.open(path)
     samples = list(reader.samples(MavlinkDecoder.for_profile(bluerov)))
     by_kind: dict[type, list[Any]] = {}

@@ -29,12 +29,12 @@ from tests.tui_helpers import (
     thesis_vehicle,
     until,
 )
-from trimd.ballast import METHODS, propose_ballast
-from trimd.cmd_run import STOP_SIGNALS, stop_on_signals
-from trimd.procedure import Phase
-from trimd.profile import Profile
-from trimd.samples import Health, HoldAttitude, Release, Sample, VehicleText
-from trimd.session import SessionResult
+from trimd.app.headless import STOP_SIGNALS, stop_on_signals
+from trimd.app.session import SessionResult
+from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.core.procedure import Phase
+from trimd.core.profile import Profile
+from trimd.core.samples import Health, HoldAttitude, Release, Sample, VehicleText
 from trimd.tui.event_log import EventLog
 from trimd.tui.help_screen import HelpScreen
 from trimd.tui.link_panel import LinkPanel

@@ -12,10 +12,10 @@ import pytest
 
 from tests.conftest import equilibrium_holds, payload_truth
 from tests.test_ballast_degenerate import CASES, with_net
-from trimd.ballast import propose_ballast
-from trimd.estimate import estimate_static
-from trimd.profile import Profile
-from trimd.samples import Attitude, Depth, Health, HoldAttitude, Release
+from trimd.ballast.propose import propose_ballast
+from trimd.core.estimate import estimate_static
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Depth, Health, HoldAttitude, Release
 from trimd.tui.plot import Series, braille_plot
 from trimd.tui.report import Report, save_report
 from trimd.tui.result_panel import ResultPanel

@@ -13,12 +13,12 @@ from typing import Any
 import pytest
 
 from tests.tui_helpers import until
-from trimd.ballast import proposal_to_dict
-from trimd.cli import main
-from trimd.cmd_replay import replay_app
-from trimd.estimate_io import estimate_to_dict
-from trimd.procedure import Phase
-from trimd.profile import Profile
+from trimd.ballast.propose import proposal_to_dict
+from trimd.cli.main import main
+from trimd.cli.replay import replay_app
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.procedure import Phase
+from trimd.core.profile import Profile
 from trimd.tui.link_panel import LinkPanel
 from trimd.tui.replay_pace import SPEEDS
 from trimd.tui.result_panel import ResultPanel

@@ -10,10 +10,10 @@ from typing import Any
 import pytest
 from textual.pilot import Pilot
 
-import trimd.session
+import trimd.app.session
 from tests.fake_vehicle import FakeLink
 from tests.tui_helpers import PausedLink, app_for, thesis_vehicle, until
-from trimd.profile import Profile
+from trimd.core.profile import Profile
 from trimd.tui.result_panel import ResultPanel
 
 SIZES = [(80, 24), (120, 40)]
@@ -23,7 +23,7 @@ HOLD_AT_S = 40.0
 
 @pytest.fixture(autouse=True)
 def _no_ticks(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(trimd.session, "TICK_S", 1e6)
+    monkeypatch.setattr(trimd.app.session, "TICK_S", 1e6)
 
 
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO
+from tests.conftest import PROFILES, REPO
 from tests.tui_helpers import HANG_GUARD_S
 
 #: A hold that never settles (it must be steady longer than it may take): the session
@@ -33,7 +33,7 @@ class Terminal:
         if pid == 0:  # the child: the pty is its controlling terminal
             os.chdir(REPO)
             os.environ.update(TERM="xterm-256color", COLUMNS="80", LINES="24")
-            os.execv(sys.executable, [sys.executable, "-m", "trimd.cli", *args])
+            os.execv(sys.executable, [sys.executable, "-m", "trimd.cli.main", *args])
         self.pid = pid
         self.output = bytearray()
         self._reader = threading.Thread(target=self._read, daemon=True)
@@ -101,7 +101,7 @@ def log_has(path: Path, text: str) -> Callable[[], bool]:
 def test_a_signal_mid_hold_releases_and_closes_the_log(tmp_path: Path, how: str) -> None:
     """SIGTERM, SIGHUP, and a terminal that really goes away (then Textual could never
     restore it: trimd must still exit, not hang)."""
-    profile = (REPO / "profiles" / "sabertooth-dh2.yaml").read_text()
+    profile = (PROFILES / "sabertooth-dh2.yaml").read_text()
     for old, new in NEVER_SETTLES.items():
         assert old in profile
         profile = profile.replace(old, new)

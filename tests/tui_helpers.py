@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 from textual.pilot import Pilot
 
-from drivers import open_link
-from drivers.sim.link import SimLink
 from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeLink, FakeVehicle
-from trimd.ballast import propose_ballast
-from trimd.profile import Profile
-from trimd.samples import Command, Sample
-from trimd.session import Session
+from trimd.app.connect import open_link
+from trimd.app.session import Session
+from trimd.ballast.propose import propose_ballast
+from trimd.core.profile import Profile
+from trimd.core.samples import Command, Sample
+from trimd.drivers.sim.link import SimLink
 from trimd.tui import TrimApp, make_app
 
 #: The heartbeat age shown is clock() minus the clock at the last heartbeat: 0 s here.

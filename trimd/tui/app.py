@@ -19,12 +19,13 @@ from textual.events import Resize
 from textual.screen import Screen
 from textual.widgets import Footer
 
-from trimd.ballast import METHODS
-from trimd.procedure import Phase, Progress
-from trimd.profile import Profile
-from trimd.session import Session, SessionResult
+from trimd.app.report import describe_command
+from trimd.app.session import Session, SessionResult
+from trimd.ballast.propose import METHODS
+from trimd.core.procedure import Phase, Progress
+from trimd.core.profile import Profile
 from trimd.tui.attitude_panel import AttitudePanel
-from trimd.tui.event_log import EventLog, describe_command
+from trimd.tui.event_log import EventLog
 from trimd.tui.help_screen import HelpScreen
 from trimd.tui.link_panel import LinkPanel
 from trimd.tui.messages import (

@@ -8,22 +8,10 @@ import math
 from rich.text import Text
 from textual.widgets import RichLog
 
-from trimd.samples import Command, HoldAttitude, Release
-
-__all__ = ["EventLog", "describe_command"]
+__all__ = ["EventLog"]
 
 _STYLES = {"state": "bold", "info": "", "warning": "bold yellow", "result": "bold green",
            "command": "cyan", "error": "bold red"}
-
-
-def describe_command(command: Command) -> str:
-    """A short description of a command for the log."""
-    if isinstance(command, HoldAttitude):
-        return (f"hold roll {math.degrees(command.phi):.1f}°, pitch "
-                f"{math.degrees(command.theta):.1f}°, yaw {math.degrees(command.psi):.1f}°")
-    if isinstance(command, Release):
-        return "release control"
-    return repr(command)
 
 
 class EventLog(RichLog):

@@ -11,9 +11,9 @@ from typing import Any
 
 from textual.message import Message
 
-from trimd.procedure import Notice, Progress
-from trimd.samples import Command
-from trimd.session import SessionResult
+from trimd.app.session import SessionResult
+from trimd.core.procedure import Notice, Progress
+from trimd.core.samples import Command
 
 __all__ = ["CommandSent", "LinkMessage", "NoticeReceived", "ProposalReady", "SessionEnded",
            "TelemetryChanged"]
@@ -64,7 +64,7 @@ class SessionEnded(Message):
 
 @dataclass
 class ProposalReady(Message):
-    """The ballast worker finished ``method``: a ``trimd.ballast.Proposal``, or None and
+    """The ballast worker finished ``method``: a ``trimd.ballast.propose.Proposal``, or None and
     the error that stopped it."""
 
     method: str

@@ -1,7 +1,7 @@
 """A recording replayed in the TUI: paced against the wall clock at a speed the operator
 changes, and paused, without changing what the procedure sees.
 
-:class:`PacedReplay` wraps a :class:`replay.link.ReplayLink` read as fast as possible and
+:class:`PacedReplay` wraps a :class:`trimd.logs.replay.ReplayLink` read as fast as possible and
 holds each sample back until it is due at the present speed. Pausing or changing speed
 re-anchors the pacing at the next sample, so the samples keep their own times: the
 procedure (which runs on sample time) gives the same result at any pace.
@@ -15,8 +15,8 @@ import math
 import time
 from collections.abc import AsyncIterator
 
-from replay.link import ReplayLink
-from trimd.samples import Command, Sample
+from trimd.core.samples import Command, Sample
+from trimd.logs.replay import ReplayLink
 
 __all__ = ["SPEEDS", "PacedReplay"]
 

@@ -12,10 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from trimd.ballast import Proposal, format_proposal, proposal_to_dict
-from trimd.cmd_solve import format_estimate
-from trimd.estimate import StaticEstimate
-from trimd.estimate_io import estimate_to_dict
+from trimd.app.report import format_estimate, format_proposal
+from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate_json import estimate_to_dict
 
 __all__ = ["Report", "save_report"]
 

@@ -1,7 +1,7 @@
 """Result panel: the estimate (W, m_ext, CG ± 1σ), a top view of the vehicle with the
 proposal, the predicted passive trim and net buoyancy, and the ballast method switch.
 
-Proposals come from :func:`trimd.ballast.propose_ballast` in a thread worker; each
+Proposals come from :func:`trimd.ballast.propose.propose_ballast` in a thread worker; each
 method's proposal is kept, so switching back is instant.
 """
 
@@ -14,10 +14,10 @@ from textual import on, work
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from trimd.ballast import METHODS, Proposal, propose_ballast
-from trimd.errors import TrimdError
-from trimd.estimate import StaticEstimate
-from trimd.profile import Profile
+from trimd.ballast.propose import METHODS, Proposal, propose_ballast
+from trimd.core.errors import TrimdError
+from trimd.core.estimate import StaticEstimate
+from trimd.core.profile import Profile
 from trimd.tui.messages import ProposalReady
 from trimd.tui.topview import BOTH, EMPTY, FLOAT, SLOT_LETTERS, WEIGHT, top_view
 

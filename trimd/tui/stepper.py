@@ -9,8 +9,8 @@ from rich.text import Text
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from trimd.procedure import Phase, Progress
-from trimd.profile import Profile
+from trimd.core.procedure import Phase, Progress
+from trimd.core.profile import Profile
 
 __all__ = ["Stepper", "bar"]
 

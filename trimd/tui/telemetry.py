@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from trimd.samples import (
+from trimd.core.samples import (
     Attitude,
     Battery,
     Command,

@@ -1,7 +1,7 @@
 """Thruster panel: each thruster's effort as a bar centred on zero, saturation in red.
 
 Effort is the thrust of the present output as a fraction of the most that thruster
-gives in that direction, both from the profile's thrust curve (``trimd.model``) at the
+gives in that direction, both from the profile's thrust curve (``trimd.core.model``) at the
 battery voltage last reported.
 """
 
@@ -13,8 +13,8 @@ from rich.text import Text
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from trimd.model import thrust_from_pwm
-from trimd.profile import Profile
+from trimd.core.model import thrust_from_pwm
+from trimd.core.profile import Profile
 from trimd.tui.telemetry import LiveState
 
 __all__ = ["SATURATED", "ThrusterPanel", "efforts"]

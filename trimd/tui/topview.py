@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from rich.text import Text
 
-from trimd.profile import Profile
+from trimd.core.profile import Profile
 
 __all__ = ["SLOT_LETTERS", "top_view"]
 

@@ -1,0 +1,84 @@
+"""The layering of ``trimd`` as a test: each subpackage imports only the layers below it.
+
+The import graph is read from the source (every ``import``, at any depth in a module), so a
+late import inside a function counts as much as one at the top.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "trimd"
+
+#: subpackage → the trimd subpackages it may import (besides itself and ``trimd`` itself).
+MAY_IMPORT: dict[str, set[str]] = {
+    "core": set(),
+    "ballast": {"core"},
+    "identify": {"core"},
+    "drivers": {"core"},
+    "logs": {"core", "drivers"},
+    "app": {"core", "ballast", "identify", "drivers", "logs"},
+    "tui": {"core", "ballast", "identify", "drivers", "logs", "app"},
+    "cli": {"core", "ballast", "identify", "drivers", "logs", "app", "tui"},
+}
+
+#: Modules that do I/O, keep clocks or run threads: none of them in the pure layers.
+IO_MODULES = {"asyncio", "os", "pathlib", "select", "serial", "signal", "socket", "sqlite3",
+              "subprocess", "sys", "threading", "time", "datetime", "pymavlink", "textual",
+              "matplotlib", "importlib"}
+PURE = {"core", "ballast", "identify"}
+#: The one pure-layer module allowed to read files: the profile loader (shipped profiles are
+#: package data read through importlib.resources).
+READS_FILES = {"trimd.core.profile_yaml": {"pathlib", "importlib"}}
+
+
+def _modules() -> list[tuple[str, Path]]:
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out.append((".".join(parts), path))
+    return out
+
+
+def _imports(path: Path) -> set[str]:
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module)
+    return names
+
+
+MODULES = _modules()
+
+
+def test_every_module_belongs_to_a_layer() -> None:
+    strays = [name for name, _ in MODULES
+              if name.count(".") >= 1 and name.split(".")[1] not in MAY_IMPORT]
+    assert strays == [], f"modules outside the layers of MAY_IMPORT: {strays}"
+
+
+@pytest.mark.parametrize(("name", "path"), [m for m in MODULES if m[0].count(".") >= 1],
+                         ids=[m[0] for m in MODULES if m[0].count(".") >= 1])
+def test_imports_follow_the_layers(name: str, path: Path) -> None:
+    layer = name.split(".")[1]
+    allowed = MAY_IMPORT[layer] | {layer}
+    wrong = sorted(m for m in _imports(path)
+                   if m.startswith("trimd.") and m.split(".")[1] not in allowed)
+    assert wrong == [], f"{name} ({layer}) imports {wrong}; {layer} may import {sorted(allowed)}"
+    if layer in PURE:
+        io = sorted(m for m in _imports(path)
+                    if m.split(".")[0] in IO_MODULES - READS_FILES.get(name, set()))
+        assert io == [], f"{name} is pure computation but imports {io}"
+
+
+def test_the_check_catches_a_wrong_import(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    from trimd.app.session import Session\n    import time\n")
+    assert {"trimd.app.session", "time"} <= _imports(bad)
