@@ -1,9 +1,10 @@
 """Write a synthetic hold CSV from the restoring-force model, with sensor and thrust noise.
 
-Used by ``make demo`` until the full procedure runs on the simulated vehicle, and as a
-worked example of the CSV format. The payload is the thesis case: 10 kg at AftSB.
+A worked example of the CSV format ``trimd solve`` reads (``trimd/app/holdfile.py``).
+The payload of the example is the thesis case, 10 kg at AftSB:
 
-    python examples/make_holds.py trimd/profiles/sabertooth-dh2.yaml 10@AftSB out.csv
+    python examples/make_holds.py sabertooth-dh2 10@AftSB holds.csv
+    trimd solve holds.csv --profile sabertooth-dh2
 """
 
 from __future__ import annotations

@@ -94,9 +94,9 @@ def test_no_static_stability_gives_best_achievable(sabertooth: Profile, method: 
 @pytest.mark.parametrize("method", METHODS)
 def test_little_static_stability(sabertooth: Profile, method: str) -> None:
     """m_z = 5 N·m: the continuous methods level exactly; milp cannot within 0.25°, says
-    why, and returns within its time limit."""
+    why, and stops at its node budget."""
     est = with_net(sabertooth, *CASES["small"])
-    p = propose_ballast(est, sabertooth, method, time_limit_s=2.0)
+    p = propose_ballast(est, sabertooth, method)
     assert p.success and p.trim.stable
     assert math.isfinite(p.trim.roll_deg) and math.isfinite(p.trim.pitch_std_deg)
     strict_json(json.dumps(proposal_to_dict(p), allow_nan=False))
@@ -110,26 +110,34 @@ def test_little_static_stability(sabertooth: Profile, method: str) -> None:
         assert p.feasible and abs(p.trim.roll_deg) < 1e-4 and abs(p.trim.pitch_deg) < 1e-4
 
 
-def test_time_limit_before_any_solution(sabertooth: Profile) -> None:
-    p = propose_ballast(with_net(sabertooth, *CASES["small"]), sabertooth, "milp",
-                        time_limit_s=0.0)
+def test_node_limit_before_any_solution(sabertooth: Profile,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stage that stops at its budget with no solution at all: nothing is proposed."""
+    def no_solution_in_budget(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
+                              node_limit: int) -> OptimizeResult:
+        return OptimizeResult(status=4, x=None, fun=None,
+                              message="model_status is Node limit reached")
+
+    monkeypatch.setattr(ballast_lp, "_solve_stage", no_solution_in_budget)
+    p = propose_ballast(with_net(sabertooth, *CASES["small"]), sabertooth, "milp")
     assert not p.success and not p.feasible and p.added_mass_kg == 0.0
     assert p.message.startswith("no solution at the 'net-buoyancy window' stage: search "
                                 "limit reached before any solution; nothing proposed.")
 
 
-def test_time_limit_keeps_the_best_found(sabertooth: Profile,
+def test_node_limit_keeps_the_best_found(sabertooth: Profile,
                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """A stage cut short with no solution of its own keeps the previous stage's."""
     solve = ballast_lp._solve_stage
 
-    def ballast_stage_times_out(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
-                                time_limit_s: float, node_limit: int) -> OptimizeResult:
+    def ballast_stage_runs_out(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
+                                node_limit: int) -> OptimizeResult:
         if A.shape[0] == 20:  # 16 rows + window (2) + level held: the ballast stage
-            return OptimizeResult(status=1, x=None, fun=None, message="Time limit reached")
-        return solve(c, A, b, upper, integrality, time_limit_s, node_limit)
+            return OptimizeResult(status=4, x=None, fun=None,
+                                  message="model_status is Node limit reached")
+        return solve(c, A, b, upper, integrality, node_limit)
 
-    monkeypatch.setattr(ballast_lp, "_solve_stage", ballast_stage_times_out)
+    monkeypatch.setattr(ballast_lp, "_solve_stage", ballast_stage_runs_out)
     p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
     assert p.success
     assert "search limit reached at the 'ballast' stage: best found, not proven optimal" \
@@ -154,7 +162,7 @@ def ballast(path: str, *extra: str) -> int:
 def test_cli_degenerate_json(tmp_path: Path, sabertooth: Profile,
                              capsys: pytest.CaptureFixture[str], method: str, case: str) -> None:
     path = write(tmp_path, with_net(sabertooth, *CASES[case]))
-    assert ballast(path, "--method", method, "--json", "--time-limit", "2") == 0
+    assert ballast(path, "--method", method, "--json") == 0
     captured = capsys.readouterr()
     assert captured.err == ""
     out = strict_json(captured.out)
@@ -197,11 +205,13 @@ def test_cli_bad_covariance(tmp_path: Path, sabertooth: Profile,
     assert captured.out == "" and len(err) == 1 and message in err[0]
 
 
-def test_cli_bad_time_limit(tmp_path: Path, sabertooth: Profile,
+def test_cli_bad_node_limit(tmp_path: Path, sabertooth: Profile,
                             capsys: pytest.CaptureFixture[str]) -> None:
     path = write(tmp_path, estimate_for(sabertooth, []))
-    assert ballast(path, "--time-limit", "0") == 2
-    assert "--time-limit must be a positive number" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        ballast(path, "--node-limit", "0")
+    assert exit_.value.code == 2
+    assert "expected an integer ≥ 1, got '0'" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("method", METHODS)

@@ -141,7 +141,7 @@ def test_missing_file_and_bad_profile_without_traceback(tmp_path: Path) -> None:
     bad_profile.write_text("name: x\nmass_kgs: 3\n")
     for args in (["solve", str(tmp_path / "none.csv"), "--profile", "sabertooth-dh2"],
                  ["solve", str(tmp_path / "none.csv"), "--profile", str(bad_profile)]):
-        proc = subprocess.run([sys.executable, "-m", "trimd.cli.main", *args], cwd=REPO,
+        proc = subprocess.run([sys.executable, "-m", "trimd", *args], cwd=REPO,
                               capture_output=True, text=True, check=False)
         assert proc.returncode == 2
         assert proc.stderr.startswith("trimd: error: ") and "Traceback" not in proc.stderr

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from trimd.core.procedure import Abort, Confirm, Phase, Tick
+from trimd.core.events import Abort, Confirm, Phase, Tick
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release
 from trimd.identify.experiment import Excite

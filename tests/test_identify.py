@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from trimd.app.experiment import run_experiment
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import parse_profile
 from trimd.core.samples import Attitude, Sample

@@ -54,7 +54,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.logs.tlog import TlogReader
 
 WALL_LIMIT_S = 30.0     # hang guard for one wait, not a timed assertion
-TRIMD = [sys.executable, "-m", "trimd.cli.main"]
+TRIMD = [sys.executable, "-m", "trimd"]
 
 
 def free_udp_port() -> int:

@@ -10,7 +10,8 @@ import pytest
 
 from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeVehicle
-from trimd.core.procedure import Abort, Confirm, Notice, Phase, Procedure, Tick
+from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
+from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.samples import HoldAttitude, Release
 
@@ -167,7 +168,7 @@ def test_disarm_mid_hold_fails_and_releases(sabertooth: Profile,
     assert proc.phase in (Phase.SETTLE, Phase.COLLECT)
     thesis_vehicle.armed = False
     run(proc, thesis_vehicle, 40.0, t_start=20.0)
-    assert proc.phase is Phase.FAILED and "disarmed during a hold" in proc.reason
+    assert proc.phase is Phase.FAILED and "disarmed while trimd commanded it" in proc.reason
     assert proc.cause == "vehicle"
     assert isinstance(thesis_vehicle.commands[-1][1], Release)
 

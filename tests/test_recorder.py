@@ -11,8 +11,8 @@ import numpy as np
 from pymavlink import mavutil
 
 from tests.conftest import PROFILES
+from trimd.core.events import Notice
 from trimd.core.model import quaternion_from_euler
-from trimd.core.procedure import Notice
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,

@@ -100,7 +100,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     """The daemon is killed mid-procedure; at most a second is lost and the file replays."""
     log = tmp_path / "killed.tlog"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli.main", "run", "--link",
+    proc = subprocess.Popen([sys.executable, "-m", "trimd", "run", "--link",
                              "sim:payload=10@AftSB", "--profile", "sabertooth-dh2", "--headless",
                              "--yes", "--record", str(log)], cwd=REPO, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -112,7 +112,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     assert log.stat().st_size > 1000
-    replay = subprocess.run([sys.executable, "-m", "trimd.cli.main", "replay", str(log)], cwd=REPO,
+    replay = subprocess.run([sys.executable, "-m", "trimd", "replay", str(log)], cwd=REPO,
                             capture_output=True, text=True, timeout=300, check=False)
     assert replay.returncode == 1  # the recording ends before a result
     assert "Traceback" not in replay.stderr
@@ -121,7 +121,7 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
 
 def test_sigterm_releases_and_closes_the_log(tmp_path: Path) -> None:
     log = tmp_path / "term.tlog"
-    proc = subprocess.Popen([sys.executable, "-m", "trimd.cli.main", "run", "--link",
+    proc = subprocess.Popen([sys.executable, "-m", "trimd", "run", "--link",
                              "sim:payload=10@AftSB", "--profile", "sabertooth-dh2", "--headless",
                              "--yes", "--record", str(log)], cwd=REPO,
                             env=dict(os.environ, PYTHONUNBUFFERED="1"),

@@ -25,7 +25,7 @@ from trimd.app.session import Session, SessionResult
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.cli.main import main
 from trimd.core.estimate import StaticEstimate
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.config import SimConfig
@@ -130,7 +130,7 @@ def _headless_at_a_terminal(tmp_path: Path) -> tuple[Any, int]:
     asks for confirmation), started up to its prompt; returns the process and the pty."""
     master, slave = pty.openpty()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "trimd.cli.main", "run", "--link", "sim:payload=10@AftSB",
+        [sys.executable, "-m", "trimd", "run", "--link", "sim:payload=10@AftSB",
          "--profile", "sabertooth-dh2", "--headless", "--record", str(tmp_path / "s.tlog")],
         stdin=slave, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
         env={**os.environ, "PYTHONPATH": str(REPO)})

@@ -361,7 +361,7 @@ def test_trimd_run_over_serial_against_trimd_sim(
         sabertooth: Profile, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str], payload: str) -> None:
     sim = subprocess.Popen(
-        [sys.executable, "-m", "trimd.cli.main", "sim", "--profile", "sabertooth-dh2",
+        [sys.executable, "-m", "trimd", "sim", "--profile", "sabertooth-dh2",
          "--payload", payload, "--serve", "serial:pty", "--rate", "20",
          "--options", "armed=1,mode=ALT_HOLD"], stdout=subprocess.PIPE, text=True,
         cwd=Path(__file__).resolve().parent.parent)

@@ -14,7 +14,7 @@ from tests.conftest import payload_truth
 from tests.fake_vehicle import FakeLink, FakeVehicle
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.session import Session
-from trimd.core.procedure import Notice, Output, Phase, Progress
+from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, HoldAttitude, Release, Sample
 

@@ -32,7 +32,7 @@ from tests.tui_helpers import (
 from trimd.app.headless import STOP_SIGNALS, stop_on_signals
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.samples import Health, HoldAttitude, Release, Sample, VehicleText
 from trimd.tui.event_log import EventLog
@@ -294,18 +294,18 @@ async def test_a_hang_up_exits_once_the_vehicle_is_released(
         sabertooth: Profile, monkeypatch: pytest.MonkeyPatch) -> None:
     """SIGHUP (an SSH drop) in the TUI: the session ends (release, log closed), then the
     process leaves without restoring a terminal that is gone (os._exit(1))."""
-    from trimd import cmd_run
+    from trimd.tui import run as tui_run
 
     exits: list[tuple[int, bool]] = []
     profile = never_times_out(sabertooth)
     link = FakeLink(thesis_vehicle(profile, stuck_at_deg=5.0))
     app = app_for(profile, link, confirmed=True)
-    monkeypatch.setattr(cmd_run.os, "_exit",
+    monkeypatch.setattr(tui_run.os, "_exit",
                         lambda code: exits.append((code, isinstance(link.sent[-1], Release))))
     leaving: set[asyncio.Future[None]] = set()
     async with app.run_test(size=(80, 24)) as pilot:
         await until(pilot, lambda: _phase(app) is Phase.SETTLE and len(link.sent) == 2)
-        cmd_run._hang_up(app, leaving)
+        tui_run._hang_up(app, leaving)
         await until(pilot, lambda: bool(exits))
     assert exits == [(1, True)]  # exit code 1, and only after the release was sent
     assert link.closed and app.result is not None

@@ -33,7 +33,7 @@ class Terminal:
         if pid == 0:  # the child: the pty is its controlling terminal
             os.chdir(REPO)
             os.environ.update(TERM="xterm-256color", COLUMNS="80", LINES="24")
-            os.execv(sys.executable, [sys.executable, "-m", "trimd.cli.main", *args])
+            os.execv(sys.executable, [sys.executable, "-m", "trimd", *args])
         self.pid = pid
         self.output = bytearray()
         self._reader = threading.Thread(target=self._read, daemon=True)

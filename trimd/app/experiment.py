@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import asyncio
 import signal
-from typing import Any
 
-from trimd.app.session import Session, SessionResult
-from trimd.core.procedure import Notice, Output, Progress
+from trimd.app.session import Recorder, Session, SessionResult
+from trimd.core.events import Notice, Output, Progress
+from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.samples import Sample
 from trimd.identify.experiment import Excite
@@ -31,8 +31,9 @@ class SampleCollector:
         self.samples.append(sample)
 
 
-async def run_experiment(link: Any, profile: Profile, excite: Excite, *,
-                         recorder: Any = None, quiet: bool = True, signals: bool = False
+async def run_experiment(link: Link, profile: Profile, excite: Excite, *,
+                         recorder: Recorder | None = None, quiet: bool = True,
+                         signals: bool = False
                          ) -> tuple[SessionResult, list[Sample]]:
     """Run ``excite`` over ``link`` in a :class:`Session`; the result and every sample.
     With ``signals``, SIGINT and SIGTERM abort the session (it releases the vehicle)."""

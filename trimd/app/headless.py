@@ -17,7 +17,7 @@ from trimd.app.session import Session
 from trimd.ballast.propose import Proposal, proposal_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
-from trimd.core.procedure import Notice, Output, Phase, Progress
+from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.samples import Health, Sample, VehicleText
 
 __all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "stop_on_signals"]
@@ -45,11 +45,10 @@ class HeadlessPresenter:
     def output(self, out: Output, progress: Progress) -> None:
         t = out.t_s if isinstance(out, Notice) else progress.t_s
         if isinstance(out, Notice):
-            if out.kind == "result":
-                estimate, proposal = out.data
-                self._result(estimate, proposal)
+            if out.result is not None:
+                self._result(out.result.estimate, out.result.proposal)
                 return
-            phase = out.data.value if isinstance(out.data, Phase) else None
+            phase = out.phase.value if out.phase is not None else None
             self._emit(f"[{t:8.1f} s] {out.kind + ': ' if out.kind != 'state' else ''}"
                        f"{out.text}", {"type": out.kind, "t_s": t, "phase": phase,
                                        "text": out.text})
@@ -80,14 +79,14 @@ class HeadlessPresenter:
                           "settled_fraction": p.settled_fraction, "samples": p.samples,
                           "time_left_s": p.time_left_s})
 
-    def _result(self, estimate: StaticEstimate, proposal: Proposal | None) -> None:
+    def _result(self, estimate: StaticEstimate, proposal: object | None) -> None:
         if self.json_lines:
             self._emit("", {"type": "result", "estimate": estimate_to_dict(estimate),
-                            "proposal": None if proposal is None
-                            else proposal_to_dict(proposal)})
+                            "proposal": proposal_to_dict(proposal)
+                            if isinstance(proposal, Proposal) else None})
             return
         text = format_estimate(estimate)
-        if proposal is not None:
+        if isinstance(proposal, Proposal):
             text += "\n\n" + format_proposal(proposal)
         self._emit(text, {})
 
@@ -103,7 +102,7 @@ class StdinConfirm:
         self.session = session
 
     def output(self, out: Output, progress: Progress) -> None:
-        if isinstance(out, Notice) and out.data is Phase.CONFIRM:
+        if isinstance(out, Notice) and out.phase is Phase.CONFIRM:
             asyncio.get_running_loop().create_task(self._ask())
 
     def sample(self, sample: Sample, progress: Progress) -> None:

@@ -70,7 +70,8 @@ def format_result(result: SessionResult) -> str | None:
     if result.estimate is None:
         return None
     text = format_estimate(result.estimate)
-    return text + "\n\n" + format_proposal(result.proposal) if result.proposal else text
+    proposal = result.proposal
+    return text + "\n\n" + format_proposal(proposal) if isinstance(proposal, Proposal) else text
 
 
 def describe_command(command: Command) -> str:

@@ -25,25 +25,27 @@ import logging
 import time
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
 from trimd.core.errors import LinkError
 from trimd.core.estimate import StaticEstimate
-from trimd.core.procedure import (
+from trimd.core.events import (
     Abort,
+    Cause,
     Confirm,
     Event,
     Notice,
     Output,
     Phase,
-    Procedure,
     Progress,
     Tick,
 )
+from trimd.core.link import Link, RawPackets
+from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Health, Release, Sample
 
-__all__ = ["Presenter", "Recorder", "Session", "SessionResult"]
+__all__ = ["Machine", "Presenter", "Recorder", "Session", "SessionResult"]
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +85,27 @@ class Presenter(Protocol):
     def sample(self, sample: Sample, progress: Progress) -> None: ...
 
 
+class Machine(Protocol):
+    """A state machine a session runs: the trim :class:`Procedure`, or an excitation
+    experiment (:class:`trimd.identify.experiment.Excite`)."""
+
+    profile: Profile
+    phase: Phase
+    reason: str
+    cause: Cause
+
+    @property
+    def estimate(self) -> StaticEstimate | None: ...
+
+    @property
+    def proposal(self) -> object | None: ...
+
+    @property
+    def progress(self) -> Progress: ...
+
+    def step(self, event: Event) -> list[Output]: ...
+
+
 @dataclass(frozen=True)
 class SessionResult:
     """How the session ended (``cause`` as :attr:`Procedure.cause`), its estimate and
@@ -90,19 +113,19 @@ class SessionResult:
 
     phase: Phase
     reason: str
-    cause: str
+    cause: Cause
     estimate: StaticEstimate | None
-    proposal: Any
+    proposal: object | None
     log_path: str | None
 
 
 class Session:
     """Run the trim procedure over ``link`` until it is done, fails or is aborted."""
 
-    def __init__(self, link: Any, profile: Profile, *, recorder: Recorder | None,
+    def __init__(self, link: Link, profile: Profile, *, recorder: Recorder | None,
                  presenters: list[Presenter], confirmed: bool = False,
-                 propose: Callable[[StaticEstimate], Any] | None = None,
-                 procedure: Any = None, wall_clock: bool = True) -> None:
+                 propose: Callable[[StaticEstimate], object] | None = None,
+                 procedure: Machine | None = None, wall_clock: bool = True) -> None:
         """``procedure`` defaults to the trim :class:`Procedure`; any object with the same
         ``step``/``progress``/``phase``/``reason``/``cause``/``estimate``/``proposal``
         (e.g. an excitation experiment) runs the same way.
@@ -115,7 +138,8 @@ class Session:
         self.wall_clock = wall_clock
         self.recorder = recorder
         self.presenters = presenters
-        self.procedure = procedure or Procedure(profile, confirmed=confirmed, propose=propose)
+        self.procedure: Machine = procedure or Procedure(profile, confirmed=confirmed,
+                                                         propose=propose)
         self._operator: asyncio.Queue[Event] = asyncio.Queue()
         self._t0: float | None = None
         self._t_last = 0.0
@@ -124,8 +148,8 @@ class Session:
         self._deliveries: set[asyncio.Future[None]] = set()
         # a MAVLink link hands over every packet as received: record those, not re-encoded
         # samples (the packets decode to the very samples the link yields)
-        self._raw = recorder is not None and hasattr(link, "on_raw")
-        if self._raw:
+        self._raw = recorder is not None and isinstance(link, RawPackets)
+        if isinstance(link, RawPackets) and recorder is not None:
             link.on_raw = self._on_raw
 
     def confirm(self) -> None:

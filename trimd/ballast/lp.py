@@ -38,7 +38,6 @@ solution found is used and the result says so.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -58,12 +57,11 @@ FloatArray = NDArray[np.float64]
 _N_SLACK = 6
 #: Relative optimality gap of every integer solve.
 _MIP_GAP = 1e-6
-#: Share of the time limit the first (exactly-as-asked) solve may use.
-_STRICT_SHARE = 0.2
-#: Branch-and-bound nodes of the exactly-as-asked solve, and of each later stage (HiGHS
-#: explores ~2000 nodes/s here; an ordinary proposal needs a handful).
-_STRICT_NODES = 2_000
-_STAGE_NODES = 20_000
+#: Branch-and-bound nodes of the exactly-as-asked solve, and (by default) of each later
+#: stage. Node budgets, not time limits: the proposal is the same on any machine, however
+#: loaded (HiGHS explores ~2000 nodes/s here; an ordinary proposal needs a handful).
+STRICT_NODES = 2_000
+STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
 
@@ -258,34 +256,33 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
 
 
 def _solve_stage(c: FloatArray, A: FloatArray, b: FloatArray, upper: FloatArray,
-                 integrality: NDArray[np.int_] | None, time_limit_s: float,
-                 node_limit: int = _STAGE_NODES) -> OptimizeResult:
-    options = {"time_limit": max(time_limit_s, 0.0)}
+                 integrality: NDArray[np.int_] | None, node_limit: int) -> OptimizeResult:
     if integrality is None:
         return linprog(c, A_ub=A, b_ub=b, bounds=np.column_stack([np.zeros_like(upper), upper]),
-                       method="highs", options=options)
+                       method="highs")
     return milp(c, constraints=LinearConstraint(A, -np.inf, b), integrality=integrality,
                 bounds=Bounds(0.0, upper),
-                options={**options, "mip_rel_gap": _MIP_GAP, "node_limit": node_limit})
+                options={"mip_rel_gap": _MIP_GAP, "node_limit": node_limit})
 
 
 def _cut_short(res: OptimizeResult) -> bool:
-    """Did the solver stop at its time limit (status 1) or node budget? (scipy reports
+    """Did the solver stop at a limit (status 1) or its node budget? (scipy reports
     HiGHS's node limit as status 4 with the model status in the message.)"""
     return bool(res.status == 1 or (res.status == 4 and "limit reached" in res.message))
 
 
 def _solve_stages(prog: Programme, upper: FloatArray,
                   objectives: Sequence[tuple[str, FloatArray]], integer: NDArray[np.int_] | None,
-                  deadline: float, node_limit: int = _STAGE_NODES) -> Solution:
+                  node_limit: int) -> Solution:
     """Solve ``objectives`` in order, holding each optimum (to 1e-7 + 1e-6 relative),
-    until ``deadline`` (time.monotonic() [s]). A stage cut short keeps its best solution,
-    or when it found none, the previous stage's (which meets every row held so far)."""
+    each within ``node_limit`` branch-and-bound nodes. A stage cut short keeps its best
+    solution, or when it found none, the previous stage's (which meets every row held so
+    far)."""
     A, b = prog.A, prog.b
     x: FloatArray | None = None
     cut = []
     for name, c in objectives:
-        res = _solve_stage(c, A, b, upper, integer, deadline - time.monotonic(), node_limit)
+        res = _solve_stage(c, A, b, upper, integer, node_limit)
         if _cut_short(res):
             cut.append(name)
         if res.x is not None:
@@ -306,27 +303,27 @@ def _solve_stages(prog: Programme, upper: FloatArray,
 
 
 def solve_programme(prog: Programme, *, relax: bool = False,
-                    time_limit_s: float = math.inf) -> Solution:
+                    node_limit: int = STAGE_NODES) -> Solution:
     """Item amounts that meet the requirement at least ballast, or the best achievable.
 
-    First with the slacks held at zero (one solve when the requirement can be met; at
-    most a fifth of ``time_limit_s`` [s], skipped when ``prog.levelable`` is False), else
-    lexicographically: window slack, level slack, ballast, in the time left. ``relax``
-    drops integrality (the LP relaxation, solved by linprog).
+    First with the slacks held at zero (one solve when the requirement can be met, within
+    :data:`STRICT_NODES` nodes at most; skipped when ``prog.levelable`` is False), else
+    lexicographically: window slack, level slack, ballast, each within ``node_limit``
+    branch-and-bound nodes. ``relax`` drops integrality (the LP relaxation, solved by
+    linprog). Deterministic: no time limit, so the answer does not depend on the machine.
     """
     integer = None if relax or not np.any(prog.integrality) else prog.integrality
     n = len(prog.items)
-    start = time.monotonic()
     note = ""
+    strict_nodes = min(STRICT_NODES, node_limit)
     if prog.levelable:
         strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK)]
-        exact = _solve_stages(prog, strict, prog.objectives[-1:], integer,
-                              start + _STRICT_SHARE * time_limit_s, _STRICT_NODES)
+        exact = _solve_stages(prog, strict, prog.objectives[-1:], integer, strict_nodes)
         if exact.success:
             return exact
         if exact.note:
-            note = (f"no level proposal found within the exact search's limit ({_STRICT_NODES}"
-                    f" nodes or {_STRICT_SHARE * time_limit_s:g} s)")
-    lex = _solve_stages(prog, prog.upper, prog.objectives, integer, start + time_limit_s)
+            note = (f"no level proposal found within the exact search's limit ({strict_nodes}"
+                    " nodes)")
+    lex = _solve_stages(prog, prog.upper, prog.objectives, integer, node_limit)
     return Solution(lex.success, lex.message, lex.amounts,
                     "; ".join(n for n in (note, lex.note) if n))

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from trimd.ballast.check import SlotLoad, Trim, check_trim
 from trimd.ballast.line import line_split
 from trimd.ballast.lp import (
+    STAGE_NODES,
     Item,
     build_programme,
     ideal_items,
@@ -46,7 +47,6 @@ from trimd.core.profile import Profile
 
 __all__ = [
     "METHODS",
-    "TIME_LIMIT_S",
     "Proposal",
     "SlotLoad",
     "Trim",
@@ -58,9 +58,6 @@ FloatArray = NDArray[np.float64]
 METHODS = ("lp", "line", "general", "milp")
 #: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
 _EXACT_RAD = 1e-6
-#: Default time limit of the solver [s]: a backstop behind its deterministic node budget,
-#: so that a replay reproduces the live proposal however loaded the machine is.
-TIME_LIMIT_S = 60.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -268,7 +265,7 @@ def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list
 
 
 def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "milp", *,
-                    level_tol_deg: float = 0.25, time_limit_s: float = TIME_LIMIT_S
+                    level_tol_deg: float = 0.25, node_limit: int = STAGE_NODES
                     ) -> Proposal:
     """Propose ballast for ``estimate`` on ``profile`` by ``method`` (see :data:`METHODS`).
 
@@ -279,8 +276,9 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     method : ``lp``, ``line``, ``general`` or ``milp``.
     level_tol_deg : for ``milp``, the largest passive roll or pitch accepted [deg]; the
         continuous methods level exactly.
-    time_limit_s : the solver's time limit [s]; when reached, the best solution found is
-        proposed and the message says so (nothing is proposed if none was found).
+    node_limit : the integer solver's branch-and-bound budget per stage; when reached, the
+        best solution found is proposed and the message says so (nothing is proposed if
+        none was found). A node budget, not a time limit: the same proposal on any machine.
 
     Returns
     -------
@@ -301,7 +299,7 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
         amounts, note = _line_amounts(estimate, profile, items)
     if amounts is None:
         prog = build_programme(estimate, profile, items, level_tol_deg=tol, window_pct=window)
-        sol = solve_programme(prog, time_limit_s=time_limit_s)
+        sol = solve_programme(prog, node_limit=node_limit)
         if not sol.success:
             return _assess(method, estimate, profile, items, sol.amounts, tol, window,
                            f"{sol.message}; nothing proposed. ", success=False)

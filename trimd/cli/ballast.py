@@ -8,8 +8,9 @@ from typing import Any
 
 from trimd.app.files import read_estimate
 from trimd.app.report import format_proposal
-from trimd.ballast.propose import METHODS, TIME_LIMIT_S, proposal_to_dict, propose_ballast
-from trimd.core.errors import DataError
+from trimd.ballast.lp import STAGE_NODES
+from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
+from trimd.cli.argtypes import integer
 from trimd.core.profile_yaml import load_profile
 
 __all__ = ["register", "run"]
@@ -26,19 +27,18 @@ def register(sub: Any) -> None:
                    "--json, trimd run's report JSON, or trimd run --json lines")
     p.add_argument("--method", choices=METHODS, default="milp",
                    help="lp, line, general or milp (default: milp, the real pieces)")
-    p.add_argument("--time-limit", type=float, default=TIME_LIMIT_S, metavar="S",
-                   help=f"solver time limit [s]; when reached, the best proposal found is "
-                   f"printed and says so (default {TIME_LIMIT_S:g})")
+    p.add_argument("--node-limit", type=integer(1), default=STAGE_NODES, metavar="N",
+                   help="branch-and-bound nodes per solver stage (milp); when reached, the "
+                   "best proposal found is printed and says so; a node budget, not a time "
+                   f"limit, so the proposal is the same on any machine (default {STAGE_NODES})")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    if not args.time_limit > 0:
-        raise DataError(f"--time-limit must be a positive number of seconds, got {args.time_limit}")
     proposal = propose_ballast(read_estimate(args.estimate), profile, args.method,
-                               time_limit_s=args.time_limit)
+                               node_limit=args.node_limit)
     print(json.dumps(proposal_to_dict(proposal), allow_nan=False) if args.json
           else format_proposal(proposal))
     return 0

@@ -23,7 +23,7 @@ from trimd.app.files import read_statics
 from trimd.app.session import SessionResult
 from trimd.cli.argtypes import bounded, integer
 from trimd.core.errors import DataError
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.identify.data import Experiment, experiments_from_samples
@@ -166,7 +166,7 @@ def run_identify(args: argparse.Namespace) -> int:
 def _write(out: Path, fit: StageFit, fragment: str, shown: Sequence[Validation],
            validations: Sequence[Validation]) -> None:
     """fragment.yaml, summary.json and a PNG per series of ``shown`` in ``out``."""
-    from trimd.identify.plots import write_plots
+    from trimd.app.plots import write_plots
 
     out.mkdir(parents=True, exist_ok=True)
     (out / "fragment.yaml").write_text(fragment, encoding="utf-8")

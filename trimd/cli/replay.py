@@ -32,7 +32,8 @@ from trimd.cli.run import wants_tui
 from trimd.core.effort import tau_at
 from trimd.core.errors import DataError, EstimationError
 from trimd.core.estimate import StaticEstimate, estimate_static
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
+from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.core.samples import Attitude, Battery, Sample, Thrusters
@@ -79,7 +80,7 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
     return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
 
 
-def _session(link: Any, profile: Profile, *, presenters: list[Presenter],
+def _session(link: Link, profile: Profile, *, presenters: list[Presenter],
              method: str) -> Session:
     """The replay's session over ``link``: confirmed, proposing by ``method``."""
 

@@ -23,7 +23,8 @@ from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import integer
 from trimd.core.errors import ProfileError
 from trimd.core.estimate import StaticEstimate
-from trimd.core.procedure import Phase
+from trimd.core.events import Phase
+from trimd.core.link import Link, Truthful
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -73,7 +74,7 @@ def _exit_code(result: SessionResult) -> int:
     return 3 if result.cause == "link" else 1
 
 
-def _make_session(args: argparse.Namespace, profile: Profile, link: Any,
+def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
                   presenters: list[Presenter]) -> Session:
     recorder = None
     if not args.no_record:
@@ -87,8 +88,8 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Any,
                    confirmed=args.yes, propose=propose)
 
 
-def _truth(link: Any, wanted: bool) -> str | None:
-    return str(link.truth()) if wanted and hasattr(link, "truth") else None
+def _truth(link: Link, wanted: bool) -> str | None:
+    return str(link.truth()) if wanted and isinstance(link, Truthful) else None
 
 
 async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool

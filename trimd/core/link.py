@@ -7,12 +7,12 @@ NED, and accepts typed commands. Drivers (``trimd.drivers``) and the log replay
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from typing import Protocol, runtime_checkable
 
 from trimd.core.samples import Command, Sample
 
-__all__ = ["Link"]
+__all__ = ["Link", "RawPackets", "Truthful"]
 
 
 @runtime_checkable
@@ -31,4 +31,21 @@ class Link(Protocol):
 
     async def close(self) -> None:
         """Release control and close the transport (idempotent)."""
+        ...
+
+
+@runtime_checkable
+class RawPackets(Protocol):
+    """A link that hands over every packet exactly as received (MAVLink), so a recorder
+    can keep the packets rather than re-encoded samples."""
+
+    on_raw: Callable[[float, bytes], None] | None
+
+
+@runtime_checkable
+class Truthful(Protocol):
+    """A link that knows the truth it simulates (the simulated vehicle), for the demo."""
+
+    def truth(self) -> object:
+        """What the vehicle really carries, printable."""
         ...

@@ -15,20 +15,30 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import Enum
-from typing import Any
 
 import numpy as np
 
 from trimd.core.effort import MAX_THRUSTER_AGE_S
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.events import (
+    Abort,
+    Cause,
+    Confirm,
+    Event,
+    Notice,
+    Output,
+    Phase,
+    Progress,
+    Tick,
+    TrimResult,
+)
+from trimd.core.guards import Guard
 from trimd.core.model import restoring_matrix, tau_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
     Battery,
-    Command,
     Depth,
     Health,
     HoldAttitude,
@@ -36,91 +46,19 @@ from trimd.core.samples import (
     Sample,
     Thrusters,
 )
-from trimd.core.steady import RatioTest, window_drift
+from trimd.core.settling import HoldSettling
 
-__all__ = ["Abort", "Confirm", "Notice", "Phase", "Procedure", "Progress", "Tick"]
+__all__ = ["Procedure"]
 
-#: Thruster outputs older than this [s] are not held onto an attitude sample.
-#: An attitude beyond the profile's tilt limit by this much [deg] aborts the procedure.
-ENVELOPE_MARGIN_DEG = 5.0
 #: Telemetry the precheck needs, in samples per second of sample time.
 MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
 PRECHECK_WINDOW_S = 5.0
 CONFIDENCE_CHECK_EVERY_S = 2.0
-#: A failed steadiness test unsettles a hold only when it persists this long [s].
-UNSTEADY_GRACE_S = 1.0
-#: Trailing window [s] of the thruster-effort drift test.
-EFFORT_WINDOW_S = 5.0
 #: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
 BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
 #: Before the holds, depth may wander by this share of max_depth_excursion_m over the
 #: precheck window.
 DEPTH_STABLE_SHARE = 0.5
-
-
-class Phase(Enum):
-    CONNECT = "connect"
-    PRECHECK = "precheck"
-    CONFIRM = "confirm"
-    SETTLE = "settle"
-    COLLECT = "collect"
-    DONE = "done"
-    FAILED = "failed"
-    ABORTED = "aborted"
-
-    @property
-    def final(self) -> bool:
-        return self in (Phase.DONE, Phase.FAILED, Phase.ABORTED)
-
-
-@dataclass(frozen=True, slots=True)
-class Tick:
-    """The shell's clock [s] on the samples' time base: lets timeouts fire without data."""
-
-    t_s: float
-
-
-@dataclass(frozen=True, slots=True)
-class Confirm:
-    """The operator allows trimd to command the vehicle."""
-
-
-@dataclass(frozen=True, slots=True)
-class Abort:
-    """The operator (or the shell, on a signal) stops the procedure."""
-
-    reason: str = "aborted by the operator"
-
-
-Event = Sample | Tick | Confirm | Abort
-
-
-@dataclass(frozen=True, slots=True)
-class Notice:
-    """Something for the presenters: ``kind`` is state, info, warning or result."""
-
-    t_s: float
-    kind: str
-    text: str
-    data: Any = None
-
-
-@dataclass(frozen=True, slots=True)
-class Progress:
-    """Where the procedure is, for a progress bar or a status line."""
-
-    t_s: float
-    phase: Phase
-    hold: int
-    holds: int
-    setpoint_deg: tuple[float, float] | None
-    settled_fraction: float
-    samples: int
-    time_left_s: float
-    message: str
-
-
-Output = Command | Notice
 
 
 @dataclass
@@ -147,22 +85,25 @@ class Procedure:
     profile : holds, limits and timeouts (sample time) and the thruster model.
     confirmed : True when the operator confirmed up front (``--yes``).
     propose : called with the final estimate; its result rides on the result notice.
+
+    The safety rules (:class:`trimd.core.guards.Guard`) are checked on every sample and
+    Tick; whatever ends the procedure after the first command sends a Release.
     """
 
     def __init__(self, profile: Profile, *, confirmed: bool = False,
-                 propose: Callable[[StaticEstimate], Any] | None = None) -> None:
+                 propose: Callable[[StaticEstimate], object] | None = None) -> None:
         self.profile = profile
         self.proc = profile.procedure
         self.propose = propose
         self.phase = Phase.CONNECT
         self.reason = ""
-        self.cause = ""
+        self.cause = Cause.NONE
         self.estimate: StaticEstimate | None = None
-        self.proposal: Any = None
+        self.proposal: object | None = None
+        self.guard = Guard(profile.procedure)
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
-        self._t_last_sample = math.nan
         self._health: Health | None = None
         self._pwm: Thrusters | None = None
         self._voltage = profile.nominal_voltage_V
@@ -171,13 +112,8 @@ class Procedure:
         self._arrivals: dict[str, list[float]] = {k: [] for k in MIN_RATES_HZ}
         self._depths: deque[tuple[float, float]] = deque()
         self._holds: list[_Hold] = []
-        self._depth_ref = math.nan
         self._psi = 0.0
-        self._ratio_att = RatioTest()
-        self._ratio_tau = RatioTest()
-        self._tau_window: deque[tuple[float, np.ndarray]] = deque()
-        self._tau_settled = False
-        self._steady_since = self._unsteady_since = math.nan
+        self._settling: HoldSettling | None = None
         self._next_check = math.nan
 
     # ---------------------------------------------------------------- public interface
@@ -189,15 +125,16 @@ class Procedure:
             return self._step(event)
         except Exception as exc:  # any internal error must still release the vehicle
             return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
-                                cause="internal")
+                                cause=Cause.INTERNAL)
 
     @property
     def progress(self) -> Progress:
         k = len(self._holds) - 1
         hold = self._holds[-1] if self._holds else None
         settled = 0.0
-        if self.phase is Phase.SETTLE and not math.isnan(self._steady_since):
-            settled = min(1.0, (self._t - self._steady_since) / self.proc.min_steady_s)
+        since = self._settling.steady_since if self._settling else math.nan
+        if self.phase is Phase.SETTLE and not math.isnan(since):
+            settled = min(1.0, (self._t - since) / self.proc.min_steady_s)
         elif self.phase in (Phase.COLLECT, Phase.DONE):
             settled = 1.0
         return Progress(
@@ -209,14 +146,13 @@ class Procedure:
     # ---------------------------------------------------------------- event handling
     def _step(self, event: Event) -> list[Output]:
         if isinstance(event, Abort):
-            return self._finish(Phase.ABORTED, event.reason, cause="operator")
+            return self._finish(Phase.ABORTED, event.reason, cause=Cause.OPERATOR)
         if isinstance(event, Confirm):
             return self._on_confirm()
         if math.isnan(self._t):
             self._t_phase = event.t_s
         self._t = max(event.t_s, self._t) if not math.isnan(self._t) else event.t_s
         if not isinstance(event, Tick):
-            self._t_last_sample = self._t
             out = self._on_sample(event)
             if self.phase.final:
                 return out
@@ -227,35 +163,27 @@ class Procedure:
     def _on_sample(self, s: Sample) -> list[Output]:
         for times in self._arrivals.values():
             del times[: max(0, len(times) - 200)]
+        stop = self.guard.sample(s)
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
         if isinstance(s, Health):
             self._health = s
-            if not s.connected:
-                return self._finish(Phase.FAILED, f"link lost: {s.detail or 'vehicle gone'}",
-                                    cause="link")
-            if (not s.armed and self.phase in (Phase.SETTLE, Phase.COLLECT)):
-                return self._finish(Phase.FAILED, "the vehicle disarmed during a hold",
-                                    cause="vehicle")
         elif isinstance(s, Battery):
             if math.isfinite(s.voltage_V) and s.voltage_V > 0:
                 self._voltage = s.voltage_V
         elif isinstance(s, Thrusters):
             self._pwm = s
             self._arrivals["thrusters"].append(s.t_s)
-            if self.phase in (Phase.SETTLE, Phase.COLLECT):
+            if self._settling is not None:
                 tau = self._tau(s.t_s)
                 if tau is not None:
-                    self._tau_settled = self._effort_settled(s.t_s, tau)
+                    self._settling.effort(s.t_s, tau)
         elif isinstance(s, Depth):
             self._depth = s
             self._arrivals["depth"].append(s.t_s)
             self._depths.append((s.t_s, s.depth_m))
             while self._depths[0][0] < s.t_s - PRECHECK_WINDOW_S:
                 self._depths.popleft()
-            if (self.phase in (Phase.SETTLE, Phase.COLLECT)
-                    and abs(s.depth_m - self._depth_ref) > self.proc.max_depth_excursion_m):
-                return self._finish(Phase.FAILED, (
-                    f"depth excursion: {s.depth_m - self._depth_ref:+.2f} m from the hold's "
-                    f"start depth (limit ±{self.proc.max_depth_excursion_m} m)"), cause="envelope")
         elif isinstance(s, Attitude):
             self._attitude = s
             self._arrivals["attitude"].append(s.t_s)
@@ -265,20 +193,15 @@ class Procedure:
     def _on_attitude(self, a: Attitude) -> list[Output]:
         if self.phase in (Phase.CONNECT, Phase.PRECHECK):
             return self._precheck()
-        if self.phase not in (Phase.SETTLE, Phase.COLLECT):
+        if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
             return []
-        limit = self.proc.max_tilt_deg + ENVELOPE_MARGIN_DEG
-        if max(abs(math.degrees(a.phi)), abs(math.degrees(a.theta))) > limit:
-            return self._finish(Phase.FAILED, (
-                f"attitude out of envelope: roll {math.degrees(a.phi):.1f}°, pitch "
-                f"{math.degrees(a.theta):.1f}° (limit {limit:.0f}°)"), cause="envelope")
         if self.phase is Phase.COLLECT and self._time_left() < 0:
             return self._end_hold(self._confident())
         tau = self._tau(a.t_s)
-        if not self._update_steady(a, tau) or tau is None:
+        if not self._settling.attitude(a, tau is not None) or tau is None:
             return []
         if self.phase is Phase.SETTLE:
-            if a.t_s - self._steady_since >= self.proc.min_steady_s:
+            if a.t_s - self._settling.steady_since >= self.proc.min_steady_s:
                 return self._enter(Phase.COLLECT, f"hold {len(self._holds)} steady: collecting")
             return []
         hold = self._holds[-1]
@@ -342,7 +265,6 @@ class Procedure:
         return self._start_holds()
 
     def _start_holds(self) -> list[Output]:
-        self._depth_ref = self._depth.depth_m if self._depth else math.nan
         return self._next_hold()
 
     def _next_hold(self) -> list[Output]:
@@ -350,14 +272,12 @@ class Procedure:
         sp = self.profile.holds[k]
         phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
         self._holds.append(_Hold(phi, theta))
-        self._ratio_att = RatioTest()
-        self._ratio_tau = RatioTest()
-        self._tau_window = deque()
-        self._tau_settled = False
-        self._steady_since = self._unsteady_since = math.nan
+        floor = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
+                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
+        self._settling = HoldSettling(self.proc, phi, theta, floor)
         self._next_check = math.nan
-        if self._depth is not None:
-            self._depth_ref = self._depth.depth_m
+        self.guard.start(self._t, self._depth.depth_m if self._depth else math.nan,
+                         "the hold's start depth")
         out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
         return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.profile.holds)}: roll "
                                  f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
@@ -380,7 +300,7 @@ class Procedure:
         if len(hold.t) < 2:
             return self._finish(Phase.FAILED, f"hold {len(self._holds)}: no steady sample "
                                               f"in {self.proc.collect_max_s:g} s of collecting",
-                                cause="timeout")
+                                cause=Cause.TIMEOUT)
         out: list[Output] = []
         if not confident:
             out.append(Notice(self._t, "warning", f"hold {len(self._holds)}: target "
@@ -419,10 +339,11 @@ class Procedure:
         try:
             self.estimate = estimate_static(self._hold_samples(), self.profile)
         except EstimationError as exc:
-            return self._finish(Phase.FAILED, f"cannot solve: {exc}", cause="estimation")
+            return self._finish(Phase.FAILED, f"cannot solve: {exc}", cause=Cause.ESTIMATION)
         self.proposal = self.propose(self.estimate) if self.propose else None
         out = self._finish(Phase.DONE, "trim estimate ready")
-        out.append(Notice(self._t, "result", "estimate", (self.estimate, self.proposal)))
+        out.append(Notice(self._t, "result", "estimate",
+                          result=TrimResult(self.estimate, self.proposal)))
         return out
 
     # ---------------------------------------------------------------- helpers
@@ -440,73 +361,12 @@ class Procedure:
         tau: np.ndarray = tau_from_pwm(self.profile, p.pwm_us, self._voltage)
         return tau
 
-    def _effort_settled(self, t_s: float, tau: np.ndarray) -> bool:
-        """Thruster effort has settled when, per row of τ, the Cao–Rhinehart ratio is
-        below 2.5 *or* the effort does not drift by more than the practical floor over
-        the trailing window: a row stuck in the thrusters' deadband and popping out now
-        and then (the T200's limit cycle) fails the ratio test but is steady in the mean.
-        The floor is what would move the estimate by its target standard deviation."""
-        R = self._ratio_tau.update(tau)
-        window = self._tau_window
-        window.append((t_s, tau))
-        while window and window[0][0] < t_s - EFFORT_WINDOW_S:
-            window.popleft()
-        if self._ratio_tau.count <= 30 or t_s - window[0][0] < 0.9 * EFFORT_WINDOW_S:
-            return False
-        floor = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
-                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
-        t = np.array([w[0] for w in window])
-        drift = window_drift(t, np.array([w[1] for w in window]), EFFORT_WINDOW_S)[-1]
-        return bool(np.all((R < 2.5) | (drift <= floor)))
-
-    def _update_steady(self, a: Attitude, tau: np.ndarray | None) -> bool:
-        """Is the hold settled at this sample? The statistical tests have false alarms
-        (a few % of samples each), so a failure unsettles the hold only when it lasts
-        longer than ``UNSTEADY_GRACE_S``; leaving the attitude tolerance, or stale thruster
-        data, unsettles at once. Every sample of a settled stretch is collected, so the
-        mean effort is not biased by dropping its excursions."""
-        hold = self._holds[-1]
-        tol = math.radians(self.proc.attitude_tol_deg)
-        in_tolerance = abs(a.phi - hold.phi) <= tol and abs(a.theta - hold.theta) <= tol
-        if tau is None or not in_tolerance:
-            self._steady_since = self._unsteady_since = math.nan
-            self._steady(a)
-            return False
-        if self._steady(a):
-            self._unsteady_since = math.nan
-            if math.isnan(self._steady_since):
-                self._steady_since = a.t_s
-        elif math.isnan(self._unsteady_since):
-            self._unsteady_since = a.t_s
-        elif a.t_s - self._unsteady_since > UNSTEADY_GRACE_S:
-            self._steady_since = math.nan
-        return not math.isnan(self._steady_since)
-
-    def _steady(self, a: Attitude) -> bool:
-        """Attitude at its set-point, rates small, and the Cao–Rhinehart test settled on
-        attitude and on thrust. Each stream updates its own test on its own samples: a
-        zero-order-held (repeated) value would inflate the ratio."""
-        hold = self._holds[-1]
-        tol = math.radians(self.proc.attitude_tol_deg)
-        rate_tol = math.radians(self.proc.rate_tol_deg_s)
-        R = self._ratio_att.update([a.phi, a.theta])
-        return (abs(a.phi - hold.phi) <= tol and abs(a.theta - hold.theta) <= tol
-                and max(abs(a.p), abs(a.q)) <= rate_tol and self._tau_settled
-                and self._ratio_att.count > 30 and bool(np.all(R < 2.5)))
-
     def _check_time(self) -> list[Output]:
         if self.phase.final:
             return []
-        silent = self._t - self._t_last_sample
-        if self.phase is not Phase.CONNECT and silent > self.proc.link_timeout_s:
-            return self._finish(Phase.FAILED, f"link lost: no telemetry for {silent:.1f} s",
-                                cause="link")
-        if self.phase in (Phase.SETTLE, Phase.COLLECT):  # commanding blind is not allowed
-            for stream, times in self._arrivals.items():
-                quiet = self._t - (times[-1] if times else self._t_phase)
-                if quiet > self.proc.link_timeout_s:
-                    return self._finish(Phase.FAILED, f"link lost: no {stream} for "
-                                        f"{quiet:.1f} s while commanding", cause="link")
+        stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
         # collecting ends on attitude samples, never on a Tick: a replay without the live
         # shell's Ticks then reproduces the live result exactly
         if self._time_left() >= 0 or self.phase is Phase.COLLECT:
@@ -517,7 +377,7 @@ class Procedure:
             what = self.reason or "precheck did not pass"
         else:
             what = "no vehicle answered"
-        return self._finish(Phase.FAILED, f"timeout: {what}", cause="timeout")
+        return self._finish(Phase.FAILED, f"timeout: {what}", cause=Cause.TIMEOUT)
 
     def _why_unsteady(self) -> str:
         a, hold = self._attitude, self._holds[-1]
@@ -542,12 +402,12 @@ class Procedure:
         self.reason = text
         return [Notice(self._t, "state", text, phase)]
 
-    def _finish(self, phase: Phase, reason: str, cause: str = "") -> list[Output]:
-        """End in ``phase``; ``cause`` (link, timeout, envelope, vehicle, estimation,
-        operator, internal) lets a shell choose its exit code."""
+    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
+        """End in ``phase``; ``cause`` lets a shell choose its exit code."""
         if math.isnan(self._t):  # ended before any sample: at session time 0
             self._t = 0.0
         self.cause = cause
-        commanding = self._holds and not self.phase.final
+        commanding = self.guard.commanding and not self.phase.final
+        self.guard.commanding = False
         out: list[Output] = [Release()] if commanding else []
         return out + self._enter(phase, reason)

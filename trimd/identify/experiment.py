@@ -5,29 +5,21 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
 the signal, its PID output is added on roll and pitch at every attitude sample) → done;
-``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's: no command before the
-operator's confirmation; an attitude beyond ``max_tilt_deg`` + 5° or a depth excursion
-beyond the limit from the start depth ends the experiment; so do link loss (a Health
-sample that is not connected, or no telemetry for ``link_timeout_s``), a disarmed vehicle,
-a timeout and an internal error — every end after the first command sends
-:class:`~trimd.core.samples.Release`. Time is the samples' own.
+``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's own
+(:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
+commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
+experiment's limit from the start depth, link loss (a Health sample that is not
+connected, no telemetry, or no attitude or depth, for ``link_timeout_s``) or a disarmed
+vehicle ends the experiment; so do a timeout and an internal error — every end after the
+first command sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
 """
 
 from __future__ import annotations
 
 import math
 
-from trimd.core.procedure import (
-    ENVELOPE_MARGIN_DEG,
-    Abort,
-    Confirm,
-    Event,
-    Notice,
-    Output,
-    Phase,
-    Progress,
-    Tick,
-)
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.guards import Guard
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
 from trimd.identify.signals import HoldAxis, Signal
@@ -53,23 +45,23 @@ class Excite:
                  depth_excursion_m: float = 5.0) -> None:
         self.profile = profile
         self.signal = signal
-        self.depth_limit = depth_excursion_m
         self.phase = Phase.CONNECT
         self.reason = ""
-        self.cause = ""
+        self.cause = Cause.NONE
         self.estimate = None
         self.proposal = None
+        # open loop drives thrusters, so no thruster stream is needed to steer by
+        self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
+                           streams=("attitude", "depth"))
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
-        self._t_sample = math.nan
         self._t_start = math.nan
         self._health: Health | None = None
         self._depth: float = math.nan
         self._depth_ref = math.nan
         self._attitude_seen = False
         self._last: tuple[float, ...] | None = None
-        self._commanded = False
         self._integral = {h.axis: 0.0 for h in signal.hold}
         self._t_hold = math.nan
         self._depth_integral = 0.0
@@ -85,7 +77,7 @@ class Excite:
             return self._step(event)
         except Exception as exc:   # any internal error must still release the vehicle
             return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
-                                "internal")
+                                Cause.INTERNAL)
 
     @property
     def progress(self) -> Progress:
@@ -101,7 +93,7 @@ class Excite:
     # ---------------------------------------------------------------- events
     def _step(self, event: Event) -> list[Output]:
         if isinstance(event, Abort):
-            return self._finish(Phase.ABORTED, event.reason, "operator")
+            return self._finish(Phase.ABORTED, event.reason, Cause.OPERATOR)
         if isinstance(event, Confirm):
             self._confirmed = True
             return self._start() if self.phase is Phase.CONFIRM else []
@@ -110,37 +102,22 @@ class Excite:
             self._t_phase = self._t
         if isinstance(event, Tick):
             return self._check_time()
-        self._t_sample = self._t
         return self._on_sample(event) + self._check_time()
 
     def _on_sample(self, s: Sample) -> list[Output]:
+        stop = self.guard.sample(s)
+        if stop is not None and (self.phase is not Phase.CONNECT or stop.cause != Cause.LINK):
+            return self._finish(Phase.FAILED, stop.reason, stop.cause)
         if isinstance(s, Health):
             self._health = s
-            if not s.connected and self.phase is not Phase.CONNECT:
-                return self._finish(Phase.FAILED, f"link lost: {s.detail or 'vehicle gone'}",
-                                    "link")
-            if not s.armed and self.phase is Phase.COLLECT:
-                return self._finish(Phase.FAILED, "the vehicle disarmed during the "
-                                                  "experiment", "vehicle")
             return self._precheck()
         if isinstance(s, Depth):
             self._depth = s.depth_m
             if self.phase is Phase.COLLECT and self.signal.depth_hold is not None:
                 self._hold_depth(s, self.signal.depth_hold)
-            if (self.phase is Phase.COLLECT
-                    and abs(s.depth_m - self._depth_ref) > self.depth_limit):
-                return self._finish(Phase.FAILED, (
-                    f"depth excursion: {s.depth_m - self._depth_ref:+.2f} m from the start "
-                    f"depth (limit ±{self.depth_limit:g} m)"), "envelope")
             return []
         if isinstance(s, Attitude):
             self._attitude_seen = True
-            limit = self.profile.procedure.max_tilt_deg + ENVELOPE_MARGIN_DEG
-            roll, pitch = math.degrees(s.phi), math.degrees(s.theta)
-            if self.phase is Phase.COLLECT and max(abs(roll), abs(pitch)) > limit:
-                return self._finish(Phase.FAILED, (
-                    f"attitude out of envelope: roll {roll:.1f}°, pitch {pitch:.1f}° "
-                    f"(limit {limit:.0f}°)"), "envelope")
             if self.phase is Phase.COLLECT:
                 return self._play(s)
             return self._precheck()
@@ -168,6 +145,7 @@ class Excite:
     def _start(self) -> list[Output]:
         self._depth_ref = self._depth
         self._t_start = self._t
+        self.guard.start(self._t, self._depth, "the start depth")
         out = self._enter(Phase.COLLECT, "exciting: open-loop inputs on axes "
                           + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
         return out + self._play(None)
@@ -186,7 +164,6 @@ class Excite:
         if axes == self._last:
             return []
         self._last = axes
-        self._commanded = True
         return [OpenLoop(axes)]
 
     def _hold(self, axes: tuple[float, ...], a: Attitude
@@ -223,14 +200,13 @@ class Excite:
         if self.phase.final:
             return []
         p = self.profile.procedure
-        silent = self._t - self._t_sample
-        if self.phase is not Phase.CONNECT and silent > p.link_timeout_s:
-            return self._finish(Phase.FAILED, f"link lost: no telemetry for {silent:.1f} s",
-                                "link")
+        stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, stop.cause)
         if (self.phase in (Phase.CONNECT, Phase.PRECHECK)
                 and self._t - self._t_phase > p.connect_timeout_s):
             return self._finish(Phase.FAILED, "timeout: " + (self.reason or
-                                                             "no vehicle answered"), "timeout")
+                                                             "no vehicle answered"), Cause.TIMEOUT)
         return []
 
     def _enter(self, phase: Phase, text: str) -> list[Output]:
@@ -239,10 +215,10 @@ class Excite:
         self.reason = text
         return [Notice(self._t, "state", text, phase)]
 
-    def _finish(self, phase: Phase, reason: str, cause: str = "") -> list[Output]:
+    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
         if math.isnan(self._t):  # ended before any sample: at session time 0
             self._t = 0.0
         self.cause = cause
-        out: list[Output] = [Release()] if self._commanded else []
-        self._commanded = False
+        out: list[Output] = [Release()] if self.guard.commanding else []
+        self.guard.commanding = False
         return out + self._enter(phase, reason)

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from trimd.core.events import Notice
 from trimd.core.model import quaternion_from_euler
-from trimd.core.procedure import Notice
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Arm,
@@ -219,8 +219,8 @@ class TlogRecorder:
 
     def notice(self, notice: Notice) -> None:
         self._write_text(notice.t_s, notice.text, _SEVERITY.get(notice.kind, 6))
-        if notice.kind == "result":
-            estimate = notice.data[0]
+        if notice.result is not None:
+            estimate = notice.result.estimate
             g = self._trimd
             ms = int(notice.t_s * 1000) & 0xFFFFFFFF
             for name, value in (("m_ext_kg", estimate.m_ext_kg),

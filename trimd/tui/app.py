@@ -21,8 +21,8 @@ from textual.widgets import Footer
 
 from trimd.app.report import describe_command
 from trimd.app.session import Session, SessionResult
-from trimd.ballast.propose import METHODS
-from trimd.core.procedure import Phase, Progress
+from trimd.ballast.propose import METHODS, Proposal
+from trimd.core.events import Phase, Progress
 from trimd.core.profile import Profile
 from trimd.tui.attitude_panel import AttitudePanel
 from trimd.tui.event_log import EventLog
@@ -147,17 +147,18 @@ class TrimApp(App[SessionResult]):
         n, self._progress = message.notice, message.progress
         self.query_one(Stepper).progress = message.progress
         log = self.query_one(EventLog)
-        if n.kind == "result":
-            estimate, proposal = n.data
+        if n.result is not None:
+            estimate, proposal = n.result.estimate, n.result.proposal
             log.add(n.t_s, "result", f"estimate: m_ext {estimate.m_ext_kg:+.3f} kg")
-            self.query_one(ResultPanel).show_result(estimate, proposal)
+            self.query_one(ResultPanel).show_result(
+                estimate, proposal if isinstance(proposal, Proposal) else None)
             self.add_class("-result")
         else:
             log.add(n.t_s, n.kind, n.text)
-        if n.data is Phase.CONFIRM:
+        if n.phase is Phase.CONFIRM:
             self.bell()
             self.notify("Ready: press s to let trimd command the vehicle.", timeout=10)
-        elif n.data in (Phase.FAILED, Phase.ABORTED):
+        elif n.phase in (Phase.FAILED, Phase.ABORTED):
             self.bell()
         self.refresh_bindings()
 

@@ -12,7 +12,7 @@ from typing import Any
 from textual.message import Message
 
 from trimd.app.session import SessionResult
-from trimd.core.procedure import Notice, Progress
+from trimd.core.events import Notice, Progress
 from trimd.core.samples import Command
 
 __all__ = ["CommandSent", "LinkMessage", "NoticeReceived", "ProposalReady", "SessionEnded",

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from textual.message_pump import MessagePump
 
-from trimd.core.procedure import Notice, Output, Progress
+from trimd.core.events import Notice, Output, Progress
 from trimd.core.samples import Health, Sample, VehicleText
 from trimd.tui.messages import CommandSent, LinkMessage, NoticeReceived, TelemetryChanged
 from trimd.tui.telemetry import LiveState

@@ -9,7 +9,7 @@ from rich.text import Text
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from trimd.core.procedure import Phase, Progress
+from trimd.core.events import Phase, Progress
 from trimd.core.profile import Profile
 
 __all__ = ["Stepper", "bar"]

@@ -1,0 +1,47 @@
+"""trimd as a user installs it: a wheel built from the checkout, installed into a fresh
+virtualenv outside it, runs ``trimd demo`` and ``trimd solve`` with the shipped profiles
+(package data) and nothing from the source tree."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import REPO
+
+
+def _run(args: list[str | Path], cwd: Path, timeout: float = 600.0) -> str:
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    proc = subprocess.run([str(a) for a in args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    return proc.stdout
+
+
+@pytest.mark.slow
+def test_the_wheel_runs_outside_the_checkout(tmp_path: Path) -> None:
+    dist, venv, work = tmp_path / "dist", tmp_path / "venv", tmp_path / "work"
+    work.mkdir()
+    _run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", dist, REPO],
+         cwd=work)
+    (wheel,) = dist.glob("trimd-*.whl")
+    _run([sys.executable, "-m", "venv", venv], cwd=work)
+    python = venv / "bin" / "python"
+    _run([python, "-m", "pip", "install", "--quiet", wheel], cwd=work)
+    where = _run([python, "-c", "import trimd; print(trimd.__file__)"], cwd=work).strip()
+    assert Path(where).is_relative_to(venv), where
+
+    demo = _run([venv / "bin" / "trimd", "demo"], cwd=work)
+    assert "extra mass m_ext" in demo and "10 kg at AftSB" in demo
+
+    holds = work / "holds.csv"
+    _run([sys.executable, REPO / "examples" / "make_holds.py", "sabertooth-dh2", "10@AftSB",
+          holds], cwd=work)
+    solved = _run([venv / "bin" / "trimd", "solve", holds, "--profile", "sabertooth-dh2"],
+                  cwd=work)
+    m_ext = next(line for line in solved.splitlines() if line.startswith("extra mass"))
+    assert abs(float(m_ext.split()[3]) - 10.0) < 0.1, solved
