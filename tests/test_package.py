@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO
+from tests.helpers import REPO
 
 
 def _run(args: list[str | Path], cwd: Path, timeout: float = 600.0) -> str:

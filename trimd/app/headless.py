@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from trimd.app.report import describe_command, format_estimate, format_proposal
+from trimd.app.report import NewWarnings, describe_command, format_estimate, format_proposal
 from trimd.app.session import Session
 from trimd.ballast.propose import Proposal, proposal_to_dict
 from trimd.core.estimate import StaticEstimate
@@ -36,7 +36,7 @@ class HeadlessPresenter:
         self.json_lines = json_lines
         self.every = progress_every_s
         self._next_progress = -math.inf
-        self._warned: set[str] = set()
+        self._new_warnings = NewWarnings()
 
     def _emit(self, text: str, obj: dict[str, Any]) -> None:
         line = json.dumps(obj) if self.json_lines else text
@@ -58,11 +58,9 @@ class HeadlessPresenter:
 
     def sample(self, sample: Sample, progress: Progress) -> None:
         if isinstance(sample, Health):
-            for warning in sample.warnings():
-                if warning not in self._warned:
-                    self._warned.add(warning)
-                    self._emit(f"[{sample.t_s:8.1f} s] warning: {warning}",
-                               {"type": "warning", "t_s": sample.t_s, "text": warning})
+            for warning in self._new_warnings(sample):
+                self._emit(f"[{sample.t_s:8.1f} s] warning: {warning}",
+                           {"type": "warning", "t_s": sample.t_s, "text": warning})
         elif isinstance(sample, VehicleText):
             self._emit(f"[{sample.t_s:8.1f} s] vehicle {sample.level}: {sample.text}",
                        {"type": "vehicle", "t_s": sample.t_s, "severity": sample.severity,

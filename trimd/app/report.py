@@ -11,9 +11,10 @@ import math
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
 from trimd.core.estimate import StaticEstimate
-from trimd.core.samples import Command, HoldAttitude, Release
+from trimd.core.samples import Command, Health, HoldAttitude, Release
 
-__all__ = ["describe_command", "format_estimate", "format_proposal", "format_result"]
+__all__ = ["NewWarnings", "describe_command", "format_estimate", "format_proposal",
+           "format_result"]
 
 
 def format_estimate(est: StaticEstimate) -> str:
@@ -82,3 +83,16 @@ def describe_command(command: Command) -> str:
     if isinstance(command, Release):
         return "release control"
     return repr(command)
+
+
+class NewWarnings:
+    """The link's warnings each presenter shows once: those of a Health sample not seen
+    before (a link repeats its warnings in every Health sample)."""
+
+    def __init__(self) -> None:
+        self._seen: set[str] = set()
+
+    def __call__(self, health: Health) -> list[str]:
+        new = [w for w in health.warnings() if w not in self._seen]
+        self._seen.update(new)
+        return new

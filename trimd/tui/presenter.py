@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from textual.message_pump import MessagePump
 
+from trimd.app.report import NewWarnings
 from trimd.core.events import Notice, Output, Progress
 from trimd.core.samples import Health, Sample, VehicleText
 from trimd.tui.messages import CommandSent, LinkMessage, NoticeReceived, TelemetryChanged
@@ -22,7 +23,7 @@ class TuiPresenter:
     def __init__(self, target: MessagePump, state: LiveState) -> None:
         self.target = target
         self.state = state
-        self._warned: set[str] = set()
+        self._new_warnings = NewWarnings()
 
     def output(self, out: Output, progress: Progress) -> None:
         if isinstance(out, Notice):
@@ -37,9 +38,7 @@ class TuiPresenter:
                                                  f"vehicle: {sample.text}"))
             return
         if isinstance(sample, Health):
-            for warning in sample.warnings():
-                if warning not in self._warned:
-                    self._warned.add(warning)
-                    self.target.post_message(LinkMessage(sample.t_s, "warning", warning))
+            for warning in self._new_warnings(sample):
+                self.target.post_message(LinkMessage(sample.t_s, "warning", warning))
         self.state.sample(sample)
         self.target.post_message(TelemetryChanged(progress))

@@ -1,0 +1,131 @@
+"""Integration: the full procedure headless against the in-process simulated vehicle.
+
+Accuracy targets of the procedure issue, with the simulator's default noise; and the
+`milp` proposal, put on the simulated vehicle, must leave it level with thrusters off.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import pty
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.helpers import REPO, assert_proposal_levels
+from trimd.app.connect import open_link
+from trimd.app.session import Session, SessionResult
+from trimd.ballast.propose import Proposal, propose_ballast
+from trimd.cli.main import main
+from trimd.core.estimate import StaticEstimate
+from trimd.core.events import Phase
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.vehicle import SimVehicle
+
+# (profile, payload, seed, |x_g|/|y_g| limit [m], z_g limit [m], m_ext limit [kg])
+CASES = [
+    ("sabertooth-dh2", "10@AftSB", 0, 1e-3, 3e-3, 0.2),
+    ("sabertooth-dh2", "6@0.5,-0.45,0.25", 1, 1e-3, 3e-3, 0.2),
+    ("bluerov2-heavy", "0.4@W-aft-stbd", 2, 3e-3, 5e-3, 0.1),
+    ("bluerov2-heavy", "0.3@0.05,0.1,-0.1", 3, 3e-3, 5e-3, 0.1),
+]
+
+
+def trim(profile: Profile, payload: str, seed: int) -> tuple[SessionResult, SimVehicle]:
+    async def go() -> tuple[SessionResult, SimVehicle]:
+        link = await open_link(f"sim:payload={payload},seed={seed}", profile)
+        session = Session(link, profile, recorder=None, presenters=[], confirmed=True,
+                          propose=lambda est: propose_ballast(est, profile, method="milp"))
+        return await session.run(), link.vehicle  # type: ignore[attr-defined]
+    return asyncio.run(go())
+
+
+@pytest.mark.parametrize(("name", "payload", "seed", "xy_tol", "z_tol", "m_tol"), CASES)
+def test_trim_on_the_simulated_vehicle(name: str, payload: str, seed: int, xy_tol: float,
+                                       z_tol: float, m_tol: float) -> None:
+    profile = load_profile(name)
+    result, vehicle = trim(profile, payload, seed)
+    assert result.phase is Phase.DONE, result.reason
+    est: StaticEstimate = result.estimate  # type: ignore[assignment]
+    truth = vehicle.truth
+    err = est.r_g_m - np.asarray(truth.mass.r_g)
+    assert np.all(np.abs(err[:2]) < xy_tol), err
+    assert abs(err[2]) < z_tol, err
+    assert abs(est.m_ext_kg - truth.m_ext_kg) < m_tol
+    proposal: Proposal = result.proposal
+    assert proposal.method == "milp"
+    before, _ = assert_proposal_levels(profile, payload, proposal)
+    assert np.max(np.abs(before)) > 1.0  # the payload really tilted it
+
+
+def test_demo_headless_prints_estimate_proposal_and_truth(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "demo.tlog"
+    assert main(["demo", "--headless", "--record", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert "extra mass m_ext" in out and "ballast by milp" in out
+    assert "simulator truth: payload 10@AftSB" in out
+    assert log.stat().st_size > 10_000
+
+
+def test_run_json_lines(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["run", "--link", "sim:payload=0.4@W-front-stbd,seed=9", "--profile",
+                 "bluerov2-heavy", "--headless", "--yes", "--json", "--no-record"])
+    assert code == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    result = lines[-1]
+    assert result["type"] == "result"
+    assert abs(result["estimate"]["m_ext_kg"] - 0.4) < 0.1
+    assert result["proposal"]["method"] == "milp"
+
+
+def test_unknown_link_is_a_link_error(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["run", "--link", "udp:127.0.0.1:14550", "--profile", "bluerov2-heavy",
+                 "--headless", "--yes", "--no-record"])
+    assert code == 3
+    assert "did you mean 'mavlink:udp:127.0.0.1:14550'" in capsys.readouterr().err
+
+
+def _headless_at_a_terminal(tmp_path: Path) -> tuple[Any, int]:
+    """``trimd run`` headless on the simulator with a pseudo-terminal for its stdin (so it
+    asks for confirmation), started up to its prompt; returns the process and the pty."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "trimd", "run", "--link", "sim:payload=10@AftSB",
+         "--profile", "sabertooth-dh2", "--headless", "--record", str(tmp_path / "s.tlog")],
+        stdin=slave, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)})
+    os.close(slave)
+    assert proc.stdout is not None
+    seen = ""
+    while "type 'yes'" not in seen:  # the prompt ends without a newline
+        char = proc.stdout.read(1)
+        assert char, (seen, proc.wait(), proc.stderr.read() if proc.stderr else "")
+        seen += char
+    return proc, master
+
+
+@pytest.mark.parametrize("how", ["answer no", "SIGTERM"])
+def test_headless_confirmation_prompt_refuses_or_stops(tmp_path: Path, how: str) -> None:
+    proc, master = _headless_at_a_terminal(tmp_path)
+    try:
+        if how == "SIGTERM":  # nobody answers: a signal still ends the process
+            proc.send_signal(signal.SIGTERM)
+        else:
+            os.write(master, b"no\n")
+        out, err = proc.communicate(timeout=60)  # a hang guard, not a timed assertion
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        os.close(master)
+    reason = "stopped by SIGTERM" if how == "SIGTERM" else "not confirmed by the operator"
+    assert proc.returncode == 1 and reason in out + err, (out[-800:], err[-800:])
+    assert "command: hold" not in out  # nothing was commanded

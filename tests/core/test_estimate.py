@@ -1,0 +1,151 @@
+"""Static estimator: exact recovery, honest uncertainty, refusal when unidentifiable."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.helpers import equilibrium_holds, payload_truth
+from trimd.core.errors import EstimationError
+from trimd.core.estimate import HoldSamples, estimate_static, measurable_dofs
+from trimd.core.profile import Profile
+
+
+@pytest.mark.parametrize("m_ext", [1.0, 5.0, 10.0, 15.0, 20.0])
+@pytest.mark.parametrize("slot", ["AftSB", "AftP", "FrontSB", "FrontP"])
+def test_thesis_cases_noise_free(sabertooth: Profile, m_ext: float, slot: str) -> None:
+    W, r_g = payload_truth(sabertooth, m_ext, sabertooth.slot(slot).position_m)
+    est = estimate_static(equilibrium_holds(sabertooth, W, r_g), sabertooth)
+    assert abs(est.m_ext_kg - m_ext) < 1e-3
+    np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6, rtol=0)
+
+
+def test_thesis_example_numbers(sabertooth: Profile) -> None:
+    """10 kg at AftSB: x_g ≈ -8.6 mm, y_g ≈ +5.0 mm, z_g = 0 (method.md §3)."""
+    W, r_g = payload_truth(sabertooth, 10.0, sabertooth.slot("AftSB").position_m)
+    est = estimate_static(equilibrium_holds(sabertooth, W, r_g), sabertooth)
+    np.testing.assert_allclose(est.r_g_m * 1e3, [-8.635, 5.025, 0.0], atol=1e-3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(m_ext=st.floats(0.5, 40.0),
+       r=st.tuples(st.floats(-1.2, 1.2), st.floats(-0.7, 0.7), st.floats(-0.4, 0.4)))
+def test_random_payloads_with_vertical_offset(sabertooth: Profile, m_ext: float,
+                                              r: tuple[float, float, float]) -> None:
+    W, r_g = payload_truth(sabertooth, m_ext, np.array(r))
+    est = estimate_static(equilibrium_holds(sabertooth, W, r_g, n=20), sabertooth)
+    assert abs(est.m_ext_kg - m_ext) < 1e-3
+    np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6, rtol=0)
+
+
+def test_noisy_estimate_within_three_sigma(sabertooth: Profile) -> None:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.031, 0.6, 0.15]))
+    holds = equilibrium_holds(sabertooth, W, r_g, n=2000, attitude_noise_deg=0.1,
+                              thrust_noise=0.02, rng=np.random.default_rng(7))
+    est = estimate_static(holds, sabertooth)
+    assert abs(est.m_ext_kg - 10.0) < 3 * est.m_ext_std_kg
+    assert np.all(np.abs(est.r_g_m - r_g) < 3 * est.r_g_std_m)
+    assert est.r_g_std_m[2] < 1e-3  # z_g is actually determined, to better than a mm
+
+
+@pytest.mark.parametrize(("m_ext", "position", "n"), [
+    (8.0, (0.5, -0.4, 0.2), 300),
+    (1.0, (0.78, -0.6, 0.0), 3000),     # a thesis case, long holds: a bias would show
+    (15.0, (-1.031, 0.6, 0.0), 10000),
+])
+def test_confidence_intervals_cover_the_truth(sabertooth: Profile, m_ext: float,
+                                              position: tuple[float, float, float],
+                                              n: int) -> None:
+    """Over 200 seeds the 95 % intervals of m_ext, x_g, y_g, z_g cover 90–99 % of the time."""
+    W, r_g = payload_truth(sabertooth, m_ext, np.array(position))
+    truth = np.r_[m_ext, r_g]
+    hits = np.zeros(4)
+    seeds = 200
+    for seed in range(seeds):
+        holds = equilibrium_holds(sabertooth, W, r_g, n=n, attitude_noise_deg=0.1,
+                                  thrust_noise=0.02, rng=np.random.default_rng(seed))
+        est = estimate_static(holds, sabertooth)
+        value = np.r_[est.m_ext_kg, est.r_g_m]
+        std = np.r_[est.m_ext_std_kg, est.r_g_std_m]
+        hits += np.abs(value - truth) <= 1.96 * std
+    coverage = hits / seeds
+    assert np.all((coverage >= 0.90) & (coverage <= 0.99)), coverage
+
+
+def test_level_holds_only_refuse_naming_z_g(sabertooth: Profile) -> None:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.0, 0.6, 0.0]))
+    holds = equilibrium_holds(sabertooth, W, r_g, tilts_deg=((0, 0), (0, 0)),
+                              attitude_noise_deg=0.1, thrust_noise=0.01)
+    with pytest.raises(EstimationError, match="z_g is not identifiable: every hold was level"):
+        estimate_static(holds, sabertooth)
+
+
+def test_a_single_tilted_hold_is_refused_for_what_it_is(sabertooth: Profile) -> None:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.0, 0.6, 0.1]))
+    holds = equilibrium_holds(sabertooth, W, r_g, tilts_deg=((20, 20),), thrust_noise=0.01)
+    with pytest.raises(EstimationError, match=r"not identifiable .* two holds at different"):
+        estimate_static(holds, sabertooth)
+
+
+def test_depth_hold_without_station_keeping_recovers_net_force(sabertooth: Profile) -> None:
+    """At a tilt, only the vertical thrusters carry W − B: X = Y = 0 and body Z is
+    (W − B)/(cosφ·cosθ) along the world vertical; the force rows together stay exact."""
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.031, 0.6, 0.0]))
+    holds = equilibrium_holds(sabertooth, W, r_g)
+    tilted = holds[1]
+    phi, theta = tilted.phi[0], tilted.theta[0]
+    tau = tilted.tau.copy()
+    tau[:, 0:2] = 0.0
+    tau[:, 2] = -(W - sabertooth.buoyancy_N) / (np.cos(phi) * np.cos(theta))
+    holds[1] = HoldSamples(tilted.t_s, tilted.phi, tilted.theta, tau, "drifting")
+    est = estimate_static(holds, sabertooth)
+    assert abs(est.m_ext_kg - 10.0) < 1e-3
+
+
+def test_nan_samples_are_refused(sabertooth: Profile) -> None:
+    W, r_g = payload_truth(sabertooth, 1.0, np.zeros(3))
+    holds = equilibrium_holds(sabertooth, W, r_g)
+    bad = holds[0].tau.copy()
+    bad[3, 4] = np.nan
+    holds[0] = HoldSamples(holds[0].t_s, holds[0].phi, holds[0].theta, bad, "hold 0")
+    with pytest.raises(EstimationError, match="NaN"):
+        estimate_static(holds, sabertooth)
+
+
+def test_no_holds_refused(sabertooth: Profile) -> None:
+    with pytest.raises(EstimationError, match="no steady hold"):
+        estimate_static([], sabertooth)
+
+
+def test_estimate_does_not_depend_on_centre_of_buoyancy_prior(sabertooth: Profile) -> None:
+    """The net moments are the same whatever r_b the profile claims."""
+    from dataclasses import replace
+
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.031, 0.6, 0.0]))
+    holds = equilibrium_holds(sabertooth, W, r_g)
+    other = replace(sabertooth, r_b_m=(0.01, -0.02, -0.1))
+    a, b = estimate_static(holds, sabertooth), estimate_static(holds, other)
+    np.testing.assert_allclose(a.net_moment_Nm, b.net_moment_Nm, atol=1e-9)
+    assert not np.allclose(a.r_g_m, b.r_g_m)
+
+
+def test_all_rows_measurable_on_both_profiles(sabertooth: Profile, bluerov: Profile) -> None:
+    assert measurable_dofs(sabertooth) == (True,) * 6
+    assert measurable_dofs(bluerov) == (True,) * 6
+
+
+def test_a_vehicle_without_pitch_actuation_measures_no_pitch_row(bluerov: Profile) -> None:
+    """The standard BlueROV2 (6 thrusters, FRAME_CONFIG 1) cannot produce a pitch moment."""
+    from dataclasses import replace
+
+    six = replace(bluerov, thrusters=tuple(
+        replace(t, position_m=(t.position_m[0] * 0, t.position_m[1], 0.0))
+        if t.direction[2] else t for t in bluerov.thrusters[:6]))
+    rows = measurable_dofs(six)
+    assert rows[4] is False
+    W, r_g = payload_truth(bluerov, 0.2, np.array([0.1, 0.0, 0.175]))
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov, dofs=rows)
+    assert "M" not in est.dofs_used
+    np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6)

@@ -1,0 +1,215 @@
+"""The trim procedure, driven by synthetic event sequences (no I/O, no clock)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from tests.helpers import FakeVehicle, payload_truth
+from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
+from trimd.core.procedure import Procedure
+from trimd.core.profile import Profile
+from trimd.core.samples import HoldAttitude, Release
+
+DT = 0.01
+
+
+def run(proc: Procedure, vehicle: FakeVehicle, t_end: float, *, t_start: float = 0.0,
+        silent_after: float = math.inf,
+        at: dict[float, Callable[[], object]] | None = None) -> list[tuple[float, object]]:
+    """Feed the vehicle's samples and Ticks to ``proc``; apply its commands; log outputs."""
+    log: list[tuple[float, object]] = []
+    pending = dict(at or {})
+    t = t_start
+    while t < t_end and not proc.phase.final:
+        t = round(t + DT, 6)
+        events: list[object] = [] if t > silent_after else vehicle.samples(t, DT)
+        for when in [w for w in pending if w <= t]:
+            events.append(pending.pop(when)())
+        events.append(Tick(t))
+        for e in events:
+            for out in proc.step(e):  # type: ignore[arg-type]
+                log.append((t, out))
+                if not isinstance(out, Notice):
+                    vehicle.apply(t, out)
+    return log
+
+
+@pytest.fixture
+def thesis_vehicle(sabertooth: Profile) -> FakeVehicle:
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    return FakeVehicle(sabertooth, W, r_g)
+
+
+def test_full_procedure_estimates_the_payload(sabertooth: Profile,
+                                              thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True, propose=lambda est: "proposal")
+    log = run(proc, thesis_vehicle, 1000.0)
+    assert proc.phase is Phase.DONE, proc.reason
+    est = proc.estimate
+    assert est is not None and proc.proposal == "proposal"
+    assert abs(est.m_ext_kg - 10.0) < max(4 * est.m_ext_std_kg, 0.05)
+    np.testing.assert_allclose(est.r_g_m, thesis_vehicle.r_g, atol=5e-4)
+    holds = [c for _, c in thesis_vehicle.commands if isinstance(c, HoldAttitude)]
+    assert [(round(math.degrees(h.phi)), round(math.degrees(h.theta))) for h in holds] == [
+        (0, 0), (20, 20)]
+    assert all(abs(math.degrees(h.phi)) <= sabertooth.procedure.max_tilt_deg for h in holds)
+    assert isinstance(thesis_vehicle.commands[-1][1], Release)
+    assert [n.kind for _, n in log if isinstance(n, Notice)][-1] == "result"
+    assert len(est.holds) == 2 and all(h.samples > 100 for h in est.holds)
+
+
+def test_no_command_before_confirmation(sabertooth: Profile,
+                                        thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth)
+    run(proc, thesis_vehicle, 60.0)
+    assert proc.phase is Phase.CONFIRM and thesis_vehicle.commands == []
+    run(proc, thesis_vehicle, 62.0, t_start=60.0, at={60.5: Confirm})
+    assert proc.phase is Phase.SETTLE
+    assert isinstance(thesis_vehicle.commands[0][1], HoldAttitude)
+
+
+def released_within(vehicle: FakeVehicle, t_cause: float, limit_s: float) -> bool:
+    releases = [t for t, c in vehicle.commands if isinstance(c, Release)]
+    return len(releases) == 1 and t_cause <= releases[0] <= t_cause + limit_s
+
+
+def test_link_loss_mid_hold_releases_within_a_second(sabertooth: Profile,
+                                                     thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 1000.0, silent_after=40.0)
+    assert proc.phase is Phase.FAILED and "link lost" in proc.reason
+    timeout = sabertooth.procedure.link_timeout_s
+    assert released_within(thesis_vehicle, 40.0 + timeout, 1.0)
+
+
+def test_hold_that_never_settles_times_out(sabertooth: Profile,
+                                           thesis_vehicle: FakeVehicle) -> None:
+    thesis_vehicle.stuck_at_deg = 12.0
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 2000.0)
+    assert proc.phase is Phase.FAILED
+    assert "never settled" in proc.reason and "12.0°" in proc.reason
+    assert isinstance(thesis_vehicle.commands[-1][1], Release)
+
+
+def test_operator_abort_releases_at_once(sabertooth: Profile,
+                                         thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 100.0, at={30.0: Abort})
+    assert proc.phase is Phase.ABORTED and "operator" in proc.reason
+    assert released_within(thesis_vehicle, 30.0, DT)
+
+
+def test_an_abort_before_any_sample_is_stamped_at_session_time_zero(
+        sabertooth: Profile) -> None:
+    proc = Procedure(sabertooth)
+    [notice] = proc.step(Abort("stopped by SIGTERM"))
+    assert isinstance(notice, Notice) and notice.t_s == 0.0 and proc.progress.t_s == 0.0
+    assert proc.phase is Phase.ABORTED
+
+
+def test_depth_excursion_aborts(sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 8.0)  # through precheck with a steady depth
+    thesis_vehicle.depth_drift_m_s = 0.1
+    run(proc, thesis_vehicle, 200.0, t_start=8.0)
+    assert proc.phase is Phase.FAILED and "depth excursion" in proc.reason
+    assert isinstance(thesis_vehicle.commands[-1][1], Release)
+
+
+def test_disarmed_vehicle_is_reported_and_never_commanded(sabertooth: Profile,
+                                                          thesis_vehicle: FakeVehicle) -> None:
+    thesis_vehicle.armed = False
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 100.0)
+    assert proc.phase is Phase.FAILED and "disarmed" in proc.reason
+    assert thesis_vehicle.commands == []
+
+
+def test_slow_telemetry_fails_precheck(sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
+    thesis_vehicle.rates_hz["thrusters"] = 1.0
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 100.0)
+    assert proc.phase is Phase.FAILED and "thrusters at 1.0 Hz" in proc.reason
+
+
+def test_internal_error_still_releases(sabertooth: Profile, bluerov: Profile,
+                                       thesis_vehicle: FakeVehicle) -> None:
+    """Thruster outputs that do not match the profile (8 for 6) must not leave the
+    vehicle commanded."""
+    W, r_g = payload_truth(bluerov, 0.2, np.zeros(3))
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 8.0)
+    wrong = FakeVehicle(bluerov, W, r_g)
+    run(proc, wrong, 50.0, t_start=8.0)
+    assert proc.phase is Phase.FAILED and "internal error" in proc.reason
+    assert isinstance(wrong.commands[-1][1], Release)
+
+
+def test_progress_reports_phase_and_time_left(sabertooth: Profile,
+                                              thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 12.0)
+    p = proc.progress
+    assert p.phase is Phase.SETTLE and p.holds == 2 and p.setpoint_deg == (0.0, 0.0)
+    assert 0 < p.time_left_s <= sabertooth.procedure.settle_timeout_s
+    assert 0.0 <= p.settled_fraction <= 1.0
+
+
+def test_disarm_mid_hold_fails_and_releases(sabertooth: Profile,
+                                            thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 20.0)
+    assert proc.phase in (Phase.SETTLE, Phase.COLLECT)
+    thesis_vehicle.armed = False
+    run(proc, thesis_vehicle, 40.0, t_start=20.0)
+    assert proc.phase is Phase.FAILED and "disarmed while trimd commanded it" in proc.reason
+    assert proc.cause == "vehicle"
+    assert isinstance(thesis_vehicle.commands[-1][1], Release)
+
+
+@pytest.mark.parametrize("stream", ["attitude", "thrusters", "depth"])
+def test_a_stream_that_stops_mid_hold_releases(sabertooth: Profile,
+                                               thesis_vehicle: FakeVehicle, stream: str) -> None:
+    """Heartbeats go on, but trimd must not keep commanding without seeing the vehicle."""
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 35.0)
+    assert proc.phase in (Phase.SETTLE, Phase.COLLECT)
+    thesis_vehicle.muted.add(stream)
+    run(proc, thesis_vehicle, 2000.0, t_start=35.0)
+    assert proc.phase is Phase.FAILED and f"no {stream} for" in proc.reason
+    assert proc.cause == "link"
+    # the last sample of a stream came up to one period before the mute
+    assert released_within(thesis_vehicle, 35.0 + sabertooth.procedure.link_timeout_s - 1, 1.5)
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    ({"mode": "AUTO"}, "vehicle in AUTO: switch it to MANUAL"),
+    ({"depth_drift_m_s": 0.2}, "depth not steady: 1.0"),
+])
+def test_precheck_refuses_a_busy_or_moving_vehicle(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle, change: dict[str, object],
+        expected: str) -> None:
+    for key, value in change.items():
+        setattr(thesis_vehicle, key, value)
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 100.0)
+    assert proc.phase is Phase.FAILED and expected in proc.reason
+    assert thesis_vehicle.commands == []
+
+
+def test_confirm_checks_the_vehicle_again(sabertooth: Profile,
+                                          thesis_vehicle: FakeVehicle) -> None:
+    proc = Procedure(sabertooth)
+    run(proc, thesis_vehicle, 20.0)
+    assert proc.phase is Phase.CONFIRM
+    thesis_vehicle.armed = False         # while the operator looked away
+    run(proc, thesis_vehicle, 22.0, t_start=20.0, at={21.5: Confirm})
+    assert proc.phase is Phase.PRECHECK and "cannot start: vehicle disarmed" in proc.reason
+    thesis_vehicle.armed = True
+    run(proc, thesis_vehicle, 40.0, t_start=22.0)
+    assert proc.phase is Phase.CONFIRM and thesis_vehicle.commands == []  # asks again

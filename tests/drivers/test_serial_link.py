@@ -1,0 +1,399 @@
+"""The serial driver: on pyserial's ``loop://``, and end to end against the simulated vehicle
+served over a real pseudo-terminal (in a thread, and as ``trimd sim`` in a subprocess).
+
+Rates, holds and time to link-lost are judged on the samples' own stamps (the vehicle's
+clock on the ``time.monotonic()`` base); wall-clock limits only keep a broken link from
+hanging the suite.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import re
+import select
+import subprocess
+import sys
+import threading
+import time
+import tty
+from collections import Counter
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+
+import trimd.cli.run
+from tests.helpers import REPO, assert_proposal_levels
+from trimd.app.connect import open_link
+from trimd.cli.main import main
+from trimd.core.errors import LinkError
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Health, HoldAttitude, Release, Sample, VehicleText
+from trimd.drivers.serial.link import SerialLink, open_serial_link
+from trimd.drivers.serial.protocol import (
+    BAD_COUNTERS,
+    MAX_LINE_BYTES,
+    VEHICLE,
+    LineParser,
+    checksum,
+    to_sample,
+)
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.pacing import run_paced
+from trimd.drivers.sim.serial_server import COMMAND_TIMEOUT_S, SerialServer
+from trimd.drivers.sim.vehicle import SimVehicle
+
+RATE = 10.0            # simulated seconds per wall second of the threaded server
+WALL_LIMIT_S = 30.0    # a hang guard, not a timed assertion
+DEG = math.pi / 180
+
+
+def frame(body: str) -> bytes:
+    return b"$%s*%02X\r\n" % (body.encode(), checksum(body.encode()))
+
+
+async def collect(link: SerialLink, until: object, limit_s: float = WALL_LIMIT_S
+                  ) -> list[Sample]:
+    """Samples until ``until(sample)`` is true (that one included)."""
+    out: list[Sample] = []
+
+    async def go() -> None:
+        async for s in link.samples():
+            out.append(s)
+            if until(s):  # type: ignore[operator]
+                return
+    await asyncio.wait_for(go(), limit_s)
+    return out
+
+
+async def until(condition: Callable[[], bool]) -> None:
+    """Returns once ``condition()`` holds (callers bound it with a hang guard)."""
+    while not condition():
+        await asyncio.sleep(0.01)
+
+
+# ---------------------------------------------------------------------- loop://
+def test_url_forms(sabertooth: Profile) -> None:
+    for url in ("loop://", "loop://,9600"):
+        link = open_serial_link(url, sabertooth)
+        assert link.port.baudrate == (9600 if url.endswith("9600") else 115_200)
+        asyncio.run(link.close())
+    with pytest.raises(LinkError, match="needs a device"):
+        open_serial_link(",9600", sabertooth)
+    with pytest.raises(LinkError, match="baud rate must be a positive integer, got 'fast'"):
+        open_serial_link("loop://,fast", sabertooth)
+    with pytest.raises(LinkError, match="cannot open serial /nonexistent/tty"):
+        open_serial_link("/nonexistent/tty", sabertooth)
+
+
+def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> None:
+    async def go() -> None:
+        link = open_serial_link("loop://", sabertooth, timeout_s=0.3)
+        write = link.port.write
+        write(frame("VHSTA,1000,MANUAL,0,PILOT"))
+        (h,) = await collect(link, lambda s: True)
+        assert isinstance(h, Health) and not h.connected and "VHVER" in h.detail
+        with pytest.raises(LinkError, match="version sentence"):
+            await link.send(HoldAttitude(0.0, 0.0, 0.0))
+        write(frame("VHVER,1,bench") + frame("VHSTA,2000,ALT_HOLD,1,PILOT"))
+        (h,) = await collect(link, lambda s: True)
+        assert isinstance(h, Health) and h.connected and h.mode == "ALT_HOLD" and h.armed
+        assert h.vehicle == "bench"
+        write(frame("VHTXT,2100,4,Leak sensor dry"))
+        (text,) = await collect(link, lambda s: True)
+        assert isinstance(text, VehicleText) and (text.severity, text.text) == (
+            4, "Leak sensor dry")
+        # the vehicle clock: across the uint32 wrap, 50 ms back, 99.85 s on, then a reboot
+        for t_ms in (2**32 - 300, 200, 150, 100_000, 5):
+            write(frame(f"VHATT,{t_ms},1,2,3,4,5,6"))
+        got = [s for _ in range(5) for s in await collect(link, lambda s: True)]
+        stamps = [s.t_s for s in got]
+        assert len(stamps) == 5
+        assert stamps[1] - stamps[0] == pytest.approx(0.5, abs=1e-9)
+        assert stamps[2] - stamps[1] == pytest.approx(-0.05, abs=1e-9)
+        assert stamps[3] - stamps[2] == pytest.approx(99.85, abs=1e-9)
+        # re-anchored on the reboot (not 99.85 s on); the bound only allows for a slow thread
+        assert abs(stamps[4] - time.monotonic()) < 10.0
+        # silence: the link's own TR lines come back on loop:// but are not the vehicle
+        (lost,) = await collect(link, lambda s: isinstance(s, Health))
+        assert isinstance(lost, Health) and not lost.connected
+        assert "no data from the vehicle" in lost.detail
+        assert 0.3 <= lost.t_s - stamps[4] < 0.3 + 1.0
+        assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 9
+        assert lost.bad_frames == link.parser.bad_lines
+        write(frame("VHVER,2,future"))
+        await asyncio.wait_for(until(lambda: link.vehicle is None), WALL_LIMIT_S)
+        with pytest.raises(LinkError, match="speaks serial protocol version 2"):
+            await link.send(HoldAttitude(0.0, 0.0, 0.0))
+        await link.close()
+        with pytest.raises(LinkError, match="closed"):
+            await link.send(Release())
+    asyncio.run(go())
+
+
+def test_loss_stops_the_hold_and_holds_beyond_the_tilt_limit_are_refused(
+        sabertooth: Profile) -> None:
+    """After a loss trimd repeats no command (one must come again, as over MAVLink); a
+    hold beyond max_tilt_deg never leaves trimd. The test plays the vehicle on a pty."""
+    master, slave = os.openpty()
+    tty.setraw(master)
+    received = b""
+
+    def heard(seconds: float, *, talking: bool = False) -> bytes:
+        """What trimd wrote to the vehicle over ``seconds`` of wall time (the vehicle
+        sending its status every 50 ms when ``talking``)."""
+        nonlocal received
+        start, got = time.monotonic(), b""
+        while time.monotonic() < start + seconds:
+            if talking:
+                t_ms = 1000 + round((time.monotonic() - start) * 1000)
+                os.write(master, frame(f"VHSTA,{t_ms},ALT_HOLD,1,HOLD"))
+            if select.select([master], [], [], 0.05)[0]:
+                got += os.read(master, 4096)
+        received += got
+        return got
+
+    async def go() -> None:
+        link = open_serial_link(os.ttyname(slave), sabertooth, timeout_s=0.3)
+        os.write(master, frame("VHVER,1,bench") + frame("VHSTA,1000,ALT_HOLD,1,HOLD"))
+        await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        with pytest.raises(LinkError, match=r"roll 30\.0°.*beyond the profile's max_tilt"):
+            await link.send(HoldAttitude(30 * DEG, 0.0, 0.0))
+        await link.send(HoldAttitude(10 * DEG, 5 * DEG, 0.0))
+        assert heard(1.2, talking=True).count(b"$TRHLD,10.000,5.000") >= 2  # repeated
+        await collect(link, lambda s: isinstance(s, Health) and not s.connected)
+        heard(0.1)                                   # a sentence may be under way
+        after = heard(1.2)
+        assert b"TRHLD" not in after and after.count(b"$TRHBT") >= 2
+        await link.close()
+
+    try:
+        asyncio.run(go())
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert b"30.000" not in received
+
+
+# ---------------------------------------------------------------------- a real pty
+@pytest.fixture()
+def served(sabertooth: Profile) -> Iterator[tuple[SerialServer, threading.Event]]:
+    vehicle = SimVehicle(sabertooth, SimConfig(payload="10@AftSB", seed=4))  # armed, ALT_HOLD
+    server = SerialServer(vehicle, rate=RATE)
+    stop = threading.Event()
+    thread = threading.Thread(target=server.run, args=(stop,), daemon=True)
+    thread.start()
+    yield server, stop
+    stop.set()
+    thread.join(timeout=5)
+
+
+def rates(samples: list[Sample]) -> dict[str, float]:
+    """Samples of each type per second of the samples' own time."""
+    span = samples[-1].t_s - samples[0].t_s
+    return {k: n / span for k, n in Counter(type(s).__name__ for s in samples).items()}
+
+
+def test_served_vehicle_rates_hold_release_and_link_lost(
+        served: tuple[SerialServer, threading.Event], sabertooth: Profile) -> None:
+    server, stop = served
+    vehicle = server.vehicle
+
+    async def go() -> None:
+        link = await open_link(f"serial:{server.path}", sabertooth)
+        assert isinstance(link, SerialLink)
+        t0 = (await collect(link, lambda s: isinstance(s, Health) and s.connected))[-1].t_s
+        quiet = await collect(link, lambda s: s.t_s > t0 + 20.0)
+        r = rates(quiet)
+        assert r["Attitude"] == pytest.approx(20.0, rel=0.05)
+        assert r["Thrusters"] == pytest.approx(10.0, rel=0.05)
+        assert r["Depth"] == pytest.approx(5.0, rel=0.05)
+        assert r["Health"] == pytest.approx(1.0, rel=0.15)
+        assert r["Battery"] == pytest.approx(1.0, rel=0.15)
+        assert all(len(s.pwm_us) == 6 for s in quiet if hasattr(s, "pwm_us"))
+
+        # a hold held for 40 s of vehicle time (4 s of wall time: kept alive by the
+        # control sentence, or the vehicle would release after 1.5 s)
+        target = (10 * DEG, -5 * DEG, 0.3)
+        await link.send(HoldAttitude(*target))
+        held = await collect(link, lambda s: s.t_s > t0 + 60.0)
+        assert server.control == "HOLD"
+        assert [h.detail for h in held if isinstance(h, Health)][-1] == "control HOLD"
+        att = [s for s in held if isinstance(s, Attitude)][-40:]
+        for got, want in zip(np.mean([(a.phi, a.theta, a.psi) for a in att], axis=0), target,
+                             strict=True):
+            assert abs(got - want) < 0.3 * DEG
+        np.testing.assert_allclose(vehicle.truth.eta[3:], target, atol=0.3 * DEG)
+
+        await link.send(Release())
+        released = await collect(link, lambda s: s.t_s > t0 + 90.0)
+        assert server.control == "PILOT" and vehicle.mode == "ALT_HOLD"
+        att = [s for s in released if isinstance(s, Attitude)][-20:]
+        assert max(abs(a.phi) + abs(a.theta) for a in att) < 0.5 * DEG
+
+        # the vehicle goes away: link-lost on the samples' own clock
+        stop.set()
+        gone = released + await collect(link, lambda s: isinstance(s, Health)
+                                        and not s.connected)
+        lost_after = gone[-1].t_s - gone[-2].t_s
+        print(f"link lost {lost_after * 1000:.1f} ms after the last sentence")
+        assert 0 <= lost_after < 1.0
+        assert link.parser.bad_lines == 0 and server.parser.bad_lines == 0
+        await link.close()
+    asyncio.run(go())
+
+
+def test_vehicle_releases_when_trimd_falls_silent_and_trimd_sees_silence(
+        sabertooth: Profile) -> None:
+    server = SerialServer(SimVehicle(sabertooth, SimConfig(seed=5)), rate=RATE)
+    pause = threading.Event()
+    thread = threading.Thread(target=run_paced, args=(server.vehicle, server.advance_to,
+                                                      server.master),
+                              kwargs={"rate": RATE, "stop": pause}, daemon=True)
+    thread.start()
+
+    # trimd falls silent after one hold sentence: the vehicle releases by itself
+    trimd = os.open(server.path, os.O_RDWR | os.O_NOCTTY)
+    os.write(trimd, frame("TRHLD,5.000,0,0"))
+    t_quiet = time.monotonic()
+    while server.control != "HOLD" and time.monotonic() - t_quiet < WALL_LIMIT_S:
+        time.sleep(0.01)
+    assert server.control == "HOLD"
+    while server.control != "PILOT" and time.monotonic() - t_quiet < WALL_LIMIT_S:
+        time.sleep(0.05)
+    quiet_s = time.monotonic() - t_quiet
+    os.close(trimd)
+    print(f"vehicle released {quiet_s:.2f} s after trimd fell silent")
+    assert server.control == "PILOT" and quiet_s >= COMMAND_TIMEOUT_S
+
+    async def go() -> None:
+        # the vehicle falls silent without closing the device: trimd sees the silence
+        link = open_serial_link(server.path, sabertooth, timeout_s=0.5)
+        before = await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        pause.set()
+        got = before + await collect(link, lambda s: isinstance(s, Health) and not s.connected)
+        silent = got[-1].t_s - got[-2].t_s
+        print(f"link lost {silent:.3f} s after the vehicle's last sentence (timeout 0.5 s)")
+        assert 0.5 <= silent < 0.5 + 1.0
+        await link.close()
+    try:
+        asyncio.run(go())
+    finally:
+        pause.set()
+        thread.join(timeout=5)
+        server.close()
+
+
+def test_the_served_vehicle_says_why_it_released(sabertooth: Profile) -> None:
+    server = SerialServer(SimVehicle(sabertooth, SimConfig(seed=5)))
+    trimd = os.open(server.path, os.O_RDWR | os.O_NOCTTY)
+    try:
+        os.read(trimd, 4096)  # the boot VHVER
+        server.handle(HoldAttitude(5 * DEG, 0.0, 0.0))
+        server._heard = time.monotonic() - COMMAND_TIMEOUT_S - 0.1  # trimd fell silent
+        server.poll()
+        assert server.control == "PILOT"
+        parser = LineParser(VEHICLE)
+        [said] = parser.feed(os.read(trimd, 4096))
+        assert to_sample(said, 0.0, ()) == VehicleText(
+            0.0, 4, "trimd silent for 1.5 s: control back to the pilot")
+    finally:
+        os.close(trimd)
+        server.close()
+
+
+# ---------------------------------------------------------------------- trimd run
+class Relay:
+    """A man in the middle between ``trimd sim``'s pseudo-terminal and trimd, on a
+    pseudo-terminal of its own: forwards both ways, and once trimd has spoken replaces
+    every 10th vehicle line with a bad one, ``count`` times (``injected`` by counter)."""
+
+    def __init__(self, vehicle_path: str, count: int) -> None:
+        self.vehicle = os.open(vehicle_path, os.O_RDWR | os.O_NOCTTY)
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        self.path = os.ttyname(self._slave)
+        self.count = count
+        self.injected: Counter[str] = Counter()
+        self.stop = threading.Event()
+        self._lines = 0
+
+    def run(self) -> None:
+        buffer, heard = b"", False
+        try:
+            while not self.stop.is_set():
+                ready, _, _ = select.select([self.vehicle, self.master], [], [], 0.1)
+                if self.master in ready:
+                    os.write(self.vehicle, os.read(self.master, 4096))
+                    heard = True
+                if self.vehicle in ready:
+                    buffer += os.read(self.vehicle, 65536)
+                    *lines, buffer = buffer.split(b"\n")
+                    if heard:
+                        os.write(self.master, b"".join(self._mangle(x + b"\n") for x in lines))
+        except OSError:
+            pass        # the simulator or the test closed a side
+        finally:
+            for fd in (self.vehicle, self.master, self._slave):
+                os.close(fd)
+
+    def _mangle(self, line: bytes) -> bytes:
+        self._lines += 1
+        if self._lines % 10 or sum(self.injected.values()) >= self.count:
+            return line
+        kind = BAD_COUNTERS[sum(self.injected.values()) % len(BAD_COUNTERS)]
+        self.injected[kind] += 1
+        return {"too_long": b"$VHDPT," + b"9" * MAX_LINE_BYTES + b"\r\n",
+                "malformed": b"\x00\xffnoise on the line\r\n",
+                "bad_checksum": line[:-4] + b"%02X\r\n" % (int(line[-4:-2], 16) ^ 0x21),
+                "unknown": frame("VHXYZ,1,2"),
+                "bad_fields": frame("VHDPT,1"),
+                "bad_value": frame("VHDPT,1,nan")}[kind]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("payload", ["10@AftSB", "6@0.5,-0.45,0.25"])   # one above the CO
+def test_trimd_run_over_serial_against_trimd_sim(
+        sabertooth: Profile, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str], payload: str) -> None:
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "trimd", "sim", "--profile", "sabertooth-dh2",
+         "--payload", payload, "--serve", "serial:pty", "--rate", "20",
+         "--options", "armed=1,mode=ALT_HOLD"], stdout=subprocess.PIPE, text=True,
+        cwd=REPO)
+    try:
+        assert sim.stdout is not None
+        banner = sim.stdout.readline()
+        match = re.search(r" on (/dev/\S+) at 20× real time", banner)
+        assert match, banner
+        relay = Relay(match.group(1), count=120)
+        threading.Thread(target=relay.run, daemon=True).start()
+        links: list[SerialLink] = []
+
+        async def capture(url: str, profile: Profile) -> object:
+            link = await open_link(url, profile)
+            links.append(link)  # type: ignore[arg-type]
+            return link
+        monkeypatch.setattr(trimd.cli.run, "open_link", capture)
+        code = main(["run", "--link", f"serial:{relay.path}", "--profile", "sabertooth-dh2",
+                     "--headless", "--yes", "--no-record", "--json"])
+    finally:
+        sim.terminate()
+        sim.wait(timeout=10)
+    out = capsys.readouterr().out.splitlines()
+    assert code == 0, out[-3:]
+    result = json.loads(out[-1])
+    truth = SimVehicle(sabertooth, SimConfig(payload=payload)).truth
+    err = np.asarray(result["estimate"]["cg_m"]) - truth.mass.r_g
+    m_err = result["estimate"]["m_ext_kg"] - truth.m_ext_kg
+    print(f"serial trim: r_g error {np.round(err * 1000, 4)} mm, m_ext error {m_err:+.3f} kg")
+    assert np.all(np.abs(err[:2]) < 1e-3) and abs(err[2]) < 3e-3, err
+    assert abs(m_err) < 0.2
+    assert_proposal_levels(sabertooth, payload, result["proposal"])  # milp, applied
+    # every injected bad line counted under its own name, nothing else dropped
+    counts = links[0].parser.counts
+    assert sum(relay.injected.values()) == 120
+    assert {k: counts[k] for k in BAD_COUNTERS} == dict(relay.injected)

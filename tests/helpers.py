@@ -1,0 +1,195 @@
+"""What many tests share: where things are, true payloads, synthetic equilibrium holds, a
+minimal stand-in vehicle and link, and the physics check of a proposal (applied to the
+simulated vehicle, it must leave it level with thrusters off).
+
+The stand-in vehicle has a first-order attitude response and the thruster outputs that
+balance g(η) at its current attitude; it keeps procedure tests independent of the
+simulator proper (``trimd/drivers/sim``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.core.estimate import HoldSamples
+from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
+from trimd.core.profile import Profile
+from trimd.core.samples import (
+    Attitude,
+    Command,
+    Depth,
+    Health,
+    HoldAttitude,
+    Release,
+    Sample,
+    Thrusters,
+)
+from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.vehicle import SimVehicle
+
+REPO = Path(__file__).resolve().parent.parent
+PROFILES = REPO / "trimd" / "profiles"  # the shipped profiles (package data)
+ARDUSUB_LOGS = REPO / "tests" / "data" / "ardusub"  # real logs, MIT: see SOURCES.md there
+
+
+def payload_truth(profile: Profile, m_ext: float, r_ext: np.ndarray) -> tuple[float, np.ndarray]:
+    """Weight [N] and centre of gravity [m] of the vehicle plus a point mass (CG0 = 0)."""
+    W = (profile.mass_kg + m_ext) * profile.gravity_m_s2
+    return W, m_ext * np.asarray(r_ext, float) / (profile.mass_kg + m_ext)
+
+
+def equilibrium_holds(profile: Profile, W: float, r_g: np.ndarray, *, n: int = 200,
+                      attitude_noise_deg: float = 0.0, thrust_noise: float = 0.0,
+                      rng: np.random.Generator | None = None,
+                      tilts_deg: tuple[tuple[float, float], ...] = ((0, 0), (20, 20)),
+                      ) -> list[HoldSamples]:
+    """Steady holds where τ = g(η) at the true attitude, plus optional noise.
+
+    Attitude noise [deg] corrupts the measured roll/pitch; thrust noise is a fraction of
+    the largest force (force rows) or moment (moment rows) of the hold.
+    """
+    rng = rng or np.random.default_rng(0)
+    holds = []
+    for k, (roll, pitch) in enumerate(tilts_deg):
+        phi, theta = np.radians(roll), np.radians(pitch)
+        tau = restoring_forces(phi, theta, W, profile.buoyancy_N, r_g, profile.r_b_m)
+        scale = np.r_[np.full(3, np.abs(tau[:3]).max()), np.full(3, np.abs(tau[3:]).max())]
+        noise_att = np.radians(attitude_noise_deg) * rng.standard_normal((n, 2))
+        taus = tau + thrust_noise * scale * rng.standard_normal((n, 6))
+        holds.append(HoldSamples(np.arange(n) * 0.1 + 100.0 * k, phi + noise_att[:, 0],
+                                 theta + noise_att[:, 1], taus, f"hold {k}"))
+    return holds
+
+
+@dataclass
+class FakeVehicle:
+    profile: Profile
+    W: float
+    r_g: np.ndarray
+    seed: int = 0
+    armed: bool = True
+    mode: str = "ALT_HOLD"
+    muted: set[str] = field(default_factory=set)  # streams that have stopped
+    stuck_at_deg: float | None = None  # cannot tilt beyond this (never settles)
+    depth_drift_m_s: float = 0.0
+    rates_hz: dict[str, float] = field(default_factory=lambda: {
+        "attitude": 20.0, "thrusters": 10.0, "depth": 5.0, "health": 1.0})
+    phi: float = 0.0
+    theta: float = 0.0
+    target: tuple[float, float] | None = None
+    depth: float = 10.0
+    commands: list[tuple[float, Command]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.rng = np.random.default_rng(self.seed)
+        self.T_pinv = np.linalg.pinv(thrust_configuration(self.profile.thrusters))
+
+    def apply(self, t: float, command: Command) -> None:
+        self.commands.append((t, command))
+        if isinstance(command, HoldAttitude):
+            self.target = (command.phi, command.theta)
+        elif isinstance(command, Release):
+            self.target = None
+
+    def samples(self, t: float, dt: float) -> list[Sample]:
+        goal = self.target or (0.0, 0.0)
+        if self.stuck_at_deg is not None:
+            lim = math.radians(self.stuck_at_deg)
+            goal = (min(goal[0], lim), min(goal[1], lim))
+        k = 1 - math.exp(-dt / 2.0)
+        self.phi += (goal[0] - self.phi) * k
+        self.theta += (goal[1] - self.theta) * k
+        self.depth += self.depth_drift_m_s * dt
+        out: list[Sample] = []
+
+        def due(stream: str) -> bool:
+            if stream in self.muted:
+                return False
+            period = 1.0 / self.rates_hz[stream]
+            return math.floor(t / period) != math.floor((t - dt) / period)
+
+        if due("health"):
+            out.append(Health(t, True, self.mode, self.armed))
+        if due("thrusters"):
+            tau = restoring_forces(self.phi, self.theta, self.W, self.profile.buoyancy_N,
+                                   self.r_g, self.profile.r_b_m)
+            f = self.T_pinv @ tau * (1 + 0.01 * self.rng.standard_normal(len(self.T_pinv)))
+            pwm = tuple(float(pwm_from_thrust(th.curve, [fi], self.profile.nominal_voltage_V)[0])
+                        for th, fi in zip(self.profile.thrusters, f, strict=True))
+            out.append(Thrusters(t, pwm))
+        if due("depth"):
+            out.append(Depth(t, self.depth + 0.01 * self.rng.standard_normal()))
+        if due("attitude"):
+            noise = math.radians(0.05) * self.rng.standard_normal(2)
+            out.append(Attitude(t, self.phi + noise[0], self.theta + noise[1], 0.3,
+                                0.0, 0.0, 0.0))
+        return out
+
+
+class FakeLink:
+    """FakeVehicle as a link in simulated time; ``hang_at``: stop sending (link lost),
+    ``end_at``: the stream ends."""
+
+    description = "fake"
+
+    def __init__(self, vehicle: FakeVehicle, *, hang_at: float = np.inf,
+                 end_at: float = np.inf) -> None:
+        self.vehicle, self.hang_at, self.end_at = vehicle, hang_at, end_at
+        self.t = 0.0
+        self.sent: list[Command] = []
+        self.closed = False
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        dt = 0.01
+        while self.t < self.end_at:
+            self.t = round(self.t + dt, 6)
+            if self.t >= self.hang_at:
+                await asyncio.sleep(3600)
+            for s in self.vehicle.samples(self.t, dt):
+                yield s
+            await asyncio.sleep(0)
+
+    async def send(self, command: Command) -> None:
+        self.sent.append(command)
+        self.vehicle.apply(self.t, command)
+
+    async def close(self) -> None:
+        self.closed = True
+
+
+def ballast_payload(proposal: Proposal | dict[str, Any], profile: Profile) -> str:
+    """The proposal (or its JSON) as simulator payload items: net kg down at each slot
+    (negative: lift)."""
+    slots = (proposal_to_dict(proposal) if isinstance(proposal, Proposal) else proposal)["slots"]
+    return "+".join(f"{s['net_down_N'] / profile.gravity_m_s2:.6f}@{s['name']}" for s in slots
+                    if abs(s["net_down_N"]) > 0)
+
+
+def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
+    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling."""
+    vehicle = SimVehicle(profile, SimConfig(payload=payload, armed=False, mode="MANUAL",
+                                            noise=0.0, depth_m=20.0))
+    vehicle.run_for(150.0)
+    angles = []
+    for _ in range(300):
+        vehicle.run_for(0.1)
+        angles.append(vehicle.truth.eta[3:5])
+    return np.degrees(np.mean(angles, axis=0))
+
+
+def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any]
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Apply ``proposal`` to the simulated vehicle carrying ``payload``: with thrusters off
+    it must float within 0.5° of level. Returns roll and pitch [deg] before and after."""
+    before = passive_attitude_deg(profile, payload)
+    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
+    assert np.all(np.abs(after) < 0.5), (before, after)
+    return before, after
