@@ -3,7 +3,7 @@
 The real-time factor is simulated seconds per wall second of the whole vehicle step
 (sensors, controller, mixer, thrusters, RK4 dynamics) holding the tilted trim attitude.
 The reference is a plain numpy RK4 loop of the same equations of motion
-(:func:`numpy_derivative`, which ``tests/test_sim_physics.py`` also checks against the
+(:func:`numpy_derivative`, which ``tests/drivers/test_sim_physics.py`` also checks against the
 simulator's own scalar implementation), with nothing else in the loop.
 """
 

@@ -2,7 +2,7 @@
 
 A payload (dry mass and displaced water at a point) is drawn inside each shipped
 vehicle's ballast footprint, small enough for the slots to counter it. The proposal is
-then checked by independent physics (tests/test_ballast.py): passive roll and pitch
+then checked by independent physics (tests/ballast/test_ballast.py): passive roll and pitch
 below 0.01° for the continuous methods and below 0.5° for ``milp`` with the shipped
 inventories, net buoyancy inside the window where the method enforces one, and slot
 capacities and inventory counts respected, summed from the pieces.

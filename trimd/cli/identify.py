@@ -39,6 +39,7 @@ from trimd.identify.fit import (
 from trimd.identify.model import STAGES
 from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
 from trimd.identify.signals import KINDS, design_signal
+from trimd.logs.log import open_log
 
 __all__ = ["read_log", "register", "run_excite", "run_identify"]
 
@@ -122,15 +123,8 @@ def run_excite(args: argparse.Namespace) -> int:
 
 
 def read_log(path: str, profile: Profile) -> list[Experiment]:
-    """The experiments of a recorded ``.tlog`` (trimd.logs.tlog + trimd.drivers.mavlink.decode)."""
-    from trimd.drivers.mavlink.decode import MavlinkDecoder
-    from trimd.logs.tlog import TlogReader
-
-    try:
-        reader = TlogReader.open(path)
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
-    samples = list(reader.samples(MavlinkDecoder.for_profile(profile)))
+    """The experiments of a recorded ``.tlog`` or DataFlash ``.BIN`` (trimd.logs.log)."""
+    samples = list(open_log(path, profile).samples())
     return experiments_from_samples(samples, profile, label=Path(path).name)
 
 

@@ -1,7 +1,7 @@
 """``trimd inspect LOG [--profile P] [--json]``: what a vehicle log holds.
 
-Reads a MAVLink ``.tlog`` (:mod:`trimd.logs.tlog`) or an ArduSub DataFlash ``.BIN``
-(:mod:`trimd.logs.dataflash`) and reports its format, duration, vehicle and firmware, frame,
+Reads a MAVLink ``.tlog`` or an ArduSub DataFlash ``.BIN`` (:func:`trimd.logs.log.open_log`)
+and reports its format, duration, vehicle and firmware, frame,
 streams and their rates, modes and armed periods, bad frames and sequence gaps, attitude
 and depth ranges, and the steady attitude segments (:func:`trimd.core.steady.detect_steady`).
 A steady segment is an *attitude hold* when the vehicle was armed (or the log does not
@@ -21,14 +21,12 @@ from typing import Any
 
 import numpy as np
 
-from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
-from trimd.core.samples import Attitude, Depth, Health, Sample, VehicleText
+from trimd.core.samples import Attitude, Depth, Health, VehicleText
 from trimd.core.steady import SteadyCriteria, detect_steady
-from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams
-from trimd.logs.dataflash import DataflashReader
-from trimd.logs.tlog import TlogReader
+from trimd.drivers.mavlink.decode import VehicleParams
+from trimd.logs.log import open_log
 
 __all__ = ["HOLD_MODES", "format_report", "inspect_log", "register", "run"]
 
@@ -39,7 +37,6 @@ HOLD_MODES = frozenset({"STABILIZE", "ALT_HOLD", "AUTO", "GUIDED", "CIRCLE", "PO
 DEFAULT_TOL_DEG, DEFAULT_RATE_TOL_DEG_S, DEFAULT_MIN_STEADY_S = 1.0, 1.0, 10.0
 #: Attitude resolution of ArduSub logs (DataFlash ATT is in centidegrees) [deg].
 LOG_RESOLUTION_DEG = 0.01
-_DATAFLASH_HEAD = b"\xa3\x95"
 #: Vehicle messages the report for people lists (the JSON report has all).
 _TEXTS_SHOWN = 12
 _SAMPLE_STREAMS = {"ATTITUDE", "SERVO_OUTPUT_RAW", "VFR_HUD", "GLOBAL_POSITION_INT",
@@ -56,76 +53,6 @@ def register(sub: Any) -> None:
     p.add_argument("--profile", help="vehicle profile (thruster channels, tolerances)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
-
-
-def _is_dataflash(path: Path) -> bool:
-    if path.suffix.lower() == ".bin":
-        return True
-    try:
-        with open(path, "rb") as f:
-            return f.read(2) == _DATAFLASH_HEAD
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
-
-
-def _read_tlog(path: Path, profile: Profile | None) -> tuple[dict[str, Any], list[Sample]]:
-    reader = TlogReader.open(path)
-    decoder = (MavlinkDecoder.for_profile(profile) if profile else MavlinkDecoder())
-    counts: Counter[str] = Counter()
-    samples: list[Sample] = []
-    firmware = None
-    for msg_t, msg in _timed(reader):
-        kind = msg.get_type()
-        counts[kind] += 1
-        if kind == "STATUSTEXT" and firmware is None and str(msg.text).startswith("ArduSub"):
-            firmware = str(msg.text)
-        samples.extend(decoder.decode(msg, msg_t))
-    st = reader.stats
-    if st.messages == 0:
-        raise DataError(f"{path}: no MAVLink message could be read "
-                        f"({st.size_bytes} bytes, {st.bad_frames} bad frames)")
-    info = {
-        "format": "MAVLink tlog", "start": f"unix {st.first_us / 1e6:.3f} s"
-        if st.first_us is not None else None,
-        "duration_s": _span(st.first_us, st.last_us), "firmware": firmware,
-        "vehicle": None if decoder.vehicle is None else
-        f"system {decoder.vehicle[0]} component {decoder.vehicle[1]}",
-        "counts": counts, "params": decoder.params, "armed_known": decoder.armed is not None,
-        "messages": st.messages, "bad_frames": st.bad_frames, "bad_crc": st.bad_crc,
-        "skipped_bytes": st.skipped_bytes, "truncated_at": st.truncated_at,
-        "first_skip_at": st.first_bad_at,
-        "sequence_gaps": {f"{s}/{c}": n for (s, c), n in sorted(st.gaps.items()) if n},
-        "rejected": dict(decoder.rejected),
-    }
-    return info, samples
-
-
-def _timed(reader: TlogReader) -> Any:
-    for stamp, msg in reader.messages():
-        assert reader.stats.first_us is not None
-        yield (stamp - reader.stats.first_us) * 1e-6, msg
-
-
-def _read_dataflash(path: Path, profile: Profile | None) -> tuple[dict[str, Any], list[Sample]]:
-    reader = DataflashReader(path, [t.channel for t in profile.thrusters] if profile else None)
-    samples = list(reader.samples())
-    if not reader.counts:
-        raise DataError(f"{path}: no DataFlash record could be read")
-    info = {
-        "format": "ArduPilot DataFlash", "duration_s": _span(reader.first_us, reader.last_us),
-        "start": None if reader.first_us is None else f"boot + {reader.first_us / 1e6:.3f} s",
-        "firmware": reader.firmware, "vehicle": None, "counts": reader.counts,
-        "params": reader.params, "armed_known": reader.armed_known,
-        "messages": sum(reader.counts.values()), "bad_frames": 0,
-        "truncated_at": reader.truncated_at, "skipped_bytes": reader.skipped_bytes,
-        "first_skip_at": reader.first_skip_at, "error": reader.error,
-        "rejected": dict(reader.rejected),
-    }
-    return info, samples
-
-
-def _span(first: int | None, last: int | None) -> float:
-    return 0.0 if first is None or last is None else (last - first) * 1e-6
 
 
 def _periods(health: list[Health], end_s: float) -> tuple[list[dict[str, Any]], list[list[float]]]:
@@ -182,7 +109,9 @@ def _steady(att: list[Attitude], health: list[Health], profile: Profile | None,
 def inspect_log(path: str | Path, profile: Profile | None = None) -> dict[str, Any]:
     """The report of one log as a JSON-ready dict (times [s] from the log's start)."""
     p = Path(path)
-    info, samples = (_read_dataflash if _is_dataflash(p) else _read_tlog)(p, profile)
+    log = open_log(p, profile)
+    samples = list(log.samples())
+    info = log.summary()
     duration = info["duration_s"]
     att = [s for s in samples if isinstance(s, Attitude)]
     depth = [s.depth_m for s in samples if isinstance(s, Depth)]

@@ -40,7 +40,7 @@ from trimd.core.profile import Profile
 __all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs"]
 
 FloatArray = NDArray[np.float64]
-DOF_NAMES = ("X", "Y", "Z", "K", "M", "N")
+TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 #: Holds whose stacked design has a relative singular value below this cannot separate
 #: a parameter (≈ sin 1.1°): an "almost level" hold does not identify z_g.
@@ -152,7 +152,7 @@ def _check_identifiable(holds: Sequence[HoldSamples], rows: NDArray[np.bool_]) -
         raise EstimationError(
             f"{name} is not identifiable: every hold was level (holds at roll, pitch {tilts});"
             " add a tilted hold, e.g. roll = pitch = 20°")
-    used = ", ".join(d for d, r in zip(DOF_NAMES, rows, strict=True) if r)
+    used = ", ".join(d for d, r in zip(TAU_NAMES, rows, strict=True) if r)
     raise EstimationError(
         f"{name} is not identifiable from holds at roll, pitch {tilts} with the measured "
         f"rows {used}: at any one attitude the moment about the vertical is invisible, so "
@@ -292,5 +292,5 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         q=q, q_cov=q_cov, weight_N=W, buoyancy_N=B, r_b_m=r_b, r_g_m=r_g,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
         gravity_m_s2=profile.gravity_m_s2, holds=summaries,
-        dofs_used=tuple(d for d, r in zip(DOF_NAMES, rows, strict=True) if r),
+        dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
         residual_rms=residual_rms)

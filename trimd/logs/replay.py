@@ -18,21 +18,11 @@ from pathlib import Path
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Sample
-from trimd.drivers.mavlink.decode import MavlinkDecoder
-from trimd.logs.dataflash import DataflashReader
+from trimd.logs.log import is_dataflash, open_log
 from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "is_dataflash", "recorded_profile_yaml"]
-
-
-def is_dataflash(path: str | Path) -> bool:
-    """A DataFlash log starts with the 0xA3 0x95 record header; a tlog does not."""
-    try:
-        with open(path, "rb") as f:
-            return f.read(2) == b"\xa3\x95"
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+__all__ = ["ReplayLink", "recorded_profile_yaml"]
 
 
 def recorded_profile_yaml(path: str | Path) -> str | None:
@@ -73,42 +63,17 @@ class ReplayLink:
         self.profile = profile
         self.speed = speed
         self.sent: list[Command] = []
-        self._reader: DataflashReader | TlogReader | None = None
-        self._dataflash = is_dataflash(path)
+        self._log = open_log(path, profile)
         self._closed = False
 
     def read_samples(self) -> Iterator[Sample]:
         """Every sample of the log, in file order (:attr:`warnings` grow on the way)."""
-        if self._dataflash:
-            df = self._reader = DataflashReader(
-                self.path, [t.channel for t in self.profile.thrusters])
-            yield from df.samples()
-        else:
-            reader = self._reader = TlogReader.open(self.path)
-            yield from reader.samples(MavlinkDecoder.for_profile(self.profile))
+        yield from self._log.samples()
 
     @property
     def warnings(self) -> list[str]:
         """The damage found in what has been read so far (a session may stop early)."""
-        r, out = self._reader, list[str]()
-        if isinstance(r, DataflashReader):
-            error, truncated_at, skipped, first_skip = (
-                r.error, r.truncated_at, r.skipped_bytes, r.first_skip_at)
-        elif isinstance(r, TlogReader):
-            error, truncated_at, skipped, first_skip = (
-                None, r.stats.truncated_at, r.stats.bad_frames, r.stats.first_bad_at)
-        else:
-            return out
-        if error:
-            out.append(f"{self.path}: {error}; replayed up to there")
-        if truncated_at is not None:
-            out.append(f"{self.path}: truncated record at byte {truncated_at}; "
-                       "replayed up to there")
-        if skipped:
-            what = "damaged bytes" if isinstance(r, DataflashReader) else "bad frames"
-            out.append(f"{self.path}: {skipped} {what} skipped (the first at byte "
-                       f"{first_skip})")
-        return out
+        return self._log.warnings()
 
     async def samples(self) -> AsyncIterator[Sample]:
         start_wall: float | None = None

@@ -61,10 +61,11 @@ _STAMP = struct.Struct(">Q")
 class TlogStats:
     """What reading a ``.tlog`` found (filled in as the messages are read).
 
-    ``messages`` counts the good (CRC-checked) ones; ``gaps`` counts messages missing from
-    each sender's sequence numbers, keyed by (system id, component id); frames lost to CRC
-    errors show up there too. ``first_bad_at`` is the byte offset of the first bad frame
-    (a CRC error or the start of a damaged stretch), None when there is none.
+    ``messages`` counts the good (CRC-checked) ones, ``counts`` them by type; ``gaps``
+    counts messages missing from each sender's sequence numbers, keyed by (system id,
+    component id); frames lost to CRC errors show up there too. ``first_bad_at`` is the
+    byte offset of the first bad frame (a CRC error or the start of a damaged stretch),
+    None when there is none.
     """
 
     size_bytes: int = 0
@@ -79,6 +80,7 @@ class TlogStats:
     unknown: int = 0
     unknown_bytes: int = 0
     gaps: Counter[tuple[int, int]] = field(default_factory=Counter)
+    counts: Counter[str] = field(default_factory=Counter)
     first_us: int | None = None
     last_us: int | None = None
 
@@ -199,6 +201,7 @@ class TlogReader:
     def _count(self, msg: Any, buf: Any, i: int, seqs: dict[tuple[int, int], int]) -> None:
         st = self.stats
         st.messages += 1
+        st.counts[msg.get_type()] += 1
         seq, key = (buf[i + 4], (buf[i + 5], buf[i + 6])) if buf[i] == _V2 else (
             buf[i + 2], (buf[i + 3], buf[i + 4]))
         last = seqs.get(key)
