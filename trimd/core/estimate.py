@@ -217,7 +217,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     Examples
     --------
     >>> import numpy as np
-    >>> from trimd.core.profile import load_profile
+    >>> from trimd.core.profile_yaml import load_profile
     >>> from trimd.core.model import restoring_forces
     >>> p = load_profile("sabertooth-dh2")
     >>> W, r_g = (p.mass_kg + 10) * p.gravity_m_s2, np.array([-0.0086, 0.005, 0.0])

@@ -22,7 +22,7 @@ def check_command(command: Command, profile: Profile) -> None:
 
     Examples
     --------
-    >>> from trimd.core.profile import load_profile
+    >>> from trimd.core.profile_yaml import load_profile
     >>> p = load_profile("bluerov2-heavy")
     >>> check_command(HoldAttitude(math.radians(20), math.radians(-20), 0.0), p)
     >>> check_command(HoldAttitude(math.radians(30), 0.0, 0.0), p)

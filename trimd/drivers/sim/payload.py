@@ -54,7 +54,7 @@ def parse_payload(text: str, profile: Profile) -> tuple[PayloadItem, ...]:
 
     Examples
     --------
-    >>> from trimd.core.profile import load_profile
+    >>> from trimd.core.profile_yaml import load_profile
     >>> p = load_profile("sabertooth-dh2")
     >>> parse_payload("10@AftSB", p)[0].position_m
     (-1.031, 0.6, 0.0)
@@ -132,7 +132,7 @@ def mass_properties(profile: Profile, payload: tuple[PayloadItem, ...] = ()
 
     Examples
     --------
-    >>> from trimd.core.profile import load_profile
+    >>> from trimd.core.profile_yaml import load_profile
     >>> p = load_profile("sabertooth-dh2")
     >>> mp = mass_properties(p, parse_payload("10@AftSB", p))
     >>> [round(float(v), 4) for v in mp.r_g]   # method.md §3: x_g ≈ -8.6 mm, y_g ≈ 5.0 mm

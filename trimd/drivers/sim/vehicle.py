@@ -69,7 +69,7 @@ class SimVehicle:
 
     Examples
     --------
-    >>> from trimd.core.profile import load_profile
+    >>> from trimd.core.profile_yaml import load_profile
     >>> v = SimVehicle(load_profile("sabertooth-dh2"), SimConfig(payload="10@AftSB"))
     >>> v.run_for(1.0)
     >>> round(v.t_s, 6), v.truth.m_ext_kg, len(v.pwm_us)

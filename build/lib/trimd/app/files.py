@@ -1,0 +1,73 @@
+"""The files trimd reads and writes besides its logs: where session logs go, saved estimates
+(``trimd solve --json``, a TUI report, ``trimd run --json`` output) and the static terms an
+identification is held at."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+from trimd.core.errors import DataError
+from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate_json import estimate_from_dict
+from trimd.core.profile import Profile
+from trimd.identify.model import Statics, statics_from_estimate
+
+__all__ = ["default_record_path", "read_estimate", "read_statics"]
+
+
+def default_record_path(profile: Profile) -> Path:
+    """``<data dir>/sessions/YYYYmmdd-HHMMSS-<profile>.tlog``."""
+    base = os.environ.get("TRIMD_DATA_DIR") or os.path.join(
+        os.environ.get("XDG_DATA_HOME") or os.path.expanduser("~/.local/share"), "trimd")
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return Path(base) / "sessions" / f"{stamp}-{profile.name}.tlog"
+
+
+def _estimate_json(text: str, path: str | Path) -> object:
+    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
+    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
+    of ``trimd run --json``."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        lines = []
+        for line in filter(str.strip, text.splitlines()):
+            try:
+                lines.append(json.loads(line))
+            except json.JSONDecodeError:
+                raise DataError(f"{path}: not valid JSON ({exc})") from None
+        results = [x for x in lines if isinstance(x, dict) and x.get("type") == "result"]
+        if not results:
+            raise DataError(f"{path}: no result line (trimd run --json)") from None
+        data = results[-1]
+    if isinstance(data, dict) and "weight_N" not in data and "estimate" in data:
+        if data["estimate"] is None:
+            raise DataError(f"{path}: that session produced no estimate")
+        return data["estimate"]
+    return data
+
+
+def read_estimate(path: str | Path) -> StaticEstimate:
+    """The estimate in ``path`` (any form :func:`_estimate_json` takes); DataError naming
+    the file for anything unusable."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
+    try:
+        return estimate_from_dict(_estimate_json(text, path), str(path))
+    except DataError:
+        raise
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
+                        "the output of trimd solve --json") from None
+
+
+def read_statics(path: str) -> Statics:
+    """Mass and restoring terms from a static estimate file (any form
+    :func:`trimd.cli.ballast.read_estimate` takes); DataError naming the file for anything
+    unusable."""
+    return statics_from_estimate(read_estimate(path), f"estimate {Path(path).name}")

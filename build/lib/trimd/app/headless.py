@@ -1,0 +1,145 @@
+"""Headless presenter: human progress lines, or one JSON object per line (``--json``);
+the confirmation prompt at a terminal, and the signals that stop a session."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import signal
+import sys
+from collections.abc import Callable
+from typing import Any, TextIO
+
+from trimd.app.report import NewWarnings, describe_command, format_estimate, format_proposal
+from trimd.app.session import Session
+from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.events import Notice, Output, Phase, Progress
+from trimd.core.samples import Health, Sample, VehicleText
+
+__all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "stop_on_signals"]
+
+
+class HeadlessPresenter:
+    """Prints state changes, warnings, commands, a progress line every
+    ``progress_every_s`` of sample time, and the final estimate and proposal.
+
+    The stream defaults to the standard output of the moment of printing.
+    """
+
+    def __init__(self, stream: TextIO | None = None, *, json_lines: bool = False,
+                 progress_every_s: float = 5.0) -> None:
+        self.stream = stream
+        self.json_lines = json_lines
+        self.every = progress_every_s
+        self._next_progress = -math.inf
+        self._new_warnings = NewWarnings()
+
+    def _emit(self, text: str, obj: dict[str, Any]) -> None:
+        line = json.dumps(obj) if self.json_lines else text
+        print(line, file=self.stream or sys.stdout, flush=True)
+
+    def output(self, out: Output, progress: Progress) -> None:
+        t = out.t_s if isinstance(out, Notice) else progress.t_s
+        if isinstance(out, Notice):
+            if out.result is not None:
+                self._result(out.result.estimate, out.result.proposal)
+                return
+            phase = out.phase.value if out.phase is not None else None
+            self._emit(f"[{t:8.1f} s] {out.kind + ': ' if out.kind != 'state' else ''}"
+                       f"{out.text}", {"type": out.kind, "t_s": t, "phase": phase,
+                                       "text": out.text})
+        else:
+            self._emit(f"[{t:8.1f} s] command: {describe_command(out)}",
+                       {"type": "command", "t_s": t, "command": describe_command(out)})
+
+    def sample(self, sample: Sample, progress: Progress) -> None:
+        if isinstance(sample, Health):
+            for warning in self._new_warnings(sample):
+                self._emit(f"[{sample.t_s:8.1f} s] warning: {warning}",
+                           {"type": "warning", "t_s": sample.t_s, "text": warning})
+        elif isinstance(sample, VehicleText):
+            self._emit(f"[{sample.t_s:8.1f} s] vehicle {sample.level}: {sample.text}",
+                       {"type": "vehicle", "t_s": sample.t_s, "severity": sample.severity,
+                        "text": sample.text})
+        if progress.phase not in (Phase.SETTLE, Phase.COLLECT) or sample.t_s < self._next_progress:
+            return
+        self._next_progress = sample.t_s + self.every
+        p = progress
+        text = (f"[{p.t_s:8.1f} s]   hold {p.hold + 1}/{p.holds} {p.phase.value}: "
+                f"settled {p.settled_fraction:4.0%}, {p.samples} samples, "
+                f"{p.time_left_s:.0f} s left")
+        self._emit(text, {"type": "progress", "t_s": p.t_s, "phase": p.phase.value,
+                          "hold": p.hold + 1, "holds": p.holds,
+                          "settled_fraction": p.settled_fraction, "samples": p.samples,
+                          "time_left_s": p.time_left_s})
+
+    def _result(self, estimate: StaticEstimate, proposal: object | None) -> None:
+        if self.json_lines:
+            self._emit("", {"type": "result", "estimate": estimate_to_dict(estimate),
+                            "proposal": proposal_to_dict(proposal)
+                            if isinstance(proposal, Proposal) else None})
+            return
+        text = format_estimate(estimate)
+        if isinstance(proposal, Proposal):
+            text += "\n\n" + format_proposal(proposal)
+        self._emit(text, {})
+
+
+#: Signals that stop a session cleanly: Ctrl-C (headless), ``kill``, an SSH drop.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class StdinConfirm:
+    """Headless confirmation at a terminal: ask once when the procedure is ready."""
+
+    def __init__(self, session: Session) -> None:
+        self.session = session
+
+    def output(self, out: Output, progress: Progress) -> None:
+        if isinstance(out, Notice) and out.phase is Phase.CONFIRM:
+            asyncio.get_running_loop().create_task(self._ask())
+
+    def sample(self, sample: Sample, progress: Progress) -> None:
+        return None
+
+    async def _ask(self) -> None:
+        print("type 'yes' to let trimd command the vehicle, anything else aborts: ",
+              end="", flush=True)
+        answer = await _read_line(sys.stdin.fileno())
+        if answer.strip().lower() == "yes":
+            self.session.confirm()
+        else:
+            self.session.abort("not confirmed by the operator")
+
+
+async def _read_line(fd: int) -> str:
+    """One line from ``fd`` ("" at end of file) without a thread: a blocked ``input()``
+    in an executor would keep the process alive after a signal ended the session."""
+    loop = asyncio.get_running_loop()
+    line: asyncio.Future[str] = loop.create_future()
+    buffer = bytearray()
+
+    def readable() -> None:
+        chunk = os.read(fd, 1024)
+        buffer.extend(chunk)
+        if (not chunk or b"\n" in chunk) and not line.done():
+            line.set_result(buffer.split(b"\n", 1)[0].decode(errors="replace"))
+
+    loop.add_reader(fd, readable)
+    try:
+        return await line
+    finally:
+        loop.remove_reader(fd)
+
+
+def stop_on_signals(stop: Callable[[str], None]) -> None:
+    """On any of :data:`STOP_SIGNALS`, call ``stop("stopped by SIGTERM")`` (etc.) on the
+    running loop: ``Session.abort`` headless, ``TrimApp.stop`` in the TUI. Either way the
+    session releases the vehicle and closes the log before the process exits."""
+    loop = asyncio.get_running_loop()
+    for sig in STOP_SIGNALS:
+        loop.add_signal_handler(sig, stop, f"stopped by {sig.name}")

@@ -1,0 +1,98 @@
+"""Readable text of what trimd found: the estimate, the proposal, a session's result and the
+commands it sent, as the headless daemon, the TUI's report and the CLI print them.
+
+Lengths are shown in millimetres, angles in degrees; ± is one standard deviation.
+"""
+
+from __future__ import annotations
+
+import math
+
+from trimd.app.session import SessionResult
+from trimd.ballast.propose import Proposal
+from trimd.core.estimate import StaticEstimate
+from trimd.core.samples import Command, Health, HoldAttitude, Release
+
+__all__ = ["NewWarnings", "describe_command", "format_estimate", "format_proposal",
+           "format_result"]
+
+
+def format_estimate(est: StaticEstimate) -> str:
+    """A readable table of the estimate, ± 1σ, lengths in millimetres."""
+    lines = [f"{'hold':<10}{'roll °':>8}{'pitch °':>9}{'samples':>9}   steady window [s]"]
+    for h in est.holds:
+        lines.append(f"{h.label:<10}{h.roll_deg:8.2f}{h.pitch_deg:9.2f}{h.samples:9d}   "
+                     f"{h.t_start_s:.1f} – {h.t_end_s:.1f}")
+    mm, mm_std = est.r_g_m * 1e3, est.r_g_std_m * 1e3
+    M, M_std = est.net_moment_Nm, est.net_moment_std_Nm
+    lines += [
+        "",
+        f"weight W           {est.weight_N:12.2f} ± {est.weight_std_N:.2f} N"
+        f"   (buoyancy B = {est.buoyancy_N:.2f} N from the profile)",
+        f"extra mass m_ext   {est.m_ext_kg:12.3f} ± {est.m_ext_std_kg:.3f} kg",
+        *(f"centre of gravity {a} {v:10.2f} ± {s:.2f} mm"
+          for a, v, s in zip(("x_g", "y_g", "z_g"), mm, mm_std, strict=True)),
+        f"net vertical force W − B  {est.q[0]:.2f} ± {est.q_cov[0, 0] ** 0.5:.2f} N",
+        *(f"net moment W·{a}_g − B·{a}_b  {v:.3f} ± {s:.3f} N·m"
+          for a, v, s in zip("xyz", M, M_std, strict=True)),
+        f"rows used: {', '.join(est.dofs_used)}",
+    ]
+    return "\n".join(lines)
+
+
+def format_proposal(p: Proposal) -> str:
+    """A readable table: the loaded slots, added mass, net buoyancy, passive attitude."""
+    status = "feasible" if p.feasible else "NOT FEASIBLE: best achievable"
+    lines = [f"ballast by {p.method}: {status}",
+             f"{'slot':<14}{'x m':>8}{'y m':>8}{'z m':>8}{'weight kg':>11}{'float kgf':>11}"
+             f"{'net down N':>12}  pieces"]
+    for s in p.slots:
+        if s.mass_kg or s.buoyancy_N:
+            pieces = ", ".join(f"{n} × {name}" for name, n in s.pieces)
+            lines.append(f"{s.name:<14}{s.position_m[0]:8.3f}{s.position_m[1]:8.3f}"
+                         f"{s.position_m[2]:8.3f}{s.weight_kg:11.3f}{s.float_kg:11.3f}"
+                         f"{s.net_down_N:12.2f}  {pieces}")
+    t = p.trim
+    lines += [
+        f"added mass        {p.added_mass_kg:.3f} kg",
+        f"net buoyancy      {t.net_buoyancy_N:+.2f} ± {t.net_buoyancy_std_N:.2f} N "
+        f"({t.net_buoyancy_pct:+.2f} % of weight)",
+        *((f"passive roll      {t.roll_deg:+.3f} ± {t.roll_std_deg:.3f}°",
+           f"passive pitch     {t.pitch_deg:+.3f} ± {t.pitch_std_deg:.3f}°") if t.stable
+          else ("passive trim      undefined: no static stability",)),
+        f"binding           {'; '.join(p.binding) or 'none'}",
+        p.message,
+    ]
+    return "\n".join(lines)
+
+
+def format_result(result: SessionResult) -> str | None:
+    """The estimate and proposal as the headless daemon prints them (None: no estimate)."""
+    if result.estimate is None:
+        return None
+    text = format_estimate(result.estimate)
+    proposal = result.proposal
+    return text + "\n\n" + format_proposal(proposal) if isinstance(proposal, Proposal) else text
+
+
+def describe_command(command: Command) -> str:
+    """A short description of a command for the log."""
+    if isinstance(command, HoldAttitude):
+        return (f"hold roll {math.degrees(command.phi):.1f}°, pitch "
+                f"{math.degrees(command.theta):.1f}°, yaw {math.degrees(command.psi):.1f}°")
+    if isinstance(command, Release):
+        return "release control"
+    return repr(command)
+
+
+class NewWarnings:
+    """The link's warnings each presenter shows once: those of a Health sample not seen
+    before (a link repeats its warnings in every Health sample)."""
+
+    def __init__(self) -> None:
+        self._seen: set[str] = set()
+
+    def __call__(self, health: Health) -> list[str]:
+        new = [w for w in health.warnings() if w not in self._seen]
+        self._seen.update(new)
+        return new

@@ -1,0 +1,329 @@
+"""The ballast proposal as a (mixed-integer) linear programme, solved lexicographically.
+
+Columns are ballast :class:`Item` amounts u ≥ 0 (ideal kilograms for the continuous
+methods, piece counts for ``milp``) plus six slacks [s_x, s_y, b_lo, b_hi, r_x, r_y].
+With f the net downward force of one unit [N] at slot position r = (x, y, z) and m the
+net moment W·r_g − B·r_b of the estimate, the rows are
+
+* level:  |m_x + Σ f·x·u| ≤ t·(m_z + Σ f·z·u) + s_x + r_x, and the same for y, where
+  t = tan(level tolerance). Since tan φ = m_y/m_z and |tan θ| ≤ |m_x|/m_z at the passive
+  equilibrium, s = r = 0 guarantees |φ|, |θ| ≤ the tolerance exactly (t = 0: exactly
+  level). When no ballast can make m_z positive (no static stability, no passive trim)
+  t is 0: the best achievable then balances the moments;
+* net-buoyancy window: lo·W′ − b_lo ≤ B′ − W′ ≤ hi·W′ + b_hi (W′, B′ after ballasting);
+* capacity: per slot, Σ kilograms of weight ≤ max_weight_kg and Σ kgf of lift ≤ max_float_kg;
+* inventory: Σ pieces of a kind ≤ its count.
+
+The ballast objective is kg of weight + kgf of lift for ideal ballast, and for pieces
+the count plus their dry mass scaled below one piece (fewest pieces, then least mass).
+It is first minimised with the slacks held at zero, one solve when the requirement can
+be met; otherwise lexicographically, each optimum held for the next: the window slack
+(surfacing on power loss comes first), the level slack (the least residual moment),
+the ballast. scipy.optimize.linprog solves the continuous programmes,
+scipy.optimize.milp the integer ones.
+
+Why the integer programme needs the free allowance r (0 ≤ r ≤ the moment resolution,
+:func:`moment_resolution`) in the lexicographic stages: whole pieces reach only a
+lattice of moments, so the least residual moment over the integers is a closest-point
+problem whose LP bound is 0 while its optimum is not; branch and bound cannot close
+that gap, and the next stage, holding that optimum, is a needle-in-a-haystack search.
+Residuals below what the estimate can resolve mean nothing, so they are free: the
+level optimum is then 0, proven by the LP bound at once. The same holds when
+t·m_z is tiny (little static stability) or zero. Every integer solve also has a budget
+of branch-and-bound nodes (deterministic: a replay proposes exactly what the live run
+did, on any machine) and a time limit as the backstop; when either is reached the best
+solution found is used and the result says so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, linprog, milp
+
+from trimd.ballast.check import MIN_GM_M
+from trimd.core.estimate import StaticEstimate
+from trimd.core.profile import Profile
+
+__all__ = ["Item", "Programme", "Solution", "build_programme", "ideal_items",
+           "moment_resolution", "piece_items", "solve_programme"]
+
+FloatArray = NDArray[np.float64]
+_N_SLACK = 6
+#: Relative optimality gap of every integer solve.
+_MIP_GAP = 1e-6
+#: Branch-and-bound nodes of the exactly-as-asked solve, and (by default) of each later
+#: stage. Node budgets, not time limits: the proposal is the same on any machine, however
+#: loaded (HiGHS explores ~2000 nodes/s here; an ordinary proposal needs a handful).
+STRICT_NODES = 2_000
+STAGE_NODES = 20_000
+#: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
+_MIN_RESOLUTION_M = 1e-6
+
+
+@dataclass(frozen=True)
+class Item:
+    """One unit of one kind of ballast at one slot: a column of the programme.
+
+    Attributes
+    ----------
+    slot : index into ``profile.slots``.
+    kind : ``"weight"`` or ``"float"``.
+    piece : the inventory piece's name; None for ideal ballast (1 unit = 1 kg of
+        weight with no volume, or 1 kgf of lift with no mass: the thesis's idealisation).
+    mass_kg, buoyancy_N : dry mass [kg] and buoyancy [N] of one unit.
+    capacity_kg : what one unit uses of the slot: kg of weight, or kgf of lift.
+    cost_kg : what one unit adds to the last objective [kg].
+    count : pieces on hand; None for ideal ballast (a continuous amount).
+    """
+
+    slot: int
+    kind: Literal["weight", "float"]
+    piece: str | None
+    mass_kg: float
+    buoyancy_N: float
+    capacity_kg: float
+    cost_kg: float
+    count: int | None = None
+
+
+def ideal_items(profile: Profile, *, floats: bool) -> list[Item]:
+    """Ideal weights at every slot that takes weight, and floats too if ``floats``."""
+    g = profile.gravity_m_s2
+    items = [Item(i, "weight", None, 1.0, 0.0, 1.0, 1.0)
+             for i, s in enumerate(profile.slots) if s.max_weight_kg > 0]
+    if floats:
+        items += [Item(i, "float", None, 0.0, g, 1.0, 1.0)
+                  for i, s in enumerate(profile.slots) if s.max_float_kg > 0]
+    return items
+
+
+def piece_items(profile: Profile) -> list[Item]:
+    """Every inventory piece at every slot with room for at least one of it."""
+    g, rho = profile.gravity_m_s2, profile.water_density_kg_m3
+    items = []
+    for i, s in enumerate(profile.slots):
+        for p in profile.inventory:
+            buoyancy = rho * g * p.volume_m3
+            use = p.mass_kg if p.kind == "weight" else buoyancy / g - p.mass_kg
+            room = s.max_weight_kg if p.kind == "weight" else s.max_float_kg
+            if p.count > 0 and use <= room:
+                items.append(Item(i, p.kind, p.name, p.mass_kg, buoyancy, use, p.mass_kg,
+                                  p.count))
+    return items
+
+
+@dataclass(frozen=True, eq=False)
+class Programme:
+    """Rows A·x ≤ b, bounds, integrality and the objectives in priority order.
+
+    ``levelable`` is False when no ballast within the bounds makes m_z positive: then the
+    level rows only balance the moments (t = 0) and the exact solve is skipped.
+    """
+
+    items: tuple[Item, ...]
+    A: FloatArray
+    b: FloatArray
+    upper: FloatArray
+    integrality: NDArray[np.int_]
+    objectives: tuple[tuple[str, FloatArray], ...]
+    levelable: bool
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Item amounts (rounded to whole pieces where integer) or the solver's complaint.
+
+    ``note`` says when a time limit cut a solve short (then the amounts are the best
+    found, not proven optimal); empty otherwise.
+    """
+
+    success: bool
+    message: str
+    amounts: FloatArray
+    note: str = ""
+
+
+def _moment_arms(items: Sequence[Item], profile: Profile) -> tuple[FloatArray, FloatArray]:
+    """Net downward force of one unit of every item [N] and its slot position [m]."""
+    f = np.array([it.mass_kg * profile.gravity_m_s2 - it.buoyancy_N for it in items])
+    r = np.array([profile.slots[it.slot].position_m for it in items]).reshape(-1, 3)
+    return f, r
+
+
+def _level_rows(items: Sequence[Item], profile: Profile, m: FloatArray, t: float
+                ) -> tuple[list[FloatArray], list[float]]:
+    f, r = _moment_arms(items, profile)
+    rows, rhs = [], []
+    for axis in (0, 1):
+        for sign in (1.0, -1.0):
+            slack = np.zeros(_N_SLACK)
+            slack[[axis, 4 + axis]] = -1.0
+            rows.append(np.r_[f * (sign * r[:, axis] - t * r[:, 2]), slack])
+            rhs.append(t * m[2] - sign * m[axis])
+    return rows, rhs
+
+
+def moment_resolution(estimate: StaticEstimate) -> float:
+    """The least net moment [N·m] worth balancing: the estimate's 1σ of m_x and m_y, and
+    at least the moment of a micrometre's shift of the centre of gravity."""
+    std = np.sqrt(np.clip(np.diag(estimate.q_cov)[1:3], 0.0, None))
+    return max(float(std.max()), _MIN_RESOLUTION_M * estimate.weight_N)
+
+
+def _levelable(estimate: StaticEstimate, items: Sequence[Item], profile: Profile,
+               upper: FloatArray) -> bool:
+    """Whether some amounts within ``upper`` could make m_z = W·z_g − B·z_b positive."""
+    f, r = _moment_arms(items, profile)
+    best = float(estimate.q[3]) + float(np.clip(f * r[:, 2], 0.0, None) @ upper)
+    return best > MIN_GM_M * estimate.weight_N
+
+
+def _window_rows(items: Sequence[Item], profile: Profile, estimate: StaticEstimate,
+                 window_pct: tuple[float, float]) -> tuple[list[FloatArray], list[float]]:
+    g = profile.gravity_m_s2
+    f = np.array([it.mass_kg * g - it.buoyancy_N for it in items])
+    w = np.array([it.mass_kg * g for it in items])
+    lo, hi = window_pct[0] / 100.0, window_pct[1] / 100.0
+    W, q0 = estimate.weight_N, float(estimate.q[0])
+    rows = [np.r_[lo * w + f, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0]]
+    rhs = [-lo * W - q0]
+    if math.isfinite(hi):
+        rows.append(np.r_[-f - hi * w, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0])
+        rhs.append(q0 + hi * W)
+    return rows, rhs
+
+
+def _limit_rows(items: Sequence[Item], profile: Profile
+                ) -> tuple[list[FloatArray], list[float]]:
+    rows, rhs = [], []
+    for i, s in enumerate(profile.slots):
+        for kind, room in (("weight", s.max_weight_kg), ("float", s.max_float_kg)):
+            use = np.array([it.capacity_kg if (it.slot, it.kind) == (i, kind) else 0.0
+                            for it in items])
+            if np.any(use):
+                rows.append(np.r_[use, np.zeros(_N_SLACK)])
+                rhs.append(room)
+    for p in profile.inventory:
+        mine = np.array([1.0 if it.piece == p.name else 0.0 for it in items])
+        if np.any(mine):
+            rows.append(np.r_[mine, np.zeros(_N_SLACK)])
+            rhs.append(float(p.count))
+    return rows, rhs
+
+
+def _unit_limit(item: Item, profile: Profile) -> float:
+    """Most units of ``item`` its slot takes (and, for a piece, the inventory holds)."""
+    s = profile.slots[item.slot]
+    room = s.max_weight_kg if item.kind == "weight" else s.max_float_kg
+    if item.count is None:
+        return room / item.capacity_kg
+    return float(min(item.count, math.floor(room / item.capacity_kg + 1e-9)))
+
+
+def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[Item], *,
+                    level_tol_deg: float, window_pct: tuple[float, float] | None
+                    ) -> Programme:
+    """The programme for ``items`` (see the module docstring for rows and objectives)."""
+    n = len(items)
+    units = np.array([_unit_limit(it, profile) for it in items], dtype=float)
+    levelable = _levelable(estimate, items, profile, units)
+    t = math.tan(math.radians(level_tol_deg)) if levelable else 0.0
+    parts = [_level_rows(items, profile, estimate.q[1:], t), _limit_rows(items, profile)]
+    if window_pct is not None:
+        parts.append(_window_rows(items, profile, estimate, window_pct))
+    rows = [row for part in parts for row in part[0]]
+    rhs = [v for part in parts for v in part[1]]
+    integer = np.array([it.count is not None for it in items] + [False] * _N_SLACK, dtype=int)
+    resolution = moment_resolution(estimate) if np.any(integer) else 0.0
+    upper = np.r_[units, math.inf, math.inf, [math.inf if window_pct is not None else 0.0] * 2,
+                  resolution, resolution]
+    slack = np.zeros((_N_SLACK, n + _N_SLACK))
+    slack[:, n:] = np.eye(_N_SLACK)
+    cost = np.r_[[it.cost_kg for it in items], np.zeros(_N_SLACK)]
+    if np.any(integer):
+        # fewest pieces, then least mass: the mass term stays below one piece
+        cost = integer + cost / (1.0 + float(cost[:n] @ upper[:n]))
+    objectives = (("net-buoyancy window", slack[2] + slack[3]),
+                  ("level", slack[0] + slack[1]), ("ballast", cost))
+    return Programme(tuple(items), np.array(rows, dtype=float).reshape(-1, n + _N_SLACK),
+                     np.array(rhs, dtype=float), upper, integer, objectives, levelable)
+
+
+def _solve_stage(c: FloatArray, A: FloatArray, b: FloatArray, upper: FloatArray,
+                 integrality: NDArray[np.int_] | None, node_limit: int) -> OptimizeResult:
+    if integrality is None:
+        return linprog(c, A_ub=A, b_ub=b, bounds=np.column_stack([np.zeros_like(upper), upper]),
+                       method="highs")
+    return milp(c, constraints=LinearConstraint(A, -np.inf, b), integrality=integrality,
+                bounds=Bounds(0.0, upper),
+                options={"mip_rel_gap": _MIP_GAP, "node_limit": node_limit})
+
+
+def _cut_short(res: OptimizeResult) -> bool:
+    """Did the solver stop at a limit (status 1) or its node budget? (scipy reports
+    HiGHS's node limit as status 4 with the model status in the message.)"""
+    return bool(res.status == 1 or (res.status == 4 and "limit reached" in res.message))
+
+
+def _solve_stages(prog: Programme, upper: FloatArray,
+                  objectives: Sequence[tuple[str, FloatArray]], integer: NDArray[np.int_] | None,
+                  node_limit: int) -> Solution:
+    """Solve ``objectives`` in order, holding each optimum (to 1e-7 + 1e-6 relative),
+    each within ``node_limit`` branch-and-bound nodes. A stage cut short keeps its best
+    solution, or when it found none, the previous stage's (which meets every row held so
+    far)."""
+    A, b = prog.A, prog.b
+    x: FloatArray | None = None
+    cut = []
+    for name, c in objectives:
+        res = _solve_stage(c, A, b, upper, integer, node_limit)
+        if _cut_short(res):
+            cut.append(name)
+        if res.x is not None:
+            x, fun = res.x, float(res.fun)
+        elif x is None or not _cut_short(res):
+            why = "search limit reached before any solution" if _cut_short(res) else res.message
+            return Solution(False, f"no solution at the '{name}' stage: {why}",
+                            np.zeros(len(prog.items)), "search limit" if cut else "")
+        else:
+            fun = float(c @ x)
+        A = np.vstack([A, c])
+        b = np.r_[b, fun + 1e-7 + 1e-6 * abs(fun)]
+    assert x is not None  # objectives is never empty
+    u = np.clip(x[:len(prog.items)], 0.0, None)
+    note = (f"search limit reached at the {', '.join(repr(n) for n in cut)} stage: best "
+            "found, not proven optimal" if cut else "")
+    return Solution(True, "ok", u if integer is None else np.round(u), note)
+
+
+def solve_programme(prog: Programme, *, relax: bool = False,
+                    node_limit: int = STAGE_NODES) -> Solution:
+    """Item amounts that meet the requirement at least ballast, or the best achievable.
+
+    First with the slacks held at zero (one solve when the requirement can be met, within
+    :data:`STRICT_NODES` nodes at most; skipped when ``prog.levelable`` is False), else
+    lexicographically: window slack, level slack, ballast, each within ``node_limit``
+    branch-and-bound nodes. ``relax`` drops integrality (the LP relaxation, solved by
+    linprog). Deterministic: no time limit, so the answer does not depend on the machine.
+    """
+    integer = None if relax or not np.any(prog.integrality) else prog.integrality
+    n = len(prog.items)
+    note = ""
+    strict_nodes = min(STRICT_NODES, node_limit)
+    if prog.levelable:
+        strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK)]
+        exact = _solve_stages(prog, strict, prog.objectives[-1:], integer, strict_nodes)
+        if exact.success:
+            return exact
+        if exact.note:
+            note = (f"no level proposal found within the exact search's limit ({strict_nodes}"
+                    " nodes)")
+    lex = _solve_stages(prog, prog.upper, prog.objectives, integer, node_limit)
+    return Solution(lex.success, lex.message, lex.amounts,
+                    "; ".join(n for n in (note, lex.note) if n))

@@ -1,0 +1,43 @@
+"""argparse ``type`` functions for numbers with a range: a value outside is a one-line
+usage error naming the range (exit code 2), never a traceback further on."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+__all__ = ["bounded", "integer"]
+
+
+def bounded(low: float, high: float = math.inf) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number above ``low`` and at most ``high``; anything
+    else is a usage error naming the interval."""
+    interval = f"({low:g}, {high:g}]" if math.isfinite(high) else f"({low:g}, ∞)"
+
+    def parse(text: str) -> float:
+        try:
+            x = float(text)
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and low < x <= high):
+            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got '{text}'")
+        return x
+
+    return parse
+
+
+def integer(low: int, high: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type``: a whole number ≥ ``low`` (and ≤ ``high`` when given)."""
+    wanted = f"≥ {low}" if high is None else f"in {low}…{high}"
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            n = low - 1
+        if n < low or (high is not None and n > high):
+            raise argparse.ArgumentTypeError(f"expected an integer {wanted}, got '{text}'")
+        return n
+
+    return parse

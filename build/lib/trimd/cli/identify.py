@@ -1,0 +1,171 @@
+"""``trimd excite`` (an open-loop excitation experiment, recorded) and ``trimd identify``
+(the grey-box fit of recorded experiments, :mod:`trimd.identify.fit`).
+
+Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error (and logs that
+excite none of the stage's degrees of freedom), 3 link error. ``trimd identify`` exits 1
+when some degree of freedom of the stage was not excited in the logs: it still prints
+(and with ``--out`` writes) what it identified, the rest keeps the profile's values, but
+the stage is incomplete and a script must not take the fragment for a full result.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from trimd.app.experiment import run_experiment
+from trimd.app.files import read_statics
+from trimd.app.session import SessionResult
+from trimd.cli.argtypes import bounded, integer
+from trimd.core.errors import DataError
+from trimd.core.events import Phase
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile, read_profile_text
+from trimd.identify.data import Experiment, experiments_from_samples
+from trimd.identify.experiment import Excite
+from trimd.identify.fit import (
+    FitOptions,
+    StageFit,
+    Validation,
+    fit_stage,
+    not_excited_message,
+    validate,
+)
+from trimd.identify.model import STAGES
+from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
+from trimd.identify.signals import KINDS, design_signal
+from trimd.logs.log import open_log
+
+__all__ = ["read_log", "register", "run_excite", "run_identify"]
+
+#: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
+MAX_DURATION_S = 3600.0
+
+
+def register(sub: Any) -> None:
+    e: argparse.ArgumentParser = sub.add_parser(
+        "excite", help="run an open-loop excitation experiment for identification",
+        description="Drive the axes of one identification stage open loop with a designed "
+        "signal (docs/identification.md), recorded like any session. Commands the vehicle "
+        "only after confirmation; releases it on any failure.")
+    e.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | …")
+    e.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    e.add_argument("--stage", required=True, choices=tuple(STAGES))
+    e.add_argument("--signal", choices=KINDS, default="multistep")
+    e.add_argument("--amplitude", type=bounded(0.0, 1.0), default=0.6, metavar="A",
+                   help="largest input, in (0, 1] (default 0.6)")
+    e.add_argument("--duration", type=bounded(0.0, MAX_DURATION_S), default=120.0,
+                   metavar="S", help=f"seconds of excitation, in (0, {MAX_DURATION_S:g}] "
+                   "(default 120)")
+    e.add_argument("--seed", type=integer(0), default=0, help="random seed, ≥ 0")
+    e.add_argument("--max-depth-excursion", type=bounded(0.0), default=5.0, metavar="M",
+                   help="abort beyond this depth change from the start [m], > 0 (default 5)")
+    e.add_argument("--yes", action="store_true", help="confirm up front")
+    e.add_argument("--record", metavar="PATH", help="session log (default: a timestamped "
+                   "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions, as trimd run)")
+    e.add_argument("--no-record", action="store_true", help="do not write a session log")
+    e.set_defaults(func=run_excite)
+    i: argparse.ArgumentParser = sub.add_parser(
+        "identify", help="fit the dynamic model to recorded excitation experiments",
+        description="Grey-box output-error fit of one stage (docs/identification.md).")
+    i.add_argument("logs", nargs="+", metavar="LOG", help="recorded sessions (.tlog)")
+    i.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    i.add_argument("--stage", choices=tuple(STAGES), default="uvwpqr")
+    i.add_argument("--validate", nargs="+", default=[], metavar="LOG",
+                   help="held-out sessions for the NRMSE fit")
+    i.add_argument("--segment", type=bounded(0.0), default=FitOptions.segment_s, metavar="S",
+                   help=f"simulation horizon of each segment [s], > 0 (default "
+                   f"{FitOptions.segment_s:g})")
+    i.add_argument("--estimate", metavar="EST.json", help="hold the weight and the restoring "
+                   "terms (W − B, W·r_g − B·r_b) at a measured static estimate: the JSON of "
+                   "trimd solve --json, the report JSON of trimd run, or trimd run --json "
+                   "lines (default: the profile's nominal vehicle, r_g = 0)")
+    i.add_argument("--out", metavar="DIR", help="write fragment.yaml, summary.json and PNG "
+                   "plots (measured vs simulated per output, residuals) here")
+    i.set_defaults(func=run_identify)
+
+
+def run_excite(args: argparse.Namespace) -> int:
+    from trimd.app.connect import open_link
+    from trimd.app.files import default_record_path
+    from trimd.logs.recorder import TlogRecorder
+
+    profile = load_profile(args.profile)
+    if not args.yes:
+        raise DataError("trimd excite drives the vehicle open loop: pass --yes to confirm")
+    sig = design_signal(profile, args.stage, kind=args.signal, amplitude=args.amplitude,
+                        duration_s=args.duration, seed=args.seed,
+                        depth_excursion_m=args.max_depth_excursion)
+    excite = Excite(profile, sig, confirmed=True, depth_excursion_m=args.max_depth_excursion)
+
+    async def go() -> SessionResult:
+        link = await open_link(args.link, profile)
+        recorder = None
+        if not args.no_record:
+            path = Path(args.record) if args.record else default_record_path(profile)
+            recorder = TlogRecorder(path, profile,
+                                    read_profile_text(args.profile)[0])
+        result, _ = await run_experiment(link, profile, excite, recorder=recorder,
+                                         quiet=False, signals=True)
+        return result
+
+    result = asyncio.run(go())
+    if result.phase is not Phase.DONE:
+        print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+    if result.log_path:
+        print(f"session log: {result.log_path}", file=sys.stderr)
+    return 0 if result.phase is Phase.DONE else (3 if result.cause == "link" else 1)
+
+
+def read_log(path: str, profile: Profile) -> list[Experiment]:
+    """The experiments of a recorded ``.tlog`` or DataFlash ``.BIN`` (trimd.logs.log)."""
+    samples = list(open_log(path, profile).samples())
+    return experiments_from_samples(samples, profile, label=Path(path).name)
+
+
+def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
+    return [e for p in paths for e in read_log(p, profile)]
+
+
+def run_identify(args: argparse.Namespace) -> int:
+    profile = load_profile(args.profile)
+    statics = read_statics(args.estimate) if args.estimate else None
+    experiments = _load(args.logs, profile)
+    fit: StageFit = fit_stage(experiments, profile, args.stage,
+                              FitOptions(segment_s=args.segment), statics=statics)
+    validations: list[Validation] = []
+    for e in _load(args.validate, profile):
+        validations += validate(fit.values(), [e], profile, args.stage, statics=statics)
+    print(format_fit(fit, validations))
+    comments = [f"{d.name}: not excited in the fitted logs, the profile's values kept"
+                for d in fit.not_excited]
+    fragment = profile_fragment(best_values([fit]), profile, comments)
+    print("\n" + fragment)
+    if args.out:
+        _write(Path(args.out), fit, fragment, validations or [
+            v for e in experiments   # without held-out logs: the free run of the fitted ones
+            for v in validate(fit.values(), [e], profile, args.stage, statics=statics)],
+            validations)
+    if fit.not_excited:
+        print(f"trimd: {not_excited_message(fit.stage, fit.not_excited)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _write(out: Path, fit: StageFit, fragment: str, shown: Sequence[Validation],
+           validations: Sequence[Validation]) -> None:
+    """fragment.yaml, summary.json and a PNG per series of ``shown`` in ``out``."""
+    from trimd.app.plots import write_plots
+
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(
+        summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
+    plots = write_plots(shown, out, fit.stage)
+    print(f"wrote {out / 'fragment.yaml'}, {out / 'summary.json'} and {len(plots)} "
+          "plots (measured vs simulated, residuals)", file=sys.stderr)

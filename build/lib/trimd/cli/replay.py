@@ -1,0 +1,170 @@
+"""``trimd replay PATH``: feed a recording through the same pipeline as a live session.
+
+* A trimd recording carries its profile; replaying it runs the same procedure over the
+  recorded samples and reproduces the live estimate and proposal exactly. With a
+  terminal attached (and no ``--headless`` / ``--json``) it opens the TUI, with pause
+  and speed keys; the recording's own times drive the procedure at any pace.
+* A foreign log (QGroundControl / MAVProxy ``.tlog``, ArduSub DataFlash ``.bin``) needs
+  ``--profile``; trimd reports what the log holds and estimates from the steady attitude
+  holds it finds. A log without holds ends with that statement and exit code 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import yaml
+
+from trimd.app.headless import HeadlessPresenter
+from trimd.app.holdfile import TAU_COLUMNS, HoldFile, holds_from_table
+from trimd.app.report import format_estimate, format_proposal, format_result
+from trimd.app.session import Presenter, Session, SessionResult
+from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.cli.argtypes import bounded
+from trimd.cli.inspect import format_report, inspect_log
+from trimd.cli.run import wants_tui
+from trimd.core.effort import tau_at
+from trimd.core.errors import DataError, EstimationError
+from trimd.core.estimate import StaticEstimate, estimate_static
+from trimd.core.events import Phase
+from trimd.core.link import Link
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile, parse_profile
+from trimd.core.samples import Attitude, Battery, Sample, Thrusters
+from trimd.logs.replay import ReplayLink, recorded_profile_yaml
+from trimd.tui.run import run_in_tui
+
+if TYPE_CHECKING:
+    from trimd.tui import TrimApp
+
+__all__ = ["register", "replay_app", "replay_session", "run"]
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "replay", help="replay a recorded session or analyse a vehicle log",
+        description="Replay a trimd recording through the procedure (same result as live), "
+        "or find steady attitude holds in a foreign .tlog / DataFlash .bin log.")
+    p.add_argument("path", help="a .tlog or DataFlash .bin file")
+    p.add_argument("--profile", help="vehicle profile (a trimd recording carries its own)")
+    pace = p.add_mutually_exclusive_group()
+    pace.add_argument("--speed", type=bounded(0.0), help="pace at this many times real time (> 0)")
+    pace.add_argument("--fast", action="store_true", help="as fast as possible (the default "
+                      "headless; the TUI starts at real time)")
+    p.add_argument("--headless", action="store_true", help="no terminal UI")
+    p.add_argument("--json", action="store_true", help="headless, one JSON object per line")
+    p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+    p.set_defaults(func=run)
+
+
+def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
+    """The profile to use and whether the log is a trimd recording."""
+    try:
+        text = recorded_profile_yaml(path)
+    except DataError as exc:  # a trimd recording whose profile block is damaged
+        if not name:
+            raise DataError(f"{exc}: pass --profile to replay it with that profile") from None
+        print(f"trimd: warning: {exc}; replaying with --profile {name}", file=sys.stderr)
+        return load_profile(name), True
+    if name:
+        return load_profile(name), text is not None
+    if text is None:
+        raise DataError(f"{path}: not a trimd recording, so it carries no profile: "
+                        "pass --profile")
+    return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
+
+
+def _session(link: Link, profile: Profile, *, presenters: list[Presenter],
+             method: str) -> Session:
+    """The replay's session over ``link``: confirmed, proposing by ``method``."""
+
+    def propose(estimate: StaticEstimate) -> Any:
+        return propose_ballast(estimate, profile, method=method)
+
+    return Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
+                   propose=propose, wall_clock=False)
+
+
+async def replay_session(path: str, profile: Profile, *, speed: float | None,
+                         presenters: list[Presenter], method: str
+                         ) -> tuple[SessionResult, ReplayLink]:
+    """Run the trim procedure over a recording; return its result and the link."""
+    link = ReplayLink(path, profile, speed=speed)
+    return await _session(link, profile, presenters=presenters, method=method).run(), link
+
+
+def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> TrimApp:
+    """The TUI over a replay of ``path`` starting at ``speed`` × real time (inf: as fast
+    as possible); its heartbeat age is on the recording's clock."""
+    from trimd.tui import make_app
+    from trimd.tui.replay_pace import PacedReplay
+
+    link = PacedReplay(ReplayLink(path, profile), speed=speed)
+    return make_app(_session(link, profile, presenters=[], method=method), profile,
+                    link_description=link.description, replay=link, clock=lambda: link.t_s)
+
+
+def _table(samples: list[Sample], profile: Profile, name: str) -> HoldFile:
+    """Attitude with τ from the zero-order-held thruster outputs, as a hold table."""
+    att = [s for s in samples if isinstance(s, Attitude)]
+    thr = [s for s in samples if isinstance(s, Thrusters)]
+    if not att or not thr:
+        raise DataError(f"{name}: no attitude or no thruster outputs to estimate from")
+    t = np.array([a.t_s for a in att])
+    tau, ok = tau_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
+    columns = {"time_s": t[ok], "roll_deg": np.degrees([a.phi for a in att])[ok],
+               "pitch_deg": np.degrees([a.theta for a in att])[ok]}
+    columns |= {c: tau[ok, k] for k, c in enumerate(TAU_COLUMNS)}
+    return HoldFile(name, columns)
+
+
+def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:
+    report = inspect_log(path, profile)
+    print(format_report(report))
+    if not report["holds"]:
+        return 1
+    link = ReplayLink(path, profile)
+    samples = list(link.read_samples())
+    try:
+        est = estimate_static(holds_from_table(_table(samples, profile, path), profile),
+                              profile)
+    except (EstimationError, DataError) as exc:
+        print(f"trimd: cannot estimate from this log: {exc}", file=sys.stderr)
+        return 1
+    print("\n" + format_estimate(est))
+    print("\n" + format_proposal(propose_ballast(est, profile, method=args.ballast)))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    path = str(args.path)
+    if not Path(path).is_file():
+        raise DataError(f"{path}: no such file")
+    profile, recording = _profile(path, args.profile)
+    if not recording:
+        return _analyse_foreign(path, profile, args)
+    if wants_tui(args):
+        app = replay_app(path, profile, speed=math.inf if args.fast else args.speed or 1.0,
+                         method=args.ballast)
+        result = asyncio.run(run_in_tui(app))
+        warnings = app.replay.link.warnings if app.replay else []
+        text = format_result(result)
+        if text:
+            print(text)
+    else:
+        presenter = HeadlessPresenter(json_lines=args.json)
+        result, link = asyncio.run(replay_session(
+            path, profile, speed=args.speed, presenters=[presenter], method=args.ballast))
+        warnings = link.warnings
+    for warning in warnings:
+        print(f"trimd: warning: {warning}", file=sys.stderr)
+    if result.phase is not Phase.DONE:
+        print(f"trimd: replay ended {result.phase.value}: {result.reason}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,156 @@
+"""``trimd run`` and ``trimd demo``: the trim procedure over a link, headless or in the TUI.
+
+Exit codes: 0 done, 1 failed or aborted, 2 usage or profile error, 3 link error
+(cannot open, or lost during the procedure). SIGINT, SIGTERM and SIGHUP (an SSH session
+that drops) stop the session, headless or in the TUI: trimd releases the vehicle, closes
+the log and exits 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+from pathlib import Path
+from typing import Any
+
+from trimd.app.connect import open_link
+from trimd.app.files import default_record_path
+from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
+from trimd.app.report import format_result
+from trimd.app.session import Presenter, Session, SessionResult
+from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.cli.argtypes import integer
+from trimd.core.errors import ProfileError
+from trimd.core.estimate import StaticEstimate
+from trimd.core.events import Phase
+from trimd.core.link import Link, Truthful
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile, read_profile_text
+from trimd.logs.recorder import TlogRecorder
+
+__all__ = ["register", "run", "run_demo", "wants_tui"]
+
+
+DEMO_PROFILE = "sabertooth-dh2"
+DEMO_LINK = "sim:payload=10@AftSB"
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "run", help="run the trim procedure on a vehicle",
+        description="Hold the vehicle level, then tilted; estimate its centre of gravity and "
+        "extra mass; propose ballast. Commands the vehicle only after confirmation.")
+    p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
+                   "serial:<dev>[,baud] | replay:<path>")
+    p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--sysid", type=integer(1, 255), metavar="N",
+                   help="mavlink: the vehicle's system id (the URL's ?sysid=N); default: "
+                   "the first autopilot that is not a ground station")
+    _common(p)
+    p.set_defaults(func=run)
+    d: argparse.ArgumentParser = sub.add_parser(
+        "demo", help="the full procedure on the simulated Sabertooth with 10 kg at AftSB",
+        description="trimd run --link sim:payload=10@AftSB --profile sabertooth-dh2 --yes, "
+        "ending with the simulator's truth beside the estimate.")
+    _common(d)
+    d.set_defaults(func=run_demo, link=DEMO_LINK, profile=DEMO_PROFILE)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--headless", action="store_true", help="no terminal UI (daemon mode)")
+    p.add_argument("--yes", action="store_true", help="confirm up front: trimd may command "
+                   "the vehicle without asking")
+    p.add_argument("--json", action="store_true", help="headless: one JSON object per line")
+    p.add_argument("--record", metavar="PATH", help="session log (default: a timestamped "
+                   "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions)")
+    p.add_argument("--no-record", action="store_true", help="do not write a session log")
+    p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+
+
+def _exit_code(result: SessionResult) -> int:
+    if result.phase is Phase.DONE:
+        return 0
+    return 3 if result.cause == "link" else 1
+
+
+def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
+                  presenters: list[Presenter]) -> Session:
+    recorder = None
+    if not args.no_record:
+        path = Path(args.record) if args.record else default_record_path(profile)
+        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0])
+
+    def propose(estimate: StaticEstimate) -> Any:
+        return propose_ballast(estimate, profile, method=args.ballast)
+
+    return Session(link, profile, recorder=recorder, presenters=presenters,
+                   confirmed=args.yes, propose=propose)
+
+
+def _truth(link: Link, wanted: bool) -> str | None:
+    return str(link.truth()) if wanted and isinstance(link, Truthful) else None
+
+
+async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
+                    ) -> tuple[SessionResult, str | None]:
+    link = await open_link(args.link, profile)
+    presenters: list[Presenter] = [HeadlessPresenter(json_lines=args.json)]
+    session = _make_session(args, profile, link, presenters)
+    if not args.yes:
+        presenters.append(StdinConfirm(session))
+    stop_on_signals(session.abort)
+    result = await session.run()
+    return result, _truth(link, truth)
+
+
+async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
+               ) -> tuple[SessionResult, str | None]:
+    from trimd.tui import make_app
+    from trimd.tui.run import run_in_tui
+
+    link = await open_link(args.link, profile)
+    truth_text = _truth(link, truth)
+    app = make_app(_make_session(args, profile, link, []), profile,
+                   link_description=link.description, truth=truth_text)
+    return await run_in_tui(app), truth_text
+
+
+def _start(args: argparse.Namespace, *, truth: bool) -> int:
+    profile = load_profile(args.profile)
+    tui = wants_tui(args)
+    if not tui and not args.yes and not sys.stdin.isatty():
+        raise ProfileError("headless without a terminal cannot ask for confirmation: "
+                           "pass --yes to let trimd command the vehicle")
+    result, truth_text = asyncio.run((_tui if tui else _headless)(args, profile, truth=truth))
+    if result.phase is not Phase.DONE:
+        print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+    text = format_result(result) if tui else None  # headless printed it as it came
+    if text:
+        print(text)
+    if truth_text and not args.json:
+        print("\n" + truth_text)
+    if result.log_path:
+        print(f"session log: {result.log_path}", file=sys.stderr)
+    return _exit_code(result)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.sysid is not None:
+        scheme, _, rest = args.link.partition(":")
+        if scheme != "mavlink" or "sysid=" in rest:
+            print("trimd run: --sysid is for a mavlink: link without ?sysid= in its URL",
+                  file=sys.stderr)
+            return 2
+        args.link += f"{'&' if '?' in rest else '?'}sysid={args.sysid}"
+    return _start(args, truth=False)
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    args.yes = True
+    return _start(args, truth=True)
+
+
+def wants_tui(args: argparse.Namespace) -> bool:
+    """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
+    return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()

@@ -1,0 +1,65 @@
+"""Thruster effort τ at given times: the latest thruster outputs (and battery voltage) held
+onto each time by zero-order hold (:func:`trimd.core.resample.zoh_align`), through the
+profile's thrust curves and geometry (:func:`trimd.core.model.tau_from_pwm`).
+
+One function for every consumer: the replay of foreign logs and identification; the live
+procedure holds the latest outputs the same way, one sample at a time, with the same age
+limit :data:`MAX_THRUSTER_AGE_S`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from trimd.core.errors import DataError
+from trimd.core.model import tau_from_pwm
+from trimd.core.profile import Profile
+from trimd.core.resample import zoh_align
+from trimd.core.samples import Battery, Thrusters
+
+__all__ = ["MAX_THRUSTER_AGE_S", "tau_at"]
+
+#: Thruster outputs older than this [s] are not held onto a later time: a gap, not a value.
+#: ArduSub streams SERVO_OUTPUT_RAW at 2–10 Hz; a ground station may leave 1 Hz.
+MAX_THRUSTER_AGE_S = 1.0
+
+
+def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
+           batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
+           ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """τ [N, N·m] (body FRD, about CG0) at the times ``t_s`` [s], and where it is valid.
+
+    Rows without thruster outputs at most ``max_age_s`` old are NaN and not valid. The
+    battery voltage is held the same way (no age limit); without it, or where it is not a
+    positive number, the profile's nominal voltage is used. DataError when a thruster
+    sample does not have one output per thruster of the profile.
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> p = load_profile("bluerov2-heavy")
+    >>> neutral = Thrusters(0.0, tuple(1500.0 for _ in p.thrusters))
+    >>> tau, valid = tau_at(p, [0.5, 2.0], [neutral])
+    >>> valid.tolist(), tau[0].tolist() == [0.0] * 6
+    ([True, False], True)
+    """
+    t = np.asarray(t_s, float)
+    n_thr = len(profile.thrusters)
+    bad = {len(s.pwm_us) for s in thrusters} - {n_thr}
+    if bad:
+        raise DataError(f"thruster samples with {sorted(bad)} outputs for a profile with "
+                        f"{n_thr} thrusters")
+    tau = np.full((len(t), 6), np.nan)
+    if not thrusters:
+        return tau, np.zeros(len(t), bool)
+    pwm = zoh_align(t, [s.t_s for s in thrusters], [s.pwm_us for s in thrusters],
+                    max_age_s=max_age_s)
+    volts = (zoh_align(t, [b.t_s for b in batteries], [b.voltage_V for b in batteries]).values
+             if batteries else np.full(len(t), np.nan))
+    volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
+    ok = pwm.valid
+    tau[ok] = tau_from_pwm(profile, pwm.values[ok], volts[ok])
+    return tau, ok

@@ -1,0 +1,291 @@
+"""Static vehicle model: restoring forces, thrust configuration and thrust curves.
+
+Fossen (2011) notation, SI units, body frame FRD, world frame NED. Pure numpy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
+
+__all__ = [
+    "pwm_from_thrust",
+    "quaternion_from_euler",
+    "restoring_forces",
+    "restoring_matrix",
+    "restoring_matrix_jacobian",
+    "tau_from_pwm",
+    "thrust_configuration",
+    "thrust_from_pwm",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def restoring_matrix(phi: ArrayLike, theta: ArrayLike) -> FloatArray:
+    """Matrix G(φ, θ) with g(η) = G·q, q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b, W·z_g − B·z_b].
+
+    Fossen (2011) eq. 4.6 rearranged: the restoring forces are linear in the net vertical
+    force and the three net restoring moments, which is what a static measurement sees.
+
+    Parameters
+    ----------
+    phi, theta : roll and pitch [rad], scalars or arrays of the same shape ``S``.
+
+    Returns
+    -------
+    G : array of shape ``S + (6, 4)``.
+
+    Examples
+    --------
+    >>> restoring_matrix(0.0, 0.0)[2]   # level: Z = -(W - B)
+    array([-1.,  0.,  0.,  0.])
+    """
+    phi_a, theta_a = np.broadcast_arrays(np.asarray(phi, float), np.asarray(theta, float))
+    sp, cp = np.sin(phi_a), np.cos(phi_a)
+    st, ct = np.sin(theta_a), np.cos(theta_a)
+    zero = np.zeros_like(sp)
+    rows = [
+        [st, zero, zero, zero],
+        [-ct * sp, zero, zero, zero],
+        [-ct * cp, zero, zero, zero],
+        [zero, zero, -ct * cp, ct * sp],
+        [zero, ct * cp, zero, st],
+        [zero, -ct * sp, -st, zero],
+    ]
+    return np.moveaxis(np.array(rows, dtype=float), (0, 1), (-2, -1))
+
+
+def restoring_matrix_jacobian(phi: ArrayLike, theta: ArrayLike) -> FloatArray:
+    """Partial derivatives ∂G/∂φ and ∂G/∂θ of :func:`restoring_matrix` G(φ, θ), analytic.
+
+    The restoring forces g(η) = G·q then change with attitude as
+    ∂g/∂(φ, θ) = ``np.einsum("...ijk,j->...ik", J, q)``, shape ``S + (6, 2)``
+    [N or N·m per rad].
+
+    Parameters
+    ----------
+    phi, theta : roll and pitch [rad], scalars or arrays of the same shape ``S``.
+
+    Returns
+    -------
+    J : array of shape ``S + (6, 4, 2)`` [1/rad]; ``J[..., 0]`` is ∂G/∂φ and
+        ``J[..., 1]`` is ∂G/∂θ.
+
+    Examples
+    --------
+    >>> restoring_matrix_jacobian(0.0, 0.0)[0, 0]   # ∂X/∂θ = cos θ·(W − B)
+    array([0., 1.])
+    """
+    phi_a, theta_a = np.broadcast_arrays(np.asarray(phi, float), np.asarray(theta, float))
+    sp, cp = np.sin(phi_a), np.cos(phi_a)
+    st, ct = np.sin(theta_a), np.cos(theta_a)
+    zero = np.zeros_like(sp)
+    d_phi = [
+        [zero, zero, zero, zero],
+        [-ct * cp, zero, zero, zero],
+        [ct * sp, zero, zero, zero],
+        [zero, zero, ct * sp, ct * cp],
+        [zero, -ct * sp, zero, zero],
+        [zero, -ct * cp, zero, zero],
+    ]
+    d_theta = [
+        [ct, zero, zero, zero],
+        [st * sp, zero, zero, zero],
+        [st * cp, zero, zero, zero],
+        [zero, zero, st * cp, -st * sp],
+        [zero, -st * cp, zero, ct],
+        [zero, st * sp, -ct, zero],
+    ]
+    return np.moveaxis(np.array([d_phi, d_theta], dtype=float), (0, 1, 2), (-1, -3, -2))
+
+
+def restoring_forces(phi: float, theta: float, W: float, B: float,
+                     r_g: ArrayLike, r_b: ArrayLike) -> FloatArray:
+    """Restoring forces g(η) [N, N·m] in the body frame, Fossen (2011) eq. 4.6.
+
+    Parameters
+    ----------
+    phi, theta : roll, pitch [rad].
+    W, B : weight and buoyancy [N].
+    r_g, r_b : centres of gravity and buoyancy [m], body FRD.
+
+    Examples
+    --------
+    >>> float(restoring_forces(0.0, 0.0, 100.0, 100.0, [0.1, 0, 0], [0, 0, 0])[4])  # nose down
+    10.0
+    """
+    r_g = np.asarray(r_g, float)
+    r_b = np.asarray(r_b, float)
+    q = np.concatenate([[W - B], W * r_g - B * r_b])
+    g: FloatArray = restoring_matrix(phi, theta) @ q
+    return g
+
+
+def thrust_configuration(thrusters: Sequence[Thruster]) -> FloatArray:
+    """Thrust configuration matrix T (6 × n): column i = [d_i; r_i × d_i], Fossen eq. 11.3.
+
+    ``d_i`` is the force direction of a positive output, flipped for a reversed thruster,
+    so that τ = T·f with f the thrust of each thruster [N] along its positive direction.
+    """
+    T = np.empty((6, len(thrusters)))
+    for i, t in enumerate(thrusters):
+        d = np.asarray(t.direction) * (-1.0 if t.reversed else 1.0)
+        T[:3, i] = d
+        T[3:, i] = np.cross(np.asarray(t.position_m), d)
+    return T
+
+
+def _table_points(table: ThrustTable) -> tuple[FloatArray, FloatArray]:
+    """PWM [µs] and thrust [N] points of one table, sorted, with its deadband edges at 0 N."""
+    pwm = np.array([*table.pwm_us, *table.deadband_us])
+    thrust = np.array([*table.thrust_N, 0.0, 0.0])
+    order = np.argsort(pwm, kind="stable")
+    return pwm[order], thrust[order]
+
+
+def _table_at(curve: ThrustCurve, voltage_V: float) -> tuple[FloatArray, FloatArray]:
+    """PWM [µs] and thrust [N] points of ``curve`` at ``voltage_V`` (deadband edges = 0 N).
+
+    Between two tables the thrust is interpolated linearly in voltage on a common PWM
+    grid; outside the tabulated voltages the nearest table is used.
+    """
+    tables = curve.tables
+    volts = [t.voltage_V for t in tables]
+    if voltage_V <= volts[0]:
+        return _table_points(tables[0])
+    if voltage_V >= volts[-1]:
+        return _table_points(tables[-1])
+    k = int(np.searchsorted(volts, voltage_V)) - 1
+    (p0, f0), (p1, f1) = _table_points(tables[k]), _table_points(tables[k + 1])
+    w = (voltage_V - volts[k]) / (volts[k + 1] - volts[k])
+    grid = np.union1d(p0, p1)
+    band = (np.array(tables[k].deadband_us) * (1 - w)
+            + np.array(tables[k + 1].deadband_us) * w)
+    thrust = np.interp(grid, p0, f0) * (1 - w) + np.interp(grid, p1, f1) * w
+    inside = (grid >= band[0]) & (grid <= band[1])  # zero thrust in the closed band
+    grid = np.concatenate([grid[~inside], band])
+    thrust = np.concatenate([thrust[~inside], [0.0, 0.0]])
+    order = np.argsort(grid, kind="stable")
+    return grid[order], thrust[order]
+
+
+def _thrust_between(curve: ThrustCurve, k: int, pwm_us: FloatArray, w: FloatArray
+                    ) -> FloatArray:
+    """Thrust [N] between tables ``k`` and ``k + 1``, one voltage weight per command.
+
+    ``pwm_us`` [µs] and ``w`` (0 at table ``k``, 1 at table ``k + 1``) have the same
+    shape. Equal to ``np.interp`` on the :func:`_table_at` points of each command's
+    voltage, without building those points per command: the neighbours of each PWM on
+    the common grid are looked up once, and a neighbour inside that voltage's (closed)
+    deadband is replaced by the deadband edge at 0 N.
+    """
+    t0, t1 = curve.tables[k], curve.tables[k + 1]
+    (p0, f0), (p1, f1) = _table_points(t0), _table_points(t1)
+    grid = np.union1d(p0, p1)
+    a, b = np.interp(grid, p0, f0), np.interp(grid, p1, f1)
+    lo = t0.deadband_us[0] * (1 - w) + t1.deadband_us[0] * w
+    hi = t0.deadband_us[1] * (1 - w) + t1.deadband_us[1] * w
+    x = np.clip(pwm_us, grid[0], grid[-1])  # saturated at the table ends
+    j = np.clip(np.searchsorted(grid, x, side="right") - 1, 0, len(grid) - 2)
+    x0, x1 = grid[j], grid[j + 1]
+    y0, y1 = a[j] * (1 - w) + b[j] * w, a[j + 1] * (1 - w) + b[j + 1] * w
+    below, above = x < lo, x > hi
+    end = below & (x1 >= lo)  # the right neighbour is the lower deadband edge
+    x1, y1 = np.where(end, lo, x1), np.where(end, 0.0, y1)
+    start = above & (x0 <= hi)  # the left neighbour is the upper deadband edge
+    x0, y0 = np.where(start, hi, x0), np.where(start, 0.0, y0)
+    f: FloatArray = np.where(below | above, y0 + (y1 - y0) / (x1 - x0) * (x - x0), 0.0)
+    return f
+
+
+def thrust_from_pwm(curve: ThrustCurve, pwm_us: ArrayLike, voltage_V: ArrayLike
+                    ) -> FloatArray:
+    """Static thrust [N] for PWM commands [µs]; zero in the deadband, saturated at the ends.
+
+    Parameters
+    ----------
+    curve : the thruster's thrust curve.
+    pwm_us : PWM commands [µs], any shape.
+    voltage_V : battery voltage [V]: a scalar for all commands, or an array broadcastable
+        against ``pwm_us`` (one voltage per command). Between two tables the thrust is
+        interpolated linearly in voltage; outside them the nearest table is used.
+
+    Returns
+    -------
+    thrust : array of the broadcast shape of ``pwm_us`` and ``voltage_V`` [N].
+
+    Examples
+    --------
+    >>> from trimd.core.profile import ThrustCurve, ThrustTable
+    >>> c = ThrustCurve("lin", (ThrustTable(16.0, (1480, 1520), (1100, 1900), (-100, 100)),))
+    >>> thrust_from_pwm(c, [1500, 1900, 2000], 16.0).tolist()
+    [0.0, 100.0, 100.0]
+    >>> thrust_from_pwm(c, [1900, 1900], [12.0, 16.0]).tolist()
+    [100.0, 100.0]
+    """
+    pwm = np.asarray(pwm_us, float)
+    v = np.asarray(voltage_V, float)
+    if v.ndim == 0:
+        f: FloatArray = np.interp(pwm, *_table_at(curve, float(v)))
+        return f
+    pwm, v = np.broadcast_arrays(pwm, v)
+    volts = np.array([t.voltage_V for t in curve.tables])
+    out = np.empty(pwm.shape)
+    first, last = v <= volts[0], v >= volts[-1]
+    out[first] = np.interp(pwm[first], *_table_points(curve.tables[0]))
+    out[last] = np.interp(pwm[last], *_table_points(curve.tables[-1]))
+    k = np.searchsorted(volts, v) - 1  # as in _table_at
+    for i in range(len(volts) - 1):
+        sel = ~first & ~last & (k == i)
+        w = (v[sel] - volts[i]) / (volts[i + 1] - volts[i])
+        out[sel] = _thrust_between(curve, i, pwm[sel], w)
+    return out
+
+
+def pwm_from_thrust(curve: ThrustCurve, thrust_N: ArrayLike, voltage_V: float) -> FloatArray:
+    """Inverse of :func:`thrust_from_pwm`: the PWM [µs] giving each thrust [N].
+
+    Zero thrust maps to the neutral PWM; a thrust beyond the table saturates at its end.
+    """
+    pwm, thrust = _table_at(curve, voltage_V)
+    f = np.asarray(thrust_N, float)
+    zero = np.flatnonzero(thrust == 0.0)
+    lo, hi = int(zero[0]), int(zero[-1])
+    out = np.full(f.shape, curve.neutral_us)
+    pos, neg = f > 0, f < 0
+    out[pos] = np.interp(f[pos], thrust[hi:], pwm[hi:])
+    out[neg] = np.interp(f[neg], thrust[:lo + 1], pwm[:lo + 1])
+    return out
+
+
+def tau_from_pwm(profile: Profile, pwm_us: ArrayLike, voltage_V: ArrayLike | None = None
+                 ) -> FloatArray:
+    """Generalised force τ [N, N·m] (body FRD) from per-thruster PWM commands [µs].
+
+    ``pwm_us`` has shape ``(..., n_thrusters)`` in the profile's thruster order; the
+    result has shape ``(..., 6)``. ``voltage_V`` [V] is a scalar, or an array
+    broadcastable against ``pwm_us[..., 0]`` (one voltage per row of commands); it
+    defaults to the profile's nominal voltage.
+    """
+    v = profile.nominal_voltage_V if voltage_V is None else voltage_V
+    pwm = np.asarray(pwm_us, float)
+    f = np.stack([thrust_from_pwm(t.curve, pwm[..., i], v)
+                  for i, t in enumerate(profile.thrusters)], axis=-1)
+    result: FloatArray = f @ thrust_configuration(profile.thrusters).T
+    return result
+
+
+def quaternion_from_euler(phi: float, theta: float, psi: float
+                          ) -> tuple[float, float, float, float]:
+    """Unit quaternion (scalar first) of ZYX Euler angles roll φ, pitch θ, yaw ψ [rad]."""
+    cr, sr = math.cos(phi / 2), math.sin(phi / 2)
+    cp, sp = math.cos(theta / 2), math.sin(theta / 2)
+    cy, sy = math.cos(psi / 2), math.sin(psi / 2)
+    return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)

@@ -1,0 +1,413 @@
+"""The trim procedure: a state machine driven by events, returning commands and notices.
+
+Pure: no I/O, no clock. Every time is the events' own ``t_s`` (sample time), so the same
+procedure runs live, against the simulator at 100× real time, and in a replay, with the
+same result. The shells (headless daemon, TUI, tests) feed it samples, operator events
+and :class:`Tick` events from their clock, and carry out what it returns.
+
+Phases: connect → precheck → confirm → for each hold (settle → collect) → solve → done;
+``failed`` or ``aborted`` from anywhere, always with a reason and a :class:`Release`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from trimd.core.effort import MAX_THRUSTER_AGE_S
+from trimd.core.errors import EstimationError
+from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.events import (
+    Abort,
+    Cause,
+    Confirm,
+    Event,
+    Notice,
+    Output,
+    Phase,
+    Progress,
+    Tick,
+    TrimResult,
+)
+from trimd.core.guards import Guard
+from trimd.core.model import restoring_matrix, tau_from_pwm
+from trimd.core.profile import Profile
+from trimd.core.samples import (
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    HoldAttitude,
+    Release,
+    Sample,
+    Thrusters,
+)
+from trimd.core.settling import HoldSettling
+
+__all__ = ["Procedure"]
+
+#: Telemetry the precheck needs, in samples per second of sample time.
+MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
+PRECHECK_WINDOW_S = 5.0
+CONFIDENCE_CHECK_EVERY_S = 2.0
+#: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
+BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
+#: Before the holds, depth may wander by this share of max_depth_excursion_m over the
+#: precheck window.
+DEPTH_STABLE_SHARE = 0.5
+
+
+@dataclass
+class _Hold:
+    """Samples collected at one hold (growing lists, frozen into HoldSamples at the end)."""
+
+    phi: float
+    theta: float
+    t: list[float] = field(default_factory=list)
+    att: list[tuple[float, float]] = field(default_factory=list)
+    tau: list[np.ndarray] = field(default_factory=list)
+
+    def samples(self, label: str) -> HoldSamples:
+        a = np.array(self.att, dtype=float).reshape(-1, 2)
+        return HoldSamples(np.array(self.t), a[:, 0], a[:, 1],
+                           np.array(self.tau).reshape(-1, 6), label)
+
+
+class Procedure:
+    """The trim procedure for one vehicle described by ``profile``.
+
+    Parameters
+    ----------
+    profile : holds, limits and timeouts (sample time) and the thruster model.
+    confirmed : True when the operator confirmed up front (``--yes``).
+    propose : called with the final estimate; its result rides on the result notice.
+
+    The safety rules (:class:`trimd.core.guards.Guard`) are checked on every sample and
+    Tick; whatever ends the procedure after the first command sends a Release.
+    """
+
+    def __init__(self, profile: Profile, *, confirmed: bool = False,
+                 propose: Callable[[StaticEstimate], object] | None = None) -> None:
+        self.profile = profile
+        self.proc = profile.procedure
+        self.propose = propose
+        self.phase = Phase.CONNECT
+        self.reason = ""
+        self.cause = Cause.NONE
+        self.estimate: StaticEstimate | None = None
+        self.proposal: object | None = None
+        self.guard = Guard(profile.procedure)
+        self._confirmed = confirmed
+        self._t = math.nan
+        self._t_phase = math.nan
+        self._health: Health | None = None
+        self._pwm: Thrusters | None = None
+        self._voltage = profile.nominal_voltage_V
+        self._depth: Depth | None = None
+        self._attitude: Attitude | None = None
+        self._arrivals: dict[str, list[float]] = {k: [] for k in MIN_RATES_HZ}
+        self._depths: deque[tuple[float, float]] = deque()
+        self._holds: list[_Hold] = []
+        self._psi = 0.0
+        self._settling: HoldSettling | None = None
+        self._next_check = math.nan
+
+    # ---------------------------------------------------------------- public interface
+    def step(self, event: Event) -> list[Output]:
+        """Advance on one event; return the commands to send and notices to show."""
+        if self.phase.final:
+            return []
+        try:
+            return self._step(event)
+        except Exception as exc:  # any internal error must still release the vehicle
+            return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
+                                cause=Cause.INTERNAL)
+
+    @property
+    def progress(self) -> Progress:
+        k = len(self._holds) - 1
+        hold = self._holds[-1] if self._holds else None
+        settled = 0.0
+        since = self._settling.steady_since if self._settling else math.nan
+        if self.phase is Phase.SETTLE and not math.isnan(since):
+            settled = min(1.0, (self._t - since) / self.proc.min_steady_s)
+        elif self.phase in (Phase.COLLECT, Phase.DONE):
+            settled = 1.0
+        return Progress(
+            t_s=self._t, phase=self.phase, hold=max(k, 0), holds=len(self.profile.holds),
+            setpoint_deg=(math.degrees(hold.phi), math.degrees(hold.theta)) if hold else None,
+            settled_fraction=settled, samples=len(hold.t) if hold else 0,
+            time_left_s=self._time_left(), message=self.reason)
+
+    # ---------------------------------------------------------------- event handling
+    def _step(self, event: Event) -> list[Output]:
+        if isinstance(event, Abort):
+            return self._finish(Phase.ABORTED, event.reason, cause=Cause.OPERATOR)
+        if isinstance(event, Confirm):
+            return self._on_confirm()
+        if math.isnan(self._t):
+            self._t_phase = event.t_s
+        self._t = max(event.t_s, self._t) if not math.isnan(self._t) else event.t_s
+        if not isinstance(event, Tick):
+            out = self._on_sample(event)
+            if self.phase.final:
+                return out
+        else:
+            out = []
+        return out + self._check_time()
+
+    def _on_sample(self, s: Sample) -> list[Output]:
+        for times in self._arrivals.values():
+            del times[: max(0, len(times) - 200)]
+        stop = self.guard.sample(s)
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
+        if isinstance(s, Health):
+            self._health = s
+        elif isinstance(s, Battery):
+            if math.isfinite(s.voltage_V) and s.voltage_V > 0:
+                self._voltage = s.voltage_V
+        elif isinstance(s, Thrusters):
+            self._pwm = s
+            self._arrivals["thrusters"].append(s.t_s)
+            if self._settling is not None:
+                tau = self._tau(s.t_s)
+                if tau is not None:
+                    self._settling.effort(s.t_s, tau)
+        elif isinstance(s, Depth):
+            self._depth = s
+            self._arrivals["depth"].append(s.t_s)
+            self._depths.append((s.t_s, s.depth_m))
+            while self._depths[0][0] < s.t_s - PRECHECK_WINDOW_S:
+                self._depths.popleft()
+        elif isinstance(s, Attitude):
+            self._attitude = s
+            self._arrivals["attitude"].append(s.t_s)
+            return self._on_attitude(s)
+        return []
+
+    def _on_attitude(self, a: Attitude) -> list[Output]:
+        if self.phase in (Phase.CONNECT, Phase.PRECHECK):
+            return self._precheck()
+        if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
+            return []
+        if self.phase is Phase.COLLECT and self._time_left() < 0:
+            return self._end_hold(self._confident())
+        tau = self._tau(a.t_s)
+        if not self._settling.attitude(a, tau is not None) or tau is None:
+            return []
+        if self.phase is Phase.SETTLE:
+            if a.t_s - self._settling.steady_since >= self.proc.min_steady_s:
+                return self._enter(Phase.COLLECT, f"hold {len(self._holds)} steady: collecting")
+            return []
+        hold = self._holds[-1]
+        hold.t.append(a.t_s)
+        hold.att.append((a.phi, a.theta))
+        hold.tau.append(tau)
+        return self._maybe_next_hold()
+
+    # ---------------------------------------------------------------- phases
+    def _precheck(self) -> list[Output]:
+        h = self._health
+        if h is None or not h.connected:
+            return []
+        if self.phase is Phase.CONNECT:
+            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
+        if self._t - self._t_phase < PRECHECK_WINDOW_S:
+            return []
+        missing = self._precheck_problems()
+        if missing:
+            self.reason = "waiting: " + "; ".join(missing)
+            return []
+        self._psi = self._attitude.psi if self._attitude else 0.0
+        if self._confirmed:
+            return self._start_holds()
+        return self._enter(Phase.CONFIRM, "ready: confirm to let trimd command the vehicle "
+                                          f"({len(self.profile.holds)} holds)")
+
+    def _precheck_problems(self) -> list[str]:
+        """What keeps trimd from commanding now: telemetry rates, arming, mode, depth."""
+        problems = []
+        for stream, need in MIN_RATES_HZ.items():
+            recent = [t for t in self._arrivals[stream] if t > self._t - PRECHECK_WINDOW_S]
+            rate = len(recent) / PRECHECK_WINDOW_S
+            if rate < need:
+                problems.append(f"{stream} at {rate:.1f} Hz (need ≥ {need:g} Hz)")
+        if self._health is not None and not self._health.armed:
+            problems.append("vehicle disarmed: arm it")
+        if self._health is not None and self._health.mode in BUSY_MODES:
+            problems.append(f"vehicle in {self._health.mode}: switch it to MANUAL, "
+                            "STABILIZE or ALT_HOLD")
+        depths = [d for _, d in self._depths]
+        limit = DEPTH_STABLE_SHARE * self.proc.max_depth_excursion_m
+        if depths and max(depths) - min(depths) > limit:
+            problems.append(f"depth not steady: {max(depths) - min(depths):.2f} m of change in "
+                            f"{PRECHECK_WINDOW_S:g} s (limit {limit:g} m): hold depth first, "
+                            "e.g. in ALT_HOLD")
+        return problems
+
+    def _on_confirm(self) -> list[Output]:
+        """The operator's go. Given in the confirm phase, the precheck is run again (the
+        vehicle may have changed while the operator thought); given earlier, it stands
+        for the moment the precheck passes."""
+        if self.phase is not Phase.CONFIRM:
+            self._confirmed = True
+            return []
+        problems = self._precheck_problems()
+        if problems:
+            return self._enter(Phase.PRECHECK, "cannot start: " + "; ".join(problems)
+                               + " (confirm again when ready)")
+        self._confirmed = True
+        return self._start_holds()
+
+    def _start_holds(self) -> list[Output]:
+        return self._next_hold()
+
+    def _next_hold(self) -> list[Output]:
+        k = len(self._holds)
+        sp = self.profile.holds[k]
+        phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
+        self._holds.append(_Hold(phi, theta))
+        floor = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
+                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
+        self._settling = HoldSettling(self.proc, phi, theta, floor)
+        self._next_check = math.nan
+        self.guard.start(self._t, self._depth.depth_m if self._depth else math.nan,
+                         "the hold's start depth")
+        out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
+        return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.profile.holds)}: roll "
+                                 f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
+
+    def _maybe_next_hold(self) -> list[Output]:
+        """After a collected sample: move on once confident, or at collect_max_s."""
+        timed_out = self._t - self._t_phase >= self.proc.collect_max_s
+        if math.isnan(self._next_check):
+            self._next_check = self._t + self.proc.min_steady_s
+        if not timed_out and self._t < self._next_check:
+            return []
+        self._next_check = self._t + CONFIDENCE_CHECK_EVERY_S
+        confident = self._confident()
+        if not confident and not timed_out:
+            return []
+        return self._end_hold(confident)
+
+    def _end_hold(self, confident: bool) -> list[Output]:
+        hold = self._holds[-1]
+        if len(hold.t) < 2:
+            return self._finish(Phase.FAILED, f"hold {len(self._holds)}: no steady sample "
+                                              f"in {self.proc.collect_max_s:g} s of collecting",
+                                cause=Cause.TIMEOUT)
+        out: list[Output] = []
+        if not confident:
+            out.append(Notice(self._t, "warning", f"hold {len(self._holds)}: target "
+                              "confidence not reached in collect_max_s; using what was "
+                              f"collected ({len(hold.t)} samples)"))
+        if len(self._holds) < len(self.profile.holds):
+            return out + self._next_hold()
+        return out + self._solve()
+
+    def _confident(self) -> bool:
+        """Is the estimate (or, before the last hold, this hold's mean) precise enough?"""
+        if len(self._holds) < len(self.profile.holds):
+            return self._hold_precise(self._holds[-1])
+        try:
+            est = estimate_static(self._hold_samples(), self.profile)
+        except EstimationError:
+            return False
+        return bool(np.all(est.r_g_std_m <= self.proc.target_cg_std_m)
+                    and est.m_ext_std_kg <= self.proc.target_m_ext_std_kg)
+
+    def _hold_precise(self, hold: _Hold) -> bool:
+        """Standard errors of the hold's mean force and moments (batch means) against the
+        targets, translated through g and the weight. Only the rows that carry
+        information at this attitude count (at level: Z, K and M)."""
+        tau = np.array(hold.tau)
+        if len(tau) < 20:
+            return False
+        batches = np.array([b.mean(axis=0) for b in np.array_split(tau, 10)])
+        se = batches.std(axis=0, ddof=1) / math.sqrt(len(batches))
+        informative = np.abs(restoring_matrix(hold.phi, hold.theta)).max(axis=1) > 0.05
+        limit = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
+                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
+        return bool(np.all(se[informative] <= limit[informative]))
+
+    def _solve(self) -> list[Output]:
+        try:
+            self.estimate = estimate_static(self._hold_samples(), self.profile)
+        except EstimationError as exc:
+            return self._finish(Phase.FAILED, f"cannot solve: {exc}", cause=Cause.ESTIMATION)
+        self.proposal = self.propose(self.estimate) if self.propose else None
+        out = self._finish(Phase.DONE, "trim estimate ready")
+        out.append(Notice(self._t, "result", "estimate",
+                          result=TrimResult(self.estimate, self.proposal)))
+        return out
+
+    # ---------------------------------------------------------------- helpers
+    def _hold_samples(self) -> list[HoldSamples]:
+        return [h.samples(f"hold {k + 1}") for k, h in enumerate(self._holds) if h.t]
+
+    def _tau(self, t_s: float) -> np.ndarray | None:
+        """τ from the latest thruster outputs held onto ``t_s`` (zero-order hold)."""
+        p = self._pwm
+        if p is None or not 0 <= t_s - p.t_s <= MAX_THRUSTER_AGE_S:
+            return None
+        if len(p.pwm_us) != len(self.profile.thrusters):
+            raise ValueError(f"{len(p.pwm_us)} thruster outputs for "
+                             f"{len(self.profile.thrusters)} thrusters in the profile")
+        tau: np.ndarray = tau_from_pwm(self.profile, p.pwm_us, self._voltage)
+        return tau
+
+    def _check_time(self) -> list[Output]:
+        if self.phase.final:
+            return []
+        stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
+        # collecting ends on attitude samples, never on a Tick: a replay without the live
+        # shell's Ticks then reproduces the live result exactly
+        if self._time_left() >= 0 or self.phase is Phase.COLLECT:
+            return []
+        if self.phase is Phase.SETTLE:
+            what = f"hold {len(self._holds)} never settled ({self._why_unsteady()})"
+        elif self.phase is Phase.PRECHECK:
+            what = self.reason or "precheck did not pass"
+        else:
+            what = "no vehicle answered"
+        return self._finish(Phase.FAILED, f"timeout: {what}", cause=Cause.TIMEOUT)
+
+    def _why_unsteady(self) -> str:
+        a, hold = self._attitude, self._holds[-1]
+        if a is None:
+            return "no attitude"
+        return (f"roll {math.degrees(a.phi):.1f}° / pitch {math.degrees(a.theta):.1f}° for a "
+                f"set-point of {math.degrees(hold.phi):.1f}° / {math.degrees(hold.theta):.1f}°"
+                f", tolerance {self.proc.attitude_tol_deg}°")
+
+    def _time_left(self) -> float:
+        limit = {Phase.CONNECT: self.proc.connect_timeout_s,
+                 Phase.PRECHECK: self.proc.connect_timeout_s,
+                 Phase.SETTLE: self.proc.settle_timeout_s,
+                 Phase.COLLECT: self.proc.collect_max_s}.get(self.phase)
+        if limit is None or math.isnan(self._t):
+            return math.inf
+        return limit - (self._t - self._t_phase)
+
+    def _enter(self, phase: Phase, text: str) -> list[Output]:
+        self.phase = phase
+        self._t_phase = self._t
+        self.reason = text
+        return [Notice(self._t, "state", text, phase)]
+
+    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
+        """End in ``phase``; ``cause`` lets a shell choose its exit code."""
+        if math.isnan(self._t):  # ended before any sample: at session time 0
+            self._t = 0.0
+        self.cause = cause
+        commanding = self.guard.commanding and not self.phase.final
+        self.guard.commanding = False
+        out: list[Output] = [Release()] if commanding else []
+        return out + self._enter(phase, reason)

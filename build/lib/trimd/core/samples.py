@@ -1,0 +1,146 @@
+"""Typed samples and commands that cross the link boundary (SI units, FRD/NED).
+
+Every sample carries ``t_s``: the time it was received [s] on the link's own clock
+(``time.monotonic()`` for live links, simulated time for the simulator, the log's time
+for a replay). The core measures every timeout and window on these stamps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "Arm",
+    "Attitude",
+    "Battery",
+    "Command",
+    "Depth",
+    "Health",
+    "HoldAttitude",
+    "OpenLoop",
+    "Release",
+    "Sample",
+    "Thrusters",
+    "VehicleText",
+    "Velocity",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class Attitude:
+    """Roll φ, pitch θ, yaw ψ [rad] (ZYX Euler, NED→FRD) and body rates p, q, r [rad/s]."""
+
+    t_s: float
+    phi: float
+    theta: float
+    psi: float
+    p: float
+    q: float
+    r: float
+
+
+@dataclass(frozen=True, slots=True)
+class Thrusters:
+    """Per-thruster output [µs PWM], in the profile's thruster order."""
+
+    t_s: float
+    pwm_us: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Depth:
+    """Depth below the surface [m], positive down (NED z)."""
+
+    t_s: float
+    depth_m: float
+
+
+@dataclass(frozen=True, slots=True)
+class Velocity:
+    """Body-frame linear velocity u, v, w [m/s] (a DVL), FRD."""
+
+    t_s: float
+    u: float
+    v: float
+    w: float
+
+
+@dataclass(frozen=True, slots=True)
+class Battery:
+    """Battery voltage [V] (the thrust curve depends on it)."""
+
+    t_s: float
+    voltage_V: float
+
+
+@dataclass(frozen=True, slots=True)
+class Health:
+    """Link and vehicle state: heartbeat seen, mode name, armed, bad frames so far.
+
+    ``detail`` is the link's warnings (or, when not connected, why); ``vehicle`` names the
+    vehicle as the link identifies it (e.g. ``"sysid 1 ArduPilot submarine"``), "" when
+    the link cannot tell.
+    """
+
+    t_s: float
+    connected: bool
+    mode: str
+    armed: bool
+    bad_frames: int = 0
+    detail: str = ""
+    vehicle: str = ""
+
+    def warnings(self) -> list[str]:
+        """The link's warnings so far (from ``detail`` while connected)."""
+        return self.detail.split("; ") if self.connected and self.detail else []
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleText:
+    """A message the vehicle sent for people (MAVLink STATUSTEXT), e.g. a failsafe.
+
+    ``severity`` follows MAV_SEVERITY: 0 emergency … 3 error, 4 warning … 7 debug.
+    """
+
+    t_s: float
+    severity: int
+    text: str
+
+    @property
+    def level(self) -> str:
+        """``"error"`` (severity 0–3), ``"warning"`` (4) or ``"info"`` (5–7)."""
+        return "error" if self.severity <= 3 else "warning" if self.severity == 4 else "info"
+
+
+Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText
+
+
+@dataclass(frozen=True, slots=True)
+class HoldAttitude:
+    """Hold roll, pitch, yaw [rad] with depth hold at the present depth."""
+
+    phi: float
+    theta: float
+    psi: float
+
+
+@dataclass(frozen=True, slots=True)
+class Release:
+    """Stop commanding: give control back to the pilot / the vehicle's previous mode."""
+
+
+@dataclass(frozen=True, slots=True)
+class OpenLoop:
+    """Open-loop per-axis input in [-1, 1]: surge, sway, heave, roll, pitch, yaw."""
+
+    axes: tuple[float, float, float, float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class Arm:
+    """Arm (True) or disarm (False) where the vehicle allows it."""
+
+    armed: bool
+
+
+Command = HoldAttitude | Release | OpenLoop | Arm

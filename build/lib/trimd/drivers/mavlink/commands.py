@@ -1,0 +1,342 @@
+"""What trimd sends to an ArduSub vehicle, and when (``shared/docs/ardusub.md``).
+
+:class:`Commander` is the vehicle policy of the MAVLink link. It runs in the link's I/O
+thread (it owns the pymavlink ``MAVLink`` object there, so nothing else writes) and knows
+nothing of sockets:
+
+* a GCS HEARTBEAT (type 6) at 1 Hz, always;
+* when the vehicle appears (again): MAV_CMD_SET_MESSAGE_INTERVAL for each message in
+  :data:`STREAMS`, one at a time; a refusal or no answer falls back to REQUEST_DATA_STREAM
+  for that message's stream, with a warning; PARAM_REQUEST_READ for FRAME_CONFIG,
+  SERVOn_FUNCTION and MOT_n_DIRECTION, and a warning for each disagreement with the profile;
+* HoldAttitude: ALT_HOLD (MAV_CMD_DO_SET_MODE), then SET_ATTITUDE_TARGET with the body-rate
+  and throttle-ignore bits (type_mask 71) at 4 Hz, with neutral MANUAL_CONTROL at 10 Hz;
+* OpenLoop: MANUAL, then MANUAL_CONTROL with those axes at 10 Hz;
+* Release: one last SET_ATTITUDE_TARGET at level (roll = pitch = 0, the hold's heading),
+  then stop both and restore the mode the operator had before trimd's first command.
+  ArduSub keeps honouring the last target for 5 s in ALT_HOLD, so merely falling silent
+  would leave the vehicle tilted for up to 5 s; the level target brings it back at once;
+* Arm: MAV_CMD_COMPONENT_ARM_DISARM;
+* link lost: stop commanding at once (a command must come again after a loss).
+
+A command's future completes when the vehicle confirms (COMMAND_ACK accepted, or a
+HEARTBEAT in the wanted mode) and fails with a LinkError on refusal or after 3 s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from trimd.core.errors import LinkError
+from trimd.core.model import quaternion_from_euler
+from trimd.core.profile import Profile
+from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release
+from trimd.drivers.mavlink.ardusub import mode_number
+from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.drivers.mavlink.url import MavlinkOptions
+
+__all__ = ["HOLD_PERIOD_S", "PILOT_PERIOD_S", "STREAMS", "Commander", "pilot_axes"]
+
+#: message → (message id, rate [Hz], legacy REQUEST_DATA_STREAM stream id)
+STREAMS: dict[str, tuple[int, float, int]] = {
+    "ATTITUDE": (30, 10.0, 10), "SERVO_OUTPUT_RAW": (36, 10.0, 3), "SYS_STATUS": (1, 2.0, 2),
+    "VFR_HUD": (74, 5.0, 11), "GLOBAL_POSITION_INT": (33, 5.0, 6),
+    "SCALED_PRESSURE2": (137, 5.0, 1),
+}
+_DEPTH_MESSAGE = {"vfr_hud": "VFR_HUD", "global_position": "GLOBAL_POSITION_INT",
+                  "pressure": "SCALED_PRESSURE2"}
+HOLD_PERIOD_S = 0.25        # SET_ATTITUDE_TARGET at 4 Hz (ArduSub drops a target after 5 s)
+PILOT_PERIOD_S = 0.1        # MANUAL_CONTROL at 10 Hz (pilot-input failsafe after 3 s)
+_HEARTBEAT_PERIOD_S = 1.0
+_RETRY_S = 1.0              # re-send an unanswered COMMAND_LONG after this long
+_ANSWER_S = 3.0             # give up on a command after this long
+_PARAM_WAIT_S = 3.0
+_TYPE_MASK = 0b1000111      # ignore body roll/pitch/yaw rates and throttle
+_NEUTRAL = (0, 0, 500, 0, 0, 0, 0)  # MANUAL_CONTROL x, y, z, r, s, t, enabled_extensions
+_ACCEPTED, _IN_PROGRESS = 0, 5
+
+
+def _result_name(result: int | None) -> str:
+    if result is None:
+        return "no answer in 3 s"
+    entry = mavlink2.enums["MAV_RESULT"].get(result)
+    return entry.name if entry is not None else f"result {result}"
+
+
+def _fail(done: Future[None] | None, text: str) -> None:
+    if done is not None and not done.done():
+        done.set_exception(LinkError(text))
+
+
+def _succeed(done: Future[None] | None) -> None:
+    if done is not None and not done.done():
+        done.set_result(None)
+
+
+@dataclass
+class _Request:
+    """An outstanding COMMAND_LONG, re-sent each second until answered or 3 s old."""
+
+    params: tuple[float, ...]
+    answered: Callable[[int | None], None]
+    deadline: float
+    done: Future[None] | None  # failed at once when the link is lost
+    next_send: float = -math.inf
+    tries: int = 0
+
+
+def pilot_axes(axes: tuple[float, ...]) -> tuple[int, ...]:
+    """MANUAL_CONTROL x, y, z, r, s (pitch), t (roll), enabled_extensions of OpenLoop axes
+    (surge, sway, heave down, roll, pitch, yaw in [−1, 1]); z = 500 is neutral, up > 500.
+
+    Examples
+    --------
+    >>> pilot_axes((0.5, 0, 1.0, 0, 0, -1))
+    (500, 0, 0, -1000, 0, 0, 0)
+    """
+    surge, sway, heave, roll, pitch, yaw = (max(-1.0, min(1.0, a)) for a in axes)
+    ext = 0b11 if roll or pitch else 0
+    return (round(surge * 1000), round(sway * 1000), round(500 - heave * 500),
+            round(yaw * 1000), round(pitch * 1000), round(roll * 1000), ext)
+
+
+class Commander:
+    """ArduSub command policy over one pymavlink ``MAVLink`` object (module docstring).
+
+    ``warn`` receives each warning once (stream fallbacks, parameter disagreements,
+    unanswered mode restores).
+    """
+
+    def __init__(self, mav: Any, profile: Profile, decoder: MavlinkDecoder,
+                 options: MavlinkOptions, warn: Callable[[str], None]) -> None:
+        self.mav = mav
+        self.profile = profile
+        self.decoder = decoder
+        self.options = options
+        self.warn = warn
+        self.target: tuple[float, float, float] | None = None
+        self.pilot: tuple[int, ...] | None = None
+        self._restore: str | None = None
+        self._requests: dict[int, _Request] = {}
+        self._mode_wanted: tuple[str, Future[None] | None] | None = None
+        self._streams: deque[str] = deque()
+        self._params_wanted: set[str] = set()
+        self._params_seen: set[str] = set()
+        self._params_due = math.inf
+        self._params_tries = 0
+        self._due = {"heartbeat": -math.inf, "target": -math.inf, "pilot": -math.inf}
+
+    # ---------------------------------------------------------------- vehicle events
+    def on_vehicle(self, now: float) -> None:
+        """The vehicle's heartbeat appeared (first time or after a loss)."""
+        depth = _DEPTH_MESSAGE[self.options.depth]
+        self._streams = deque(n for n in STREAMS if n in (
+            "ATTITUDE", "SERVO_OUTPUT_RAW", "SYS_STATUS", depth))
+        names = ["FRAME_CONFIG", *(f"SERVO{n}_FUNCTION" for n in range(1, 17)),
+                 *(f"MOT_{t.channel}_DIRECTION" for t in self.profile.thrusters
+                   if t.channel <= 12)]
+        if self.options.depth == "pressure":
+            names.append("BARO2_GND_PRESS")
+        self._params_wanted, self._params_seen, self._params_tries = set(names), set(), 0
+        self._request_params(names, now)
+        if self.options.pilot == "always":
+            self.pilot = self.pilot or _NEUTRAL
+
+    def on_lost(self) -> None:
+        """The vehicle's heartbeat stopped: stop commanding, fail what waits for it."""
+        self.target = None
+        self.pilot = None
+        for request in self._requests.values():
+            _fail(request.done, "link lost before the vehicle answered")
+        self._requests.clear()
+        self._mode_wanted = None
+        self._params_due = math.inf
+
+    def on_message(self, msg: Any) -> None:
+        """A message from the vehicle (after the decoder has seen it)."""
+        kind = msg.get_type()
+        if kind == "COMMAND_ACK":
+            request = self._requests.get(int(msg.command))
+            if request is not None and int(msg.result) != _IN_PROGRESS:
+                del self._requests[int(msg.command)]
+                request.answered(int(msg.result))
+        elif kind == "HEARTBEAT" and self._mode_wanted is not None:
+            mode, done = self._mode_wanted
+            if self.decoder.mode == mode:
+                self._mode_wanted = None
+                self._requests.pop(mavlink2.MAV_CMD_DO_SET_MODE, None)
+                _succeed(done)
+        elif kind == "PARAM_VALUE":
+            self._params_seen.add(str(msg.param_id))
+            if self._params_wanted <= self._params_seen and self._params_due < math.inf:
+                self._params_due = -math.inf  # all answered: judge them at the next tick
+
+    @property
+    def idle(self) -> bool:
+        """No mode change (a restore, say) waits for the vehicle's answer."""
+        return mavlink2.MAV_CMD_DO_SET_MODE not in self._requests
+
+    # ---------------------------------------------------------------- commands
+    def apply(self, command: Command, now: float, done: Future[None]) -> None:
+        """Carry out ``command``; ``done`` completes when the vehicle confirms it."""
+        if self.decoder.vehicle is None:
+            _fail(done, "no vehicle heartbeat yet")
+        elif isinstance(command, HoldAttitude):
+            self.target = (command.phi, command.theta, command.psi)
+            self.pilot = _NEUTRAL
+            self._due["target"] = self._due["pilot"] = now
+            self._change_mode("ALT_HOLD", now, done)
+        elif isinstance(command, OpenLoop):
+            self.target = None
+            self.pilot = pilot_axes(command.axes)
+            self._due["pilot"] = now
+            self._change_mode("MANUAL", now, done)
+        elif isinstance(command, Release):
+            self.release(now)
+            _succeed(done)
+        elif isinstance(command, Arm):
+            verb = "arm" if command.armed else "disarm"
+            self._command(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (float(command.armed),), now,
+                          lambda r: _succeed(done) if r == _ACCEPTED else _fail(
+                              done, f"the vehicle did not {verb}: {_result_name(r)}"), done)
+        else:
+            _fail(done, f"not supported over MAVLink: {command!r}")
+
+    def release(self, now: float) -> None:
+        """Level the vehicle, stop targeting and pilot input; restore the operator's mode."""
+        if self.target is not None:
+            self._send_target((0.0, 0.0, self.target[2]), now)
+        self.target = None
+        self.pilot = _NEUTRAL if self.options.pilot == "always" else None
+        if self._mode_wanted is not None:
+            _fail(self._mode_wanted[1], "released before the mode changed")
+            self._mode_wanted = None
+        restore, self._restore = self._restore, None
+        if restore is not None and self.decoder.mode != restore:
+            self._change_mode(restore, now, None)
+
+    def _change_mode(self, mode: str, now: float, done: Future[None] | None) -> None:
+        if self.decoder.mode == mode:
+            _succeed(done)
+            return
+        if self._restore is None and done is not None:
+            self._restore = self.decoder.mode
+        if self._mode_wanted is not None:
+            _fail(self._mode_wanted[1], f"superseded by a change to {mode}")
+        wanted = self._mode_wanted = (mode, done)
+
+        def answered(result: int | None) -> None:
+            if self._mode_wanted is wanted:
+                self._mode_wanted = None
+            if result == _ACCEPTED:
+                _succeed(done)
+                return
+            text = f"the vehicle did not change to {mode}: {_result_name(result)}"
+            if done is None:
+                self.warn(text)
+            _fail(done, text)
+
+        self._command(mavlink2.MAV_CMD_DO_SET_MODE, (1.0, float(mode_number(mode))), now,
+                      answered, done)
+
+    def _command(self, command: int, params: tuple[float, ...], now: float,
+                 answered: Callable[[int | None], None], done: Future[None] | None) -> None:
+        old = self._requests.pop(command, None)
+        if old is not None:
+            _fail(old.done, "superseded by a newer command")
+        self._requests[command] = _Request((*params, 0, 0, 0, 0, 0, 0, 0)[:7], answered,
+                                           now + _ANSWER_S, done)
+
+    # ---------------------------------------------------------------- periodic
+    def tick(self, now: float) -> float:
+        """Send whatever is due at ``now``; return when something is due next."""
+        mav, due = self.mav, self._due
+        if now >= due["heartbeat"]:
+            mav.heartbeat_send(mavlink2.MAV_TYPE_GCS, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0,
+                               mavlink2.MAV_STATE_ACTIVE)
+            due["heartbeat"] = now + _HEARTBEAT_PERIOD_S
+        vehicle = self.decoder.vehicle
+        if vehicle is None:
+            return due["heartbeat"]
+        sysid, compid = vehicle
+        if self.target is not None and now >= due["target"]:
+            self._send_target(self.target, now)
+            due["target"] = now + HOLD_PERIOD_S
+        if self.pilot is not None and now >= due["pilot"]:
+            x, y, z, r, s, t, ext = self.pilot
+            mav.manual_control_send(sysid, x, y, z, r, 0, 0, ext, s, t)
+            due["pilot"] = now + PILOT_PERIOD_S
+        self._tick_requests(now, sysid, compid)
+        if now >= self._params_due:
+            self._params_answered(now)
+        waits = [due["heartbeat"], self._params_due,
+                 *(r.next_send for r in self._requests.values()),
+                 *(r.deadline for r in self._requests.values())]
+        if self.target is not None:
+            waits.append(due["target"])
+        if self.pilot is not None:
+            waits.append(due["pilot"])
+        return min(waits)
+
+    def _send_target(self, target: tuple[float, float, float], now: float) -> None:
+        """SET_ATTITUDE_TARGET for (roll, pitch, yaw) [rad], throttle and rates ignored."""
+        if self.decoder.vehicle is None:
+            return
+        sysid, compid = self.decoder.vehicle
+        self.mav.set_attitude_target_send(round(now * 1000) & 0xFFFFFFFF, sysid, compid,
+                                          _TYPE_MASK, quaternion_from_euler(*target),
+                                          0.0, 0.0, 0.0, 0.5)
+
+    def _tick_requests(self, now: float, sysid: int, compid: int) -> None:
+        if self._streams and mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL not in self._requests:
+            self._request_stream(self._streams.popleft(), now)
+        for command, request in list(self._requests.items()):
+            if now >= request.deadline:
+                del self._requests[command]
+                request.answered(None)
+            elif now >= request.next_send:
+                self.mav.command_long_send(sysid, compid, command, request.tries,
+                                           *request.params)
+                request.tries += 1
+                request.next_send = now + _RETRY_S
+
+    def _request_stream(self, name: str, now: float) -> None:
+        msg_id, hz, stream = STREAMS[name]
+
+        def answered(result: int | None) -> None:
+            if result == _ACCEPTED:
+                return
+            sysid, compid = self.decoder.vehicle or (0, 0)
+            self.mav.request_data_stream_send(sysid, compid, stream, round(hz), 1)
+            self.warn(f"SET_MESSAGE_INTERVAL {name} at {hz:g} Hz: {_result_name(result)}; "
+                      f"asked with REQUEST_DATA_STREAM (stream {stream}) instead")
+
+        self._command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL,
+                      (float(msg_id), 1e6 / hz), now, answered, None)
+
+    # ---------------------------------------------------------------- parameters
+    def _request_params(self, names: list[str], now: float) -> None:
+        sysid, compid = self.decoder.vehicle or (0, 0)
+        for name in names:
+            self.mav.param_request_read_send(sysid, compid, name.encode(), -1)
+        self._params_tries += 1
+        self._params_due = now + _PARAM_WAIT_S
+
+    def _params_answered(self, now: float) -> None:
+        missing = sorted(self._params_wanted - self._params_seen)
+        if missing and self._params_tries < 2:
+            self._request_params(missing, now)
+            return
+        self._params_due = math.inf
+        if not self._params_seen:
+            self.warn("the vehicle answered no parameter read (FRAME_CONFIG, SERVOn_FUNCTION, "
+                      "MOT_n_DIRECTION): thruster outputs and directions as the profile says")
+        for text in self.decoder.params.disagreements(self.profile):
+            self.warn(f"vehicle parameters disagree with the profile: {text}")

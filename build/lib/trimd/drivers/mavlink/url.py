@@ -1,0 +1,152 @@
+"""The ``mavlink:`` link URL: a pymavlink connection string plus trimd's options.
+
+Syntax (``docs/mavlink.md``)::
+
+    mavlink:<connection>[?key=value&key=value…]
+
+    connection   udpin:HOST:PORT     listen for the vehicle (the usual topside end;
+                                     ``udp:`` means the same)
+                 udpout:HOST:PORT    send to the vehicle first (e.g. BlueOS at 192.168.2.2)
+                 tcp:HOST:PORT       connect to a TCP server (SITL, mavlink-router)
+                 /dev/ttyACM0[,BAUD] a serial device (default 115200 baud)
+
+    sysid=N      the vehicle's system id (default: the first autopilot that is not a GCS)
+    timeout=S    heartbeat timeout [s] before the link is reported lost
+                 (default: the profile's procedure.link_timeout_s)
+    gcs=N        trimd's own system id (default 255: ArduSub's SYSID_MYGCS)
+    key=PATH     MAVLink 2 signing key: a file of 32 raw bytes or 64 hex digits; with a key,
+                 every unsigned or badly signed packet received is refused
+    pilot=hold   neutral MANUAL_CONTROL only while trimd commands (default; the operator's
+                 ground station supplies pilot input otherwise)
+    pilot=always neutral MANUAL_CONTROL from the first heartbeat on: trimd is the only
+                 ground station and must keep ArduSub's pilot-input failsafe quiet
+    depth=SOURCE vfr_hud (default), global_position or pressure (SCALED_PRESSURE2, Bar30)
+
+Everything else is refused with a :class:`~trimd.core.errors.LinkError` that says what would
+work: pymavlink itself opens a serial port for any string it does not recognise.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal, cast
+
+from trimd.core.errors import LinkError
+from trimd.drivers.mavlink.decode import DepthSource
+
+__all__ = ["MavlinkOptions", "PilotPolicy", "load_signing_key", "parse_mavlink_url"]
+
+PilotPolicy = Literal["hold", "always"]
+
+_NET = re.compile(r"^(udpin|udpout|udp|tcp):([^:?&]+):(\d+)$")
+_SERIAL = re.compile(r"^(/dev/[^,]+|/[^,]*tty[^,]*|COM\d+)(?:,(\d+))?$")
+_FORMS = ("udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device "
+          "/dev/ttyXXX[,BAUD]")
+_KEYS = ("sysid", "timeout", "gcs", "key", "pilot", "depth")
+_DEPTH: tuple[DepthSource, ...] = ("vfr_hud", "global_position", "pressure")
+_PILOT: tuple[PilotPolicy, ...] = ("hold", "always")
+
+
+@dataclass(frozen=True, slots=True)
+class MavlinkOptions:
+    """A parsed ``mavlink:`` URL (see the module docstring)."""
+
+    device: str           # the pymavlink connection string (``udpin:0.0.0.0:14550``)
+    baud: int = 115200    # serial devices only
+    sysid: int | None = None
+    timeout_s: float = 3.0
+    gcs_sysid: int = 255
+    key_path: str | None = None
+    pilot: PilotPolicy = "hold"
+    depth: DepthSource = "vfr_hud"
+
+    @property
+    def serial(self) -> bool:
+        return not _NET.match(self.device)
+
+
+def _int(key: str, text: str, lo: int, hi: int) -> int:
+    if not text.isdigit() or not lo <= int(text) <= hi:
+        raise LinkError(f"mavlink option {key}={text!r}: expected an integer {lo}..{hi}")
+    return int(text)
+
+
+def _connection(text: str) -> tuple[str, int]:
+    net = _NET.match(text)
+    if net:
+        kind, host, port = net.groups()
+        _int("port", port, 0 if kind in ("udpin", "udp") else 1, 65535)
+        return (f"udpin:{host}:{port}" if kind == "udp" else text), 115200
+    serial = _SERIAL.match(text)
+    if serial:
+        device, baud = serial.groups()
+        return device, 115200 if baud is None else _int("baud", baud, 50, 10_000_000)
+    if text.lower().endswith((".tlog", ".bin")):
+        raise LinkError(f"'{text}' is a log file: open it with replay:{text}")
+    if text.startswith(("tcpin:", "udpbcast:", "mcast:", "ws:", "wss:", "wsserver:")):
+        raise LinkError(f"mavlink connection '{text}' is not supported by trimd: use {_FORMS}")
+    raise LinkError(f"unknown mavlink connection '{text}': use {_FORMS}, "
+                    "e.g. mavlink:udpin:0.0.0.0:14550")
+
+
+def parse_mavlink_url(rest: str, *, default_timeout_s: float) -> MavlinkOptions:
+    """Parse what follows ``mavlink:``; LinkError naming the problem for anything unknown.
+
+    Examples
+    --------
+    >>> o = parse_mavlink_url("udpin:0.0.0.0:14550?sysid=1&timeout=2", default_timeout_s=3)
+    >>> o.device, o.sysid, o.timeout_s
+    ('udpin:0.0.0.0:14550', 1, 2.0)
+    >>> parse_mavlink_url("/dev/ttyACM0,57600", default_timeout_s=3).baud
+    57600
+    """
+    connection, _, query = rest.partition("?")
+    if not connection:
+        raise LinkError(f"mavlink: needs a connection: {_FORMS}")
+    device, baud = _connection(connection)
+    values: dict[str, str] = {}
+    for item in filter(None, query.split("&")):
+        key, eq, value = item.partition("=")
+        if key not in _KEYS:
+            raise LinkError(f"unknown mavlink option '{key}' (known: {', '.join(_KEYS)})")
+        if not eq or not value:
+            raise LinkError(f"mavlink option '{key}' needs a value: {key}=…")
+        values[key] = value
+    timeout_s = default_timeout_s
+    if "timeout" in values:
+        try:
+            timeout_s = float(values["timeout"])
+        except ValueError:
+            timeout_s = -1.0
+        if not 0.1 <= timeout_s <= 600:
+            raise LinkError(f"mavlink option timeout={values['timeout']!r}: expected "
+                            "seconds between 0.1 and 600")
+    for key, allowed in (("pilot", _PILOT), ("depth", _DEPTH)):
+        if key in values and values[key] not in allowed:
+            raise LinkError(f"mavlink option {key}={values[key]!r}: expected one of "
+                            f"{', '.join(allowed)}")
+    return MavlinkOptions(
+        device=device, baud=baud,
+        sysid=_int("sysid", values["sysid"], 1, 255) if "sysid" in values else None,
+        timeout_s=timeout_s,
+        gcs_sysid=_int("gcs", values["gcs"], 1, 255) if "gcs" in values else 255,
+        key_path=values.get("key"),
+        pilot=cast(PilotPolicy, values.get("pilot", "hold")),
+        depth=cast(DepthSource, values.get("depth", "vfr_hud")))
+
+
+def load_signing_key(path: str) -> bytes:
+    """The 32-byte MAVLink 2 signing secret in ``path`` (32 raw bytes or 64 hex digits)."""
+    try:
+        data = Path(path).expanduser().read_bytes()
+    except OSError as exc:
+        raise LinkError(f"signing key {path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) == 32:
+        return data
+    text = data.strip()
+    if len(text) == 64 and re.fullmatch(rb"[0-9a-fA-F]{64}", text):
+        return bytes.fromhex(text.decode())
+    raise LinkError(f"signing key {path}: expected 32 raw bytes or 64 hex digits, found "
+                    f"{len(data)} bytes")

@@ -1,0 +1,290 @@
+"""The serial driver: a vehicle speaking the trimd line protocol (``serial:<device>[,baud]``).
+
+Opened with pyserial's ``serial_for_url``, so real ports (``/dev/ttyUSB0``), pseudo-
+terminals and pyserial's URLs (``loop://``, ``socket://host:port``) all work. One reader
+thread owns the port's input: it parses lines (:mod:`trimd.drivers.serial.protocol`; bad lines
+are counted and dropped), converts them to samples and hands them to :meth:`samples`.
+The same thread sends the version handshake until the vehicle answers and, every
+``control_period_s``, the control sentence (the active hold or open-loop command again,
+else a heartbeat), so a vehicle that stops hearing trimd releases by itself.
+
+Time: every sample is stamped on the ``time.monotonic()`` base, advanced by the vehicle's
+own clock (each sentence's ``t_ms``) rather than by the time of receipt: serial buffering
+and chunked reads then cannot bunch samples together, and a simulator served at ``--rate
+X`` keeps its own time, as the procedure's windows need. The first sentence (and any
+jump of the vehicle clock back by more than 1 s, i.e. a reboot) anchors the vehicle clock
+to ``time.monotonic()``.
+
+Link loss: no valid sentence for ``timeout_s`` (default 1 s) after the handshake yields a
+disconnected :class:`Health` (the reader checks every 50 ms); a device error (a port
+unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import threading
+import time
+from collections import deque
+from collections.abc import AsyncIterator
+from typing import Any
+
+import serial
+
+from trimd.core.errors import LinkError
+from trimd.core.profile import Profile
+from trimd.core.samples import Command, Health, HoldAttitude, OpenLoop, Release, Sample
+from trimd.drivers.limits import check_command
+from trimd.drivers.serial.protocol import (
+    MAX_OUTPUTS,
+    VEHICLE,
+    VERSION,
+    Heartbeat,
+    LineParser,
+    Sentence,
+    Version,
+    encode_command,
+    to_sample,
+)
+
+__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "TIMEOUT_S", "SerialLink", "open_serial_link"]
+
+DEFAULT_BAUD = 115_200
+#: Vehicle silence that makes the link lost [s].
+TIMEOUT_S = 1.0
+#: Period of the control sentence (and of the handshake until answered) [s].
+CONTROL_PERIOD_S = 0.5
+_READ_TIMEOUT_S = 0.05
+_WRITE_TIMEOUT_S = 1.0
+_QUEUE_MAX = 20_000
+_REBOOT_MS = -1000
+
+
+class _VehicleClock:
+    """Vehicle ``t_ms`` (uint32, wrapping) → seconds on the ``time.monotonic()`` base."""
+
+    def __init__(self) -> None:
+        self._ms: int | None = None
+        self._t = 0.0
+
+    def stamp(self, t_ms: int, now: float) -> float:
+        if self._ms is not None:
+            step = (t_ms - self._ms + 2**31) % 2**32 - 2**31
+            if step >= _REBOOT_MS:
+                self._ms, self._t = t_ms, self._t + step / 1000.0
+                return self._t
+        self._ms, self._t = t_ms, now
+        return now
+
+
+class SerialLink:
+    """A vehicle on an open pyserial port, behind the :class:`trimd.core.link.Link` protocol.
+
+    Parameters
+    ----------
+    port : an open pyserial port whose read timeout is short (≈ 50 ms).
+    profile : the vehicle; its thrusters' ``channel`` select THR outputs (1…16).
+    timeout_s : vehicle silence that makes the link lost [s].
+    control_period_s : period of the control sentence [s].
+
+    Attributes
+    ----------
+    parser : the line parser (``parser.counts``: lines by outcome).
+    vehicle : the vehicle's answer to the handshake, None until it came.
+    dropped : samples dropped because the consumer fell behind by ``_QUEUE_MAX``.
+    unmapped : THR sentences that did not drive every thruster of the profile (dropped).
+    """
+
+    def __init__(self, port: Any, profile: Profile, *, description: str,
+                 timeout_s: float = TIMEOUT_S,
+                 control_period_s: float = CONTROL_PERIOD_S) -> None:
+        self.channels = tuple(t.channel for t in profile.thrusters)
+        if max(self.channels) > MAX_OUTPUTS:
+            raise LinkError(f"profile {profile.name}: the serial protocol carries outputs "
+                            f"1…{MAX_OUTPUTS}, the thrusters use {self.channels}")
+        self.port = port
+        self.profile = profile
+        self.description = description
+        self.timeout_s = timeout_s
+        self.control_period_s = control_period_s
+        self.parser = LineParser(VEHICLE)
+        self.vehicle: Version | None = None
+        self.dropped = 0
+        self.unmapped = 0
+        self._problem = "waiting for the vehicle's version sentence (VHVER)"
+        self._clock = _VehicleClock()
+        self._pending: deque[Sample] = deque()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._wake: asyncio.Event | None = None
+        self._active: Command | Heartbeat = Heartbeat()
+        self._commanded = False
+        self._connected = False
+        self._finished = False
+        self._closed = False
+        self._last: Health | None = None
+        self._last_rx = (0.0, 0.0)   # (monotonic, sample time) of the last valid sentence
+        self._write_lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"serial {description}",
+                                        daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ Link protocol
+    async def samples(self) -> AsyncIterator[Sample]:
+        """Samples as the reader thread delivers them, until the device fails or closes."""
+        self._wake = wake = asyncio.Event()
+        self._loop = asyncio.get_running_loop()
+        try:
+            while True:
+                while self._pending:
+                    yield self._pending.popleft()
+                if self._finished or self._closed:
+                    return
+                wake.clear()
+                if not self._pending and not self._finished:
+                    await wake.wait()
+        finally:
+            if self._wake is wake:   # not a newer consumer's
+                self._loop = self._wake = None
+
+    async def send(self, command: Command) -> None:
+        """Send ``command`` now; holds and open-loop inputs are repeated every control
+        period until the next command. Release is always sent; other commands need the
+        version handshake."""
+        if self._closed:
+            raise LinkError(f"{self.description} is closed")
+        check_command(command, self.profile)
+        if not isinstance(command, Release) and self.vehicle is None:
+            raise LinkError(f"{self.description}: {self._problem}")
+        try:
+            line = encode_command(command)
+        except ValueError as exc:
+            raise LinkError(f"not sent: {exc}") from None
+        if isinstance(command, HoldAttitude | OpenLoop):
+            self._active, self._commanded = command, True
+        elif isinstance(command, Release):
+            self._active = Heartbeat()
+        self._write(line)
+
+    async def close(self) -> None:
+        """Release the vehicle if trimd commanded it, stop the reader, close the port."""
+        if self._closed:
+            return
+        self._closed = True
+        self._active = Heartbeat()
+        if self._commanded:
+            # if this fails, the vehicle releases by itself when trimd falls silent
+            with contextlib.suppress(LinkError):
+                self._write(encode_command(Release()))
+        self._stop.set()
+        self._thread.join(timeout=1.0)
+        self.port.close()
+        self._notify()
+
+    # ------------------------------------------------------------------ reader thread
+    def _run(self) -> None:
+        next_control = 0.0
+        while not self._stop.is_set():
+            now = time.monotonic()
+            try:
+                if now >= next_control:
+                    next_control = now + self.control_period_s
+                    self._control()
+                data = self.port.read(self.port.in_waiting or 1)
+            except (serial.SerialException, OSError, LinkError) as exc:
+                if not self._stop.is_set():
+                    self._lose(f"{self.description}: {exc}", time.monotonic())
+                    self._finished = True
+                    self._notify()
+                return
+            now = time.monotonic()
+            for sentence in self.parser.feed(data) if data else ():
+                self._on_sentence(sentence, now)
+            if self._connected and now - self._last_rx[0] > self.timeout_s:
+                self._lose(f"no data from the vehicle for {now - self._last_rx[0]:.1f} s", now)
+            if self._pending:
+                self._notify()
+
+    def _control(self) -> None:
+        if self.vehicle is None:
+            self._write(encode_command(Version(VERSION, "trimd")))
+        self._write(encode_command(self._active))
+
+    def _on_sentence(self, s: Sentence, now: float) -> None:
+        t_s = self._clock.stamp(int(s.values[0]), now) if s.kind != "VER" else self._last_rx[1]
+        self._last_rx = (now, t_s)
+        out = to_sample(s, t_s, self.channels)
+        if isinstance(out, Version):
+            ok = out.version == VERSION
+            self.vehicle = out if ok else None
+            self._problem = "" if ok else (f"the vehicle ({out.name}) speaks serial protocol "
+                                           f"version {out.version}, trimd speaks {VERSION}")
+            return
+        if isinstance(out, Health):
+            self._connected = self.vehicle is not None
+            out = Health(t_s, self._connected, out.mode, out.armed, self.parser.bad_lines,
+                         out.detail if self._connected else self._problem,
+                         self.vehicle.name if self.vehicle else "")
+            self._last = out
+        if out is None:
+            self.unmapped += 1
+        else:
+            self._emit(out)
+
+    def _lose(self, detail: str, now: float) -> None:
+        """The vehicle is gone: stop repeating a command (one must come again after a
+        loss, as over MAVLink) and say so with a disconnected Health."""
+        self._connected = False
+        self._active = Heartbeat()
+        last = self._last
+        t_s = self._last_rx[1] + (now - self._last_rx[0])
+        self._emit(Health(t_s, False, last.mode if last else "", bool(last and last.armed),
+                          self.parser.bad_lines, detail, last.vehicle if last else ""))
+
+    def _emit(self, sample: Sample) -> None:
+        if len(self._pending) >= _QUEUE_MAX:
+            self._pending.popleft()
+            self.dropped += 1
+        self._pending.append(sample)
+
+    def _notify(self) -> None:
+        loop, wake = self._loop, self._wake
+        if loop is not None and wake is not None:
+            with contextlib.suppress(RuntimeError):   # the consumer's loop has closed
+                loop.call_soon_threadsafe(wake.set)
+
+    def _write(self, line: bytes) -> None:
+        try:
+            with self._write_lock:
+                self.port.write(line)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"{self.description}: cannot write: {exc}") from None
+
+
+def open_serial_link(rest: str, profile: Profile, *, timeout_s: float = TIMEOUT_S
+                     ) -> SerialLink:
+    """A :class:`SerialLink` for the ``<device>[,<baud>]`` part of a ``serial:`` URL.
+
+    Raises
+    ------
+    LinkError
+        For a missing device, a baud rate that is not a positive integer, or a port that
+        cannot be opened.
+    """
+    device, baud = rest, DEFAULT_BAUD
+    head, sep, tail = rest.rpartition(",")
+    if sep:
+        if not tail.isdigit() or int(tail) == 0:
+            raise LinkError(f"serial:{rest}: the baud rate must be a positive integer, "
+                            f"got '{tail}'")
+        device, baud = head, int(tail)
+    if not device:
+        raise LinkError("serial: needs a device, e.g. serial:/dev/ttyUSB0,115200")
+    try:
+        port = serial.serial_for_url(device, baudrate=baud, timeout=_READ_TIMEOUT_S,
+                                     write_timeout=_WRITE_TIMEOUT_S)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise LinkError(f"cannot open serial {device}: {exc}") from None
+    return SerialLink(port, profile, description=f"serial {device} at {baud} baud",
+                      timeout_s=timeout_s)

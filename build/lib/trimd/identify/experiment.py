@@ -1,0 +1,224 @@
+"""The open-loop excitation experiment: a pure state machine with the trim procedure's
+interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, ``reason``,
+``cause``, ``estimate``, ``proposal``), so :class:`trimd.app.session.Session` runs it.
+
+Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
+as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
+the signal, its PID output is added on roll and pitch at every attitude sample) → done;
+``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's own
+(:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
+commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
+experiment's limit from the start depth, link loss (a Health sample that is not
+connected, no telemetry, or no attitude or depth, for ``link_timeout_s``) or a disarmed
+vehicle ends the experiment; so do a timeout and an internal error — every end after the
+first command sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
+"""
+
+from __future__ import annotations
+
+import math
+
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.guards import Guard
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
+from trimd.identify.signals import HoldAxis, Signal
+
+__all__ = ["Excite"]
+
+#: Telemetry seen for this long [s] before the experiment may start.
+PRECHECK_S = 2.0
+
+
+class Excite:
+    """An excitation experiment of ``signal`` on the vehicle of ``profile``.
+
+    Parameters
+    ----------
+    profile : tilt limit, link and connect timeouts.
+    signal : the inputs to play (:func:`trimd.identify.signals.design_signal`).
+    confirmed : the operator confirmed up front (``--yes``).
+    depth_excursion_m : the largest allowed depth change from the start [m].
+    """
+
+    def __init__(self, profile: Profile, signal: Signal, *, confirmed: bool = False,
+                 depth_excursion_m: float = 5.0) -> None:
+        self.profile = profile
+        self.signal = signal
+        self.phase = Phase.CONNECT
+        self.reason = ""
+        self.cause = Cause.NONE
+        self.estimate = None
+        self.proposal = None
+        # open loop drives thrusters, so no thruster stream is needed to steer by
+        self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
+                           streams=("attitude", "depth"))
+        self._confirmed = confirmed
+        self._t = math.nan
+        self._t_phase = math.nan
+        self._t_start = math.nan
+        self._health: Health | None = None
+        self._depth: float = math.nan
+        self._depth_ref = math.nan
+        self._attitude_seen = False
+        self._last: tuple[float, ...] | None = None
+        self._integral = {h.axis: 0.0 for h in signal.hold}
+        self._t_hold = math.nan
+        self._depth_integral = 0.0
+        self._t_depth = math.nan
+        self._heave = 0.0  # the depth hold's output [input], added to the heave offset
+
+    # ---------------------------------------------------------------- interface
+    def step(self, event: Event) -> list[Output]:
+        """Advance on one event; return the commands to send and notices to show."""
+        if self.phase.final:
+            return []
+        try:
+            return self._step(event)
+        except Exception as exc:   # any internal error must still release the vehicle
+            return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
+                                Cause.INTERNAL)
+
+    @property
+    def progress(self) -> Progress:
+        done = 0.0
+        left = math.inf
+        if self.phase is Phase.COLLECT and not math.isnan(self._t):
+            done = min(1.0, (self._t - self._t_start) / self.signal.duration_s)
+            left = self.signal.duration_s - (self._t - self._t_start)
+        elif self.phase is Phase.DONE:
+            done = 1.0
+        return Progress(self._t, self.phase, 0, 1, None, done, 0, left, self.reason)
+
+    # ---------------------------------------------------------------- events
+    def _step(self, event: Event) -> list[Output]:
+        if isinstance(event, Abort):
+            return self._finish(Phase.ABORTED, event.reason, Cause.OPERATOR)
+        if isinstance(event, Confirm):
+            self._confirmed = True
+            return self._start() if self.phase is Phase.CONFIRM else []
+        self._t = event.t_s if math.isnan(self._t) else max(self._t, event.t_s)
+        if math.isnan(self._t_phase):
+            self._t_phase = self._t
+        if isinstance(event, Tick):
+            return self._check_time()
+        return self._on_sample(event) + self._check_time()
+
+    def _on_sample(self, s: Sample) -> list[Output]:
+        stop = self.guard.sample(s)
+        if stop is not None and (self.phase is not Phase.CONNECT or stop.cause != Cause.LINK):
+            return self._finish(Phase.FAILED, stop.reason, stop.cause)
+        if isinstance(s, Health):
+            self._health = s
+            return self._precheck()
+        if isinstance(s, Depth):
+            self._depth = s.depth_m
+            if self.phase is Phase.COLLECT and self.signal.depth_hold is not None:
+                self._hold_depth(s, self.signal.depth_hold)
+            return []
+        if isinstance(s, Attitude):
+            self._attitude_seen = True
+            if self.phase is Phase.COLLECT:
+                return self._play(s)
+            return self._precheck()
+        return []
+
+    def _precheck(self) -> list[Output]:
+        h = self._health
+        if self.phase not in (Phase.CONNECT, Phase.PRECHECK) or h is None or not h.connected:
+            return []
+        if self.phase is Phase.CONNECT:
+            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
+        if self._t - self._t_phase < PRECHECK_S:
+            return []
+        problems = [p for p, bad in (("no attitude", not self._attitude_seen),
+                                     ("no depth", math.isnan(self._depth)),
+                                     ("vehicle disarmed: arm it", not h.armed)) if bad]
+        if problems:
+            self.reason = "waiting: " + "; ".join(problems)
+            return []
+        if self._confirmed:
+            return self._start()
+        return self._enter(Phase.CONFIRM, "ready: confirm to let trimd drive the vehicle "
+                           f"open loop for {self.signal.duration_s:g} s")
+
+    def _start(self) -> list[Output]:
+        self._depth_ref = self._depth
+        self._t_start = self._t
+        self.guard.start(self._t, self._depth, "the start depth")
+        out = self._enter(Phase.COLLECT, "exciting: open-loop inputs on axes "
+                          + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
+        return out + self._play(None)
+
+    def _play(self, attitude: Attitude | None) -> list[Output]:
+        """The inputs at the present time: the signal, plus the attitude hold's output on
+        the held axes when ``attitude`` is a new measurement."""
+        elapsed = self._t - self._t_start
+        if elapsed >= self.signal.duration_s:
+            return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s)")
+        axes = self.signal.at(elapsed)
+        if self._heave:
+            axes = (axes[0], axes[1], max(-1.0, min(1.0, axes[2] + self._heave)), *axes[3:])
+        if attitude is not None and self.signal.hold:
+            axes = self._hold(axes, attitude)
+        if axes == self._last:
+            return []
+        self._last = axes
+        return [OpenLoop(axes)]
+
+    def _hold(self, axes: tuple[float, ...], a: Attitude
+              ) -> tuple[float, float, float, float, float, float]:
+        """``axes`` plus the PID output of each held tilt axis towards level; the integral
+        is clamped to ± the hold's limit and frozen while the axis input saturates."""
+        dt = 0.0 if math.isnan(self._t_hold) else max(0.0, a.t_s - self._t_hold)
+        self._t_hold = a.t_s
+        out = list(axes)
+        for h in self.signal.hold:
+            angle, rate = (a.phi, a.p) if h.axis == 3 else (a.theta, a.q)
+            error = -angle
+            saturated = abs(self._last[h.axis]) >= 1.0 if self._last else False
+            if not (saturated and self._integral[h.axis] * error > 0):
+                self._integral[h.axis] += error * dt
+            i_term = max(-h.i_limit, min(h.i_limit, h.ki * self._integral[h.axis]))
+            self._integral[h.axis] = i_term / h.ki
+            out[h.axis] = max(-1.0, min(1.0, axes[h.axis] + h.kp * error + i_term
+                                        - h.kd * rate))
+        return (out[0], out[1], out[2], out[3], out[4], out[5])
+
+    def _hold_depth(self, d: Depth, h: HoldAxis) -> None:
+        """PI towards the start depth (heave input is positive down); the integral term is
+        clamped to ± the hold's limit."""
+        dt = 0.0 if math.isnan(self._t_depth) else max(0.0, d.t_s - self._t_depth)
+        self._t_depth = d.t_s
+        error = self._depth_ref - d.depth_m  # above the start depth: push down
+        self._depth_integral += error * dt
+        i_term = max(-h.i_limit, min(h.i_limit, h.ki * self._depth_integral))
+        self._depth_integral = i_term / h.ki
+        self._heave = h.kp * error + i_term
+
+    def _check_time(self) -> list[Output]:
+        if self.phase.final:
+            return []
+        p = self.profile.procedure
+        stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None
+        if stop is not None:
+            return self._finish(Phase.FAILED, stop.reason, stop.cause)
+        if (self.phase in (Phase.CONNECT, Phase.PRECHECK)
+                and self._t - self._t_phase > p.connect_timeout_s):
+            return self._finish(Phase.FAILED, "timeout: " + (self.reason or
+                                                             "no vehicle answered"), Cause.TIMEOUT)
+        return []
+
+    def _enter(self, phase: Phase, text: str) -> list[Output]:
+        self.phase = phase
+        self._t_phase = self._t
+        self.reason = text
+        return [Notice(self._t, "state", text, phase)]
+
+    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
+        if math.isnan(self._t):  # ended before any sample: at session time 0
+            self._t = 0.0
+        self.cause = cause
+        out: list[Output] = [Release()] if self.guard.commanding else []
+        self.guard.commanding = False
+        return out + self._enter(phase, reason)

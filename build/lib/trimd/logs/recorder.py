@@ -1,0 +1,230 @@
+"""Session recorder: a MAVLink 2 ``.tlog`` that pymavlink's mavlogdump and MAVExplorer open.
+
+Each record is an 8-byte big-endian timestamp [µs since the Unix epoch] followed by one
+MAVLink 2 packet. The first record (a STATUSTEXT "trimd session start") is session time
+zero; a replay measures every sample's time from it.
+
+* Samples are written as the standard messages that carry them, from system 1 /
+  component 1 (the vehicle): ATTITUDE, SERVO_OUTPUT_RAW (the profile's channels),
+  VFR_HUD (alt = −depth), SYS_STATUS (battery mV), HEARTBEAT (ArduSub mode, armed),
+  ODOMETRY with child frame MAV_FRAME_BODY_FRD for a body velocity (DVL): vx, vy, vz =
+  u, v, w; position and orientation unknown (NaN), as MAVLink allows; STATUSTEXT for the
+  vehicle's own messages.
+* Commands and the procedure's events come from system 255 / component 190 (trimd):
+  SET_ATTITUDE_TARGET for a hold, STATUSTEXT for release, notices and warnings,
+  NAMED_VALUE_FLOAT for the result.
+* The vehicle profile rides along as gzip-compressed YAML in ENCAPSULATED_DATA packets,
+  so a trimd recording replays without ``--profile``.
+
+:meth:`TlogRecorder.sample` returns the sample *as the log stores it* (float32 angles,
+integer PWM, millivolts): the live procedure sees exactly what a replay will see. The file
+is flushed and synced at least once a second, so after ``kill -9`` at most a second is lost.
+"""
+
+from __future__ import annotations
+
+import gzip
+import math
+import os
+import struct
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from trimd.core.events import Notice
+from trimd.core.model import quaternion_from_euler
+from trimd.core.profile import Profile
+from trimd.core.samples import (
+    Arm,
+    Attitude,
+    Battery,
+    Command,
+    Depth,
+    Health,
+    HoldAttitude,
+    OpenLoop,
+    Release,
+    Sample,
+    Thrusters,
+    VehicleText,
+    Velocity,
+)
+from trimd.drivers.mavlink.ardusub import mode_name, mode_number
+
+__all__ = ["TRIMD_COMPONENT", "TRIMD_SYSTEM", "TlogRecorder"]
+
+TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
+VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
+SESSION_START = "trimd session start"
+_STATUSTEXT_BYTES = 50
+#: Longest time [s, wall clock] a written record waits before it is synced to the disk.
+FLUSH_EVERY_S = 1.0
+_UNKNOWN_MODE = 255  # written for a mode name ArduSub does not have
+_SEVERITY = {"warning": 4, "state": 6, "info": 6, "result": 6}
+
+
+def _f32(x: float) -> float:
+    return float(np.float32(x))
+
+
+def _text_chunks(text: str) -> list[bytes]:
+    """Split ``text`` (UTF-8) into STATUSTEXT chunks of 50 bytes and a shorter last one.
+
+    A reader knows a text has ended by a chunk shorter than 50 bytes, so a text of several
+    chunks whose last one is full gets an empty chunk after it; a character may straddle
+    two chunks (join the bytes, then decode).
+    """
+    data = text.encode("utf-8")
+    chunks = [data[i:i + _STATUSTEXT_BYTES] for i in range(0, len(data), _STATUSTEXT_BYTES)]
+    if not chunks or (len(chunks) > 1 and len(chunks[-1]) == _STATUSTEXT_BYTES):
+        chunks.append(b"")
+    return chunks
+
+
+class TlogRecorder:
+    """Record one session to ``path`` (parent directories are created)."""
+
+    def __init__(self, path: str | Path, profile: Profile, profile_yaml: str) -> None:
+        self.path = str(path)
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        self._file = open(path, "wb")  # noqa: SIM115 - kept open for the session
+        self._channels = [t.channel for t in profile.thrusters]
+        if max(self._channels, default=0) > 16:
+            raise ValueError("SERVO_OUTPUT_RAW carries channels 1..16 only")
+        self._epoch_us = int(time.time()) * 1_000_000
+        self._vehicle = mavlink2.MAVLink(None, srcSystem=VEHICLE_SYSTEM,
+                                         srcComponent=VEHICLE_COMPONENT)
+        self._trimd = mavlink2.MAVLink(None, srcSystem=TRIMD_SYSTEM, srcComponent=TRIMD_COMPONENT)
+        self._last_flush = time.monotonic()
+        self._text_id = 0
+        self._write_text(0.0, SESSION_START, 6)
+        self._write_profile(profile.name, profile_yaml)
+
+    # ---------------------------------------------------------------- writing
+    def _write(self, t_s: float, mav: Any, msg: Any) -> None:
+        self.raw(t_s, bytes(msg.pack(mav)))
+        mav.seq = (mav.seq + 1) % 256  # pack() does not advance it; send() would
+
+    def raw(self, t_s: float, packet: bytes) -> None:
+        """Record a packet (e.g. as received from a MAVLink link) at session time ``t_s``."""
+        stamp = self._epoch_us + round(t_s * 1e6)
+        self._file.write(struct.pack(">Q", stamp) + packet)
+        self.flush_due()
+
+    def flush_due(self) -> None:
+        """Flush if the last flush is a second old or more (called on every write, and
+        by the session while the link is quiet)."""
+        now = time.monotonic()
+        if now - self._last_flush >= FLUSH_EVERY_S:
+            self.flush()
+            self._last_flush = now
+
+    def _write_text(self, t_s: float, text: str, severity: int, mav: Any = None) -> None:
+        """STATUSTEXT from trimd (or from ``mav``, e.g. the vehicle), in chunks."""
+        mav = mav or self._trimd
+        chunks = _text_chunks(text)
+        self._text_id = self._text_id % 65535 + 1 if len(chunks) > 1 else 0
+        for seq, chunk in enumerate(chunks):
+            self._write(t_s, mav, mav.statustext_encode(severity, chunk, self._text_id, seq))
+
+    def _write_profile(self, name: str, profile_yaml: str) -> None:
+        data = gzip.compress(profile_yaml.encode("utf-8"), mtime=0)
+        self._write_text(0.0, f"trimd profile {name}: {len(data)} bytes gzip YAML", 6)
+        for seq, start in enumerate(range(0, len(data), 253)):
+            chunk = data[start:start + 253]
+            self._write(0.0, self._trimd, self._trimd.encapsulated_data_encode(
+                seq, chunk + bytes(253 - len(chunk))))
+
+    def flush(self) -> None:
+        """Push everything written so far to the disk."""
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        if not self._file.closed:
+            self.flush()
+            self._file.close()
+
+    # ---------------------------------------------------------------- Recorder protocol
+    def sample(self, s: Sample) -> Sample:
+        """Write ``s``; return it as the log stores it (what a replay will read)."""
+        ms = round(s.t_s * 1000) & 0xFFFFFFFF
+        v = self._vehicle
+        if isinstance(s, Attitude):
+            self._write(s.t_s, v, v.attitude_encode(ms, s.phi, s.theta, s.psi, s.p, s.q, s.r))
+            return Attitude(s.t_s, *(_f32(x) for x in (s.phi, s.theta, s.psi, s.p, s.q, s.r)))
+        if isinstance(s, Thrusters):
+            pwm = [int(np.clip(round(p), 0, 65535)) for p in s.pwm_us]
+            servos = [0] * 16
+            for ch, p in zip(self._channels, pwm, strict=True):
+                servos[ch - 1] = p
+            self._write(s.t_s, v, v.servo_output_raw_encode(int(s.t_s * 1e6), 0, *servos))
+            return Thrusters(s.t_s, tuple(float(p) for p in pwm))
+        if isinstance(s, Depth):
+            self._write(s.t_s, v, v.vfr_hud_encode(0, 0, 0, 0, -s.depth_m, 0))
+            return Depth(s.t_s, -_f32(-s.depth_m))
+        if isinstance(s, Battery):
+            mv = int(np.clip(round(s.voltage_V * 1000), 0, 65535))
+            self._write(s.t_s, v, v.sys_status_encode(0, 0, 0, 0, mv, -1, -1, 0, 0, 0, 0, 0, 0))
+            return Battery(s.t_s, mv / 1000.0)
+        if isinstance(s, Velocity):
+            nan = math.nan
+            self._write(s.t_s, v, v.odometry_encode(
+                int(s.t_s * 1e6), mavlink2.MAV_FRAME_LOCAL_FRD, mavlink2.MAV_FRAME_BODY_FRD,
+                nan, nan, nan, [nan] * 4, s.u, s.v, s.w, nan, nan, nan, [nan] * 21,
+                [nan] * 21, 0, 0, 0))
+            return Velocity(s.t_s, _f32(s.u), _f32(s.v), _f32(s.w))
+        if isinstance(s, Health):
+            if not s.connected:
+                self._write_text(s.t_s, f"link lost: {s.detail}", 3)
+                return s
+            base = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (
+                mavlink2.MAV_MODE_FLAG_SAFETY_ARMED if s.armed else 0)
+            try:
+                number = mode_number(s.mode)
+            except ValueError:
+                number = _UNKNOWN_MODE
+            self._write(s.t_s, v, v.heartbeat_encode(
+                mavlink2.MAV_TYPE_SUBMARINE, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
+                number, mavlink2.MAV_STATE_ACTIVE))
+            return Health(s.t_s, True, mode_name(number), s.armed, vehicle=s.vehicle)
+        if isinstance(s, VehicleText):
+            severity = min(max(s.severity, 0), 7)
+            self._write_text(s.t_s, s.text, severity, v)
+            return VehicleText(s.t_s, severity, s.text)
+        return s
+
+    def command(self, t_s: float, command: Command) -> None:
+        g = self._trimd
+        if isinstance(command, HoldAttitude):
+            q = quaternion_from_euler(command.phi, command.theta, command.psi)
+            self._write(t_s, g, g.set_attitude_target_encode(
+                int(t_s * 1000) & 0xFFFFFFFF, VEHICLE_SYSTEM, VEHICLE_COMPONENT, 0b1000111, q,
+                0, 0, 0, 0.5))
+        elif isinstance(command, Release):
+            self._write_text(t_s, "trimd: release control", 5)
+        elif isinstance(command, OpenLoop):
+            x, y, heave, _, _, r = (float(np.clip(a, -1, 1)) for a in command.axes)
+            # ArduSub's throttle: 0..1000, 500 neutral, above 500 up; heave is positive down
+            self._write(t_s, g, g.manual_control_encode(
+                VEHICLE_SYSTEM, int(x * 1000), int(y * 1000), int(500 - 500 * heave),
+                int(r * 1000), 0))
+        elif isinstance(command, Arm):
+            self._write(t_s, g, g.command_long_encode(
+                VEHICLE_SYSTEM, VEHICLE_COMPONENT, mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                1.0 if command.armed else 0.0, 0, 0, 0, 0, 0, 0))
+
+    def notice(self, notice: Notice) -> None:
+        self._write_text(notice.t_s, notice.text, _SEVERITY.get(notice.kind, 6))
+        if notice.result is not None:
+            estimate = notice.result.estimate
+            g = self._trimd
+            ms = int(notice.t_s * 1000) & 0xFFFFFFFF
+            for name, value in (("m_ext_kg", estimate.m_ext_kg),
+                                ("cg_x_m", estimate.r_g_m[0]), ("cg_y_m", estimate.r_g_m[1]),
+                                ("cg_z_m", estimate.r_g_m[2])):
+                self._write(notice.t_s, g, g.named_value_float_encode(
+                    ms, name.encode(), float(value)))

@@ -1,0 +1,98 @@
+"""A recorded log as a :class:`trimd.core.link.Link` (``replay:<path>``), and what a log carries.
+
+The samples come out in file order with the log's own times, as fast as the consumer
+takes them (``speed=None``) or paced at ``speed`` × real time. Commands are accepted and
+kept in :attr:`ReplayLink.sent` (a recording cannot obey them): replaying a trimd session
+through the same procedure reproduces its live result, because the procedure is a pure
+function of the samples.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+import zlib
+from collections.abc import AsyncIterator, Iterator
+from pathlib import Path
+
+from trimd.core.errors import DataError
+from trimd.core.profile import Profile
+from trimd.core.samples import Command, Sample
+from trimd.logs.log import is_dataflash, open_log
+from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM
+from trimd.logs.tlog import TlogReader
+
+__all__ = ["ReplayLink", "recorded_profile_yaml"]
+
+
+def recorded_profile_yaml(path: str | Path) -> str | None:
+    """The vehicle profile a trimd recording carries (YAML text); None for other logs."""
+    if is_dataflash(path):
+        return None
+    chunks: list[bytes] = []
+    trimd = False
+    for _, msg in TlogReader.open(path).messages():
+        if (msg.get_srcSystem(), msg.get_srcComponent()) != (TRIMD_SYSTEM, TRIMD_COMPONENT):
+            continue
+        kind = msg.get_type()
+        if kind == "STATUSTEXT" and msg.text == SESSION_START:
+            trimd = True
+        elif kind == "ENCAPSULATED_DATA" and trimd:
+            chunks.append(bytes(msg.data))
+        elif chunks:
+            break
+    if not chunks:
+        return None
+    gunzip = zlib.decompressobj(wbits=31)  # gzip; the zero padding of the last chunk stays
+    try:
+        text = gunzip.decompress(b"".join(chunks)).decode("utf-8")
+    except (zlib.error, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: the recorded profile is damaged ({exc})") from None
+    if not gunzip.eof:
+        raise DataError(f"{path}: the recorded profile is cut short")
+    return text
+
+
+class ReplayLink:
+    """Samples of a ``.tlog`` (any MAVLink log) or an ArduSub DataFlash ``.bin``."""
+
+    def __init__(self, path: str | Path, profile: Profile, *, speed: float | None = None
+                 ) -> None:
+        self.path = str(path)
+        self.description = f"replay:{path}"
+        self.profile = profile
+        self.speed = speed
+        self.sent: list[Command] = []
+        self._log = open_log(path, profile)
+        self._closed = False
+
+    def read_samples(self) -> Iterator[Sample]:
+        """Every sample of the log, in file order (:attr:`warnings` grow on the way)."""
+        yield from self._log.samples()
+
+    @property
+    def warnings(self) -> list[str]:
+        """The damage found in what has been read so far (a session may stop early)."""
+        return self._log.warnings()
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        start_wall: float | None = None
+        start_t = 0.0
+        for sample in self.read_samples():
+            if self._closed:
+                return
+            if self.speed:
+                if start_wall is None:
+                    start_wall, start_t = time.monotonic(), sample.t_s
+                delay = (sample.t_s - start_t) / self.speed - (time.monotonic() - start_wall)
+                if delay > 0:
+                    await asyncio.sleep(delay)
+            else:
+                await asyncio.sleep(0)
+            yield sample
+
+    async def send(self, command: Command) -> None:
+        self.sent.append(command)
+
+    async def close(self) -> None:
+        self._closed = True

@@ -1,0 +1,310 @@
+"""The trimd terminal UI: the session runs in a worker on the app's loop; the TUI is
+one of its presenters. :func:`make_app` builds it for ``trimd run`` / ``trimd demo`` /
+``trimd replay`` (which run it until the operator quits or a signal stops it) and for the
+tests."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import ClassVar
+
+from textual import on
+from textual.app import App, ComposeResult, SystemCommand
+from textual.binding import Binding, BindingType
+from textual.containers import Horizontal, Vertical
+from textual.events import Resize
+from textual.screen import Screen
+from textual.widgets import Footer
+
+from trimd.app.report import describe_command
+from trimd.app.session import Session, SessionResult
+from trimd.ballast.propose import METHODS, Proposal
+from trimd.core.events import Phase, Progress
+from trimd.core.profile import Profile
+from trimd.tui.attitude_panel import AttitudePanel
+from trimd.tui.event_log import EventLog
+from trimd.tui.help_screen import HelpScreen
+from trimd.tui.link_panel import LinkPanel
+from trimd.tui.messages import (
+    CommandSent,
+    LinkMessage,
+    NoticeReceived,
+    SessionEnded,
+    TelemetryChanged,
+)
+from trimd.tui.presenter import TuiPresenter
+from trimd.tui.quit_screen import QuitScreen
+from trimd.tui.replay_pace import PacedReplay
+from trimd.tui.report import Report, save_report
+from trimd.tui.result_panel import ResultPanel
+from trimd.tui.stepper import Stepper
+from trimd.tui.telemetry import LiveState
+from trimd.tui.thrusters import ThrusterPanel
+
+__all__ = ["TrimApp", "make_app"]
+
+#: At least this many columns and rows show the live view and the result together
+#: (class ``-roomy`` on the app; ``-result`` shows the result alone).
+ROOMY = (110, 36)
+#: Live panels are redrawn at most this often [Hz, wall clock]: display pacing only.
+REDRAW_HZ = 10.0
+_BEFORE_HOLDS = (Phase.CONNECT, Phase.PRECHECK, Phase.CONFIRM)
+
+
+class TrimApp(App[SessionResult]):
+    """Runs ``session`` and shows it; ``result`` is set once the session has ended.
+
+    ``replay``: the session's link when it replays a recording (pause and speed keys)."""
+
+    CSS_PATH = "trimd.tcss"
+    TITLE = "trimd"
+    BINDINGS: ClassVar[list[BindingType]] = [
+        Binding("s", "start", "Start/confirm"),
+        # priority: works on every screen (modal ones too), except where a text input
+        # consumes the key (the command palette's search offers ABORT itself)
+        Binding("a", "abort", "ABORT", priority=True),
+        Binding("m", "method", "Method"),
+        Binding("v", "view", "Live/result"),
+        Binding("r", "report", "Save report"),
+        # a replay's only (hidden over a live link)
+        Binding("space", "pace('pause')", "Pause"),
+        Binding("plus,equals_sign", "pace('faster')", "Faster", key_display="+"),
+        Binding("minus", "pace('slower')", "Slower", key_display="-"),
+        Binding("question_mark,f1", "help", "Help", key_display="?"),
+        Binding("q,ctrl+c", "quit", "Quit", key_display="q"),
+    ]
+
+    def __init__(self, session: Session, profile: Profile, *, link_description: str,
+                 truth: str | None, report_dir: Path | None,
+                 clock: Callable[[], float], replay: PacedReplay | None) -> None:
+        super().__init__()
+        self.session = session
+        self.profile = profile
+        self.link_description = link_description
+        self.truth = truth
+        self.report_dir = report_dir
+        self.replay = replay
+        self.state = LiveState(clock)
+        self.result: SessionResult | None = None
+        self.confirmed = False
+        self._quitting = False
+        self._progress: Progress | None = None
+        self._dirty = False
+
+    def compose(self) -> ComposeResult:
+        with Horizontal(id="main"):
+            with Vertical(id="left"):
+                yield LinkPanel(self.state, link_description=self.link_description,
+                                vehicle=self.profile.name,
+                                stale_after_s=self.profile.procedure.link_timeout_s / 2)
+                yield Stepper(self.profile)
+                yield EventLog()
+            with Vertical(id="right"):
+                with Vertical(id="live"):
+                    yield AttitudePanel(self.state)
+                    yield ThrusterPanel(self.state, self.profile)
+                yield ResultPanel(self.profile, truth=self.truth)
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.session.presenters.append(TuiPresenter(self, self.state))
+        # a task of its own, which the worker only waits on: closing the app cancels its
+        # workers, and the session must still end by the procedure's abort (releasing)
+        self._session_task = asyncio.ensure_future(self.session.run())
+        self.set_interval(1 / REDRAW_HZ, self._redraw)
+        self._show_pace()
+        self.run_worker(self._wait_session(), name="session", group="session")
+
+    async def _wait_session(self) -> None:
+        self.post_message(SessionEnded(await asyncio.shield(self._session_task)))
+
+    async def on_unmount(self) -> None:
+        """Whatever closes the app, the session ends (and releases) before it is gone."""
+        if not self._session_task.done():
+            self.session.abort("the terminal UI closed")
+        self.result = await self._session_task
+
+    # ---------------------------------------------------------------- session events
+    @on(TelemetryChanged)
+    def _telemetry(self, message: TelemetryChanged) -> None:
+        self._progress, self._dirty = message.progress, True
+
+    def _redraw(self) -> None:
+        """Apply the latest telemetry to the panels (at REDRAW_HZ: light over SSH)."""
+        if not self._dirty:
+            return
+        s, self._dirty = self.state, False
+        self.query_one(AttitudePanel).t_s = s.attitude.t_s if s.attitude else s.t_s
+        self.query_one(ThrusterPanel).t_s = s.thrusters.t_s if s.thrusters else s.t_s
+        self.query_one(Stepper).progress = self._progress
+        self.query_one(LinkPanel).show()
+
+    @on(NoticeReceived)
+    def _notice(self, message: NoticeReceived) -> None:
+        n, self._progress = message.notice, message.progress
+        self.query_one(Stepper).progress = message.progress
+        log = self.query_one(EventLog)
+        if n.result is not None:
+            estimate, proposal = n.result.estimate, n.result.proposal
+            log.add(n.t_s, "result", f"estimate: m_ext {estimate.m_ext_kg:+.3f} kg")
+            self.query_one(ResultPanel).show_result(
+                estimate, proposal if isinstance(proposal, Proposal) else None)
+            self.add_class("-result")
+        else:
+            log.add(n.t_s, n.kind, n.text)
+        if n.phase is Phase.CONFIRM:
+            self.bell()
+            self.notify("Ready: press s to let trimd command the vehicle.", timeout=10)
+        elif n.phase in (Phase.FAILED, Phase.ABORTED):
+            self.bell()
+        self.refresh_bindings()
+
+    @on(LinkMessage)
+    def _link_message(self, message: LinkMessage) -> None:
+        self.query_one(EventLog).add(message.t_s, message.kind, message.text)
+
+    @on(CommandSent)
+    def _command(self, message: CommandSent) -> None:
+        self.query_one(EventLog).add(message.t_s, "command", describe_command(message.command))
+
+    @on(SessionEnded)
+    def _ended(self, message: SessionEnded) -> None:
+        r = self.result = message.result
+        self.query_one(LinkPanel).closed = True
+        where = f"; log {r.log_path}" if r.log_path else ""
+        self.query_one(EventLog).add(self.state.t_s, "state",
+                                     f"session ended: {r.phase.value}{where}")
+        self.refresh_bindings()
+        if self._quitting:
+            self.exit(r)
+
+    @on(Resize)
+    def _resize(self, event: Resize) -> None:
+        self.set_class(event.size.width >= ROOMY[0] and event.size.height >= ROOMY[1],
+                              "-roomy")
+
+    # ---------------------------------------------------------------- actions
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "start":
+            progress = self.query_one(Stepper).progress
+            early = progress is None or progress.phase in _BEFORE_HOLDS
+            return self.result is None and not self.confirmed and early
+        if action in ("method", "view"):
+            return self.query_one(ResultPanel).estimate is not None
+        if action == "pace":
+            return self.replay is not None and self.result is None
+        return True
+
+    def action_start(self) -> None:
+        """Let trimd command the vehicle (now, or as soon as the precheck passes)."""
+        self.confirmed = True
+        self.session.confirm()
+        self.query_one(EventLog).add(self.state.t_s, "info", "confirmed by the operator")
+        self.refresh_bindings()
+
+    def action_abort(self) -> None:
+        """Stop the procedure: trimd releases the vehicle at once."""
+        if self.result is None:
+            self.session.abort("aborted by the operator")
+            self.query_one(EventLog).add(self.state.t_s, "error", "ABORT requested")
+
+    def stop(self, reason: str) -> None:
+        """End the session for ``reason`` (releasing the vehicle, closing the log), then
+        quit: what a signal does (``trimd run`` installs it for SIGINT, SIGTERM, SIGHUP).
+        Safe before the app is mounted (the session then aborts as it starts)."""
+        if self.result is not None:
+            self.exit(self.result)
+        else:
+            self._quitting = True
+            self.session.abort(reason)
+
+    def action_method(self, method: str = "") -> None:
+        """Show the proposal of ``method`` (default: the next one)."""
+        panel = self.query_one(ResultPanel)
+        if method:
+            panel.method = method
+        else:
+            panel.next_method()
+        self.add_class("-result")
+
+    def action_view(self) -> None:
+        self.toggle_class("-result")
+
+    def action_report(self) -> None:
+        panel = self.query_one(ResultPanel)
+        r, p = self.result, self.session.procedure
+        log_path = r.log_path if r else (self.session.recorder.path
+                                         if self.session.recorder else None)
+        status = f"{p.phase.value}: {p.reason}" if p.reason else p.phase.value
+        report = Report(self.profile.name, self.link_description, status, log_path,
+                        panel.estimate, panel.proposal, self.truth,
+                        list(self.query_one(EventLog).entries))
+        directory = self.report_dir or (Path(log_path).parent if log_path else Path.cwd())
+        stem = f"{Path(log_path).stem}-report" if log_path else f"trimd-{self.profile.name}"
+        try:
+            md, js = save_report(report, directory, stem)
+        except OSError as exc:
+            self.notify(f"could not save the report: {exc}", severity="error")
+            return
+        self.query_one(EventLog).add(self.state.t_s, "info", f"report saved: {md.name}")
+        self.notify(f"Report saved: {md} and {js.name}")
+
+    def action_pace(self, change: str) -> None:
+        """Replay: ``pause`` (or resume), ``faster`` or ``slower``."""
+        if self.replay is not None:
+            {"pause": self.replay.toggle_pause, "faster": self.replay.faster,
+             "slower": self.replay.slower}[change]()
+            self._show_pace()
+
+    def _show_pace(self) -> None:
+        if self.replay is not None:
+            self.query_one(LinkPanel).border_subtitle = f"replay {self.replay.label}"
+
+    def action_help(self) -> None:
+        self.push_screen(HelpScreen([b for b in self.BINDINGS if isinstance(b, Binding)
+                                     and (self.replay or not b.action.startswith("pace("))]))
+
+    async def action_quit(self) -> None:
+        """Quit; while the session runs, ask first (quitting aborts it)."""
+        if self.result is not None:
+            self.exit(self.result)
+            return
+
+        def answered(quit_: bool | None) -> None:
+            if quit_ and self.result is not None:  # it ended while the question was open
+                self.exit(self.result)
+            elif quit_:
+                self._quitting = True
+                self.action_abort()
+
+        self.push_screen(QuitScreen(), answered)
+
+    def get_system_commands(self, screen: Screen[object]) -> Iterable[SystemCommand]:
+        yield from super().get_system_commands(screen)
+        yield SystemCommand("Start / confirm", "Let trimd command the vehicle",
+                            self.action_start)
+        yield SystemCommand("ABORT", "Stop the procedure and release the vehicle at once",
+                            self.action_abort)
+        for m in METHODS:
+            yield SystemCommand(f"Ballast method: {m}", f"Show the {m} proposal",
+                                lambda m=m: self.action_method(m))  # type: ignore[misc]
+        yield SystemCommand("Save report", "Markdown and JSON next to the session log",
+                            self.action_report)
+        yield SystemCommand("Help", "Keys and panels", self.action_help)
+
+
+def make_app(session: Session, profile: Profile, *, link_description: str,
+             truth: str | None = None, report_dir: Path | None = None,
+             clock: Callable[[], float] = time.monotonic,
+             replay: PacedReplay | None = None) -> TrimApp:
+    """The TUI over ``session`` (not started yet; the app starts it when mounted).
+
+    ``report_dir``: where reports go (default: beside the session log, else the current
+    directory). ``clock``: only for the heartbeat age shown (tests fix it; a replay passes
+    its own sample time). ``replay``: the session's link when it replays a recording.
+    """
+    return TrimApp(session, profile, link_description=link_description, truth=truth,
+                   report_dir=report_dir, clock=clock, replay=replay)
