@@ -2,7 +2,7 @@
 stage on 10 min of 50 Hz data beside one forward simulation of the same data (the batched
 simulation of all segments that one cost evaluation of the fit runs, and, labelled apart,
 the sequential free run of the whole record that validation runs), the accuracy of every
-parameter of method.md §5 against the simulator's truth (beside the thesis's estimate for
+parameter of docs/method.md §5 against the simulator's truth (beside the thesis's estimate for
 the Sabertooth), and the validation NRMSE per output on 2 held-out minutes; each stage
 ends with whether the issue's criteria hold (every parameter within 10 % of the truth or,
 for a negligible one, its contribution below 10 % of its DOF's force or moment, its error
@@ -32,13 +32,13 @@ from trimd.identify.signals import design_signal
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0
 
-#: method.md §5: thesis estimates of the Sabertooth parameters (simulation).
+#: docs/method.md §5: thesis estimates of the Sabertooth parameters (simulation).
 THESIS = {"X_u": -117.8, "Y_v": -289.1, "X_u|u|": -280.7, "Y_v|v|": -979.3,
           "X_udot": 416.4, "Y_vdot": 307.5, "N_r": -4356, "N_r|r|": -2417,
           "I_z+N_rdot": 1534.3, "Z_w": -0.91, "Z_w|w|": -5320, "M_q": -245.5,
           "M_q|q|": -105040, "Z_wdot": 828.7, "I_y+M_qdot": 3314.8, "K_p": -1065,
           "K_p|p|": -1054, "I_x+K_pdot": 376.2}
-#: method.md §5: which stage the thesis assigns each parameter to.
+#: docs/method.md §5: which stage the thesis assigns each parameter to.
 TABLE = {"uvr": ("X_u", "Y_v", "X_u|u|", "Y_v|v|", "X_udot", "Y_vdot", "N_r", "N_r|r|",
                  "I_z+N_rdot"),
          "uwq": ("Z_w", "Z_w|w|", "Z_wdot", "M_q", "M_q|q|", "I_y+M_qdot"),

@@ -139,7 +139,7 @@ def test_line_split_thesis_geometry(thesis_estimate: StaticEstimate) -> None:
 @pytest.mark.parametrize("method", ["line", "lp"])
 def test_thesis_example(thesis_vehicle: Profile, thesis_estimate: StaticEstimate,
                         method: str) -> None:
-    """method.md §4: FrontSB ≈ 1.61 kg, FrontP ≈ 11.61 kg; lp within 1 % of 1.613/11.641."""
+    """docs/method.md §4: FrontSB ≈ 1.61 kg, FrontP ≈ 11.61 kg; lp within 1 % of 1.613/11.641."""
     p = propose_ballast(thesis_estimate, thesis_vehicle, method)
     kg = loads(p)
     assert p.feasible and p.binding == ()

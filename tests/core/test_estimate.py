@@ -23,7 +23,7 @@ def test_thesis_cases_noise_free(sabertooth: Profile, m_ext: float, slot: str) -
 
 
 def test_thesis_example_numbers(sabertooth: Profile) -> None:
-    """10 kg at AftSB: x_g ≈ -8.6 mm, y_g ≈ +5.0 mm, z_g = 0 (method.md §3)."""
+    """10 kg at AftSB: x_g ≈ -8.6 mm, y_g ≈ +5.0 mm, z_g = 0 (docs/method.md §3)."""
     W, r_g = payload_truth(sabertooth, 10.0, sabertooth.slot("AftSB").position_m)
     est = estimate_static(equilibrium_holds(sabertooth, W, r_g), sabertooth)
     np.testing.assert_allclose(est.r_g_m * 1e3, [-8.635, 5.025, 0.0], atol=1e-3)

@@ -129,7 +129,7 @@ def test_hold_tau_equals_g_eta(request: pytest.FixtureRequest, name: str, payloa
     """With a position fix every row of τ = g(η) holds. In depth hold without station
     keeping the rows held are the world vertical and the moments: the vehicle drifts (at a
     tilt, and wherever the thrusters' asymmetric curves leave a net horizontal force) and
-    the force rows balance g(η) together with the drag of that drift (method.md §3)."""
+    the force rows balance g(η) together with the drag of that drift (docs/method.md §3)."""
     profile: Profile = request.getfixturevalue(name)
     config = SimConfig(payload=payload, seed=2, station=station)
     lin, quad = np.array(profile.linear_damping), np.array(profile.quadratic_damping)

@@ -401,7 +401,7 @@ def test_estimate_file_shapes_are_read(sabertooth: Profile, tmp_path: Path) -> N
 
 def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
         sabertooth: Profile) -> None:
-    """10 kg aft starboard (method.md §3): W − B +40 N (the profile: −58 N) and −101 N·m
+    """10 kg aft starboard (docs/method.md §3): W − B +40 N (the profile: −58 N) and −101 N·m
     of pitch moment the profile does not know. With the restoring terms and the mass from
     the estimate, the uwq fit finds the truth and validates; with the profile's nominal
     vehicle it cannot."""

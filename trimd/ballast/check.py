@@ -1,7 +1,7 @@
 """Physics check of a ballast proposal: the vehicle with the ballast added, at rest.
 
 SI units, body frame FRD with the origin at CG0. The estimate gives the net quantities
-q = [W − B, W·r_g − B·r_b] (method.md §3). A ballast item at slot position r_s that
+q = [W − B, W·r_g − B·r_b] (docs/method.md §3). A ballast item at slot position r_s that
 weighs w [N] and displaces b [N] of water adds w to W, b to B, w − b to q[0] and
 (w − b)·r_s to the net moment m = W·r_g − B·r_b, whatever the centre-of-buoyancy prior.
 

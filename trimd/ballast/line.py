@@ -1,4 +1,4 @@
-"""The thesis's geometric ballast method (Elias 2017, §3.2.2; method.md §4, ``line``).
+"""The thesis's geometric ballast method (Elias 2017, §3.2.2; docs/method.md §4, ``line``).
 
 Seen from above, the estimated centre of gravity CG1 lies off CG0. Draw the line from
 CG1 through CG0 and continue it until it leaves the polygon of the weight slots; put

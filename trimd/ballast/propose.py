@@ -1,6 +1,6 @@
 """Ballast proposal: what to put in which slot so the vehicle floats level, unpowered.
 
-Four methods (method.md §4, ``docs/ballast.md``), all working from the net quantities
+Four methods (docs/method.md §4, ``docs/ballast.md``), all working from the net quantities
 the measurement determines, q = [W − B, W·r_g − B·r_b]:
 
 * ``lp`` — ideal weights only, least added mass, exactly level (thesis eq. 3.4/3.5);

@@ -1,13 +1,13 @@
 """Static estimation of the weight and centre of gravity from steady attitude holds.
 
-At a steady hold the thrusters balance the restoring forces, g(η) = τ (method.md §3).
+At a steady hold the thrusters balance the restoring forces, g(η) = τ (docs/method.md §3).
 g(η) = G(φ, θ)·q is linear in the *net* quantities
 q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b, W·z_g − B·z_b], so every sample of every hold
 stacks into one weighted linear least-squares problem for q. The weight W, the centre of
 gravity r_g and m_ext = W/g − m then follow from the profile's buoyancy B and centre of
 buoyancy r_b; q itself does not depend on that prior.
 
-Each hold enters at its *mean* attitude (method.md §3: average over the steady window).
+Each hold enters at its *mean* attitude (docs/method.md §3: average over the steady window).
 Regressing on every sample's measured attitude would put the attitude noise into the
 design matrix, and errors in the regressors bias least squares towards zero: at a level
 hold the z-moment coefficient sin φ is pure noise, which pulled W·z_g − B·z_b (about

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from trimd.core.events import Cause
 from trimd.core.profile import ProcedureLimits
-from trimd.core.samples import Attitude, Depth, Health, Sample, Thrusters
+from trimd.core.samples import Attitude, Depth, Health, PilotInput, Sample, Thrusters
 
 __all__ = ["ENVELOPE_MARGIN_DEG", "STREAMS", "Guard", "Stop"]
 
@@ -80,6 +80,8 @@ class Guard:
                 return Stop("the vehicle disarmed while trimd commanded it", Cause.VEHICLE)
         if not self.commanding:
             return None
+        if isinstance(s, PilotInput):
+            return Stop(f"the pilot took over ({s.source}): trimd released control", Cause.PILOT)
         if isinstance(s, Depth) and abs(s.depth_m - self.depth_ref_m) > self.depth_excursion_m:
             return Stop(f"depth excursion: {s.depth_m - self.depth_ref_m:+.2f} m from "
                         f"{self.what} (limit ±{self.depth_excursion_m:g} m)", Cause.ENVELOPE)

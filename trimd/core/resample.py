@@ -2,7 +2,7 @@
 
 Thruster outputs arrive slower than attitude (ArduSub: SERVO_OUTPUT_RAW 2–10 Hz,
 ATTITUDE 10–20 Hz). Each reference sample takes the latest source value at or before its
-own time: no interpolation, no look-ahead (method.md §3). A reference sample whose latest
+own time: no interpolation, no look-ahead (docs/method.md §3). A reference sample whose latest
 source value is older than ``max_age_s`` is marked invalid instead of being bridged.
 """
 

@@ -18,6 +18,7 @@ __all__ = [
     "Health",
     "HoldAttitude",
     "OpenLoop",
+    "PilotInput",
     "Release",
     "Sample",
     "Thrusters",
@@ -112,7 +113,17 @@ class VehicleText:
         return "error" if self.severity <= 3 else "warning" if self.severity == 4 else "info"
 
 
-Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText
+@dataclass(frozen=True, slots=True)
+class PilotInput:
+    """Someone other than trimd is flying the vehicle: stick input beyond neutral from
+    another station, a mode change trimd did not ask for, or a serial vehicle handing
+    control back. ``source`` says which, in words for the operator."""
+
+    t_s: float
+    source: str
+
+
+Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText | PilotInput
 
 
 @dataclass(frozen=True, slots=True)

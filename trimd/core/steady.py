@@ -1,4 +1,4 @@
-"""Steady-state detection in sample time (method.md §3).
+"""Steady-state detection in sample time (docs/method.md §3).
 
 A sample is steady when, for every monitored channel (roll, pitch, depth, thruster
 effort, …):

@@ -1,4 +1,4 @@
-"""Grey-box identification of the 6-DOF model, stage by stage (method.md §5).
+"""Grey-box identification of the 6-DOF model, stage by stage (docs/method.md §5).
 
 For one stage (:data:`trimd.identify.model.STAGES`) and one or more experiments:
 

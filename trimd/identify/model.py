@@ -1,6 +1,6 @@
 """The grey-box model of dynamic identification: named parameters and a batched simulator.
 
-Fossen's 6-DOF model (method.md §2) with a diagonal mass matrix about CG0,
+Fossen's 6-DOF model (docs/method.md §2) with a diagonal mass matrix about CG0,
 
     M·ν̇ + C(ν)·ν + D(ν)·ν + g(η) = τ_f,     M = diag(M_u, M_v, M_w, M_p, M_q, M_r),
 
@@ -70,7 +70,7 @@ LEAD = "T_lead"
 
 @dataclass(frozen=True, slots=True)
 class Stage:
-    """One excitation stage (method.md §5).
+    """One excitation stage (docs/method.md §5).
 
     Attributes
     ----------

@@ -1,4 +1,4 @@
-"""Excitation signals for open-loop identification experiments (method.md §5).
+"""Excitation signals for open-loop identification experiments (docs/method.md §5).
 
 A :class:`Signal` is piecewise constant: six axis inputs in [−1, 1] (surge, sway, heave,
 roll, pitch, yaw, as :class:`trimd.core.samples.OpenLoop`) that switch at given times. Only the

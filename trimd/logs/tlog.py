@@ -6,7 +6,7 @@ MAVProxy and trimd's recorder write it.
 
 The packets are decoded by calling ``MAVLink.decode`` of pymavlink's generated
 ``dialects.v20.ardupilotmega`` module directly, one record at a time, rather than through
-``mavutil.mavlink_connection(...).recv_msg()`` (ardusub.md measures about 2.65× more
+``mavutil.mavlink_connection(...).recv_msg()`` (docs/ardusub.md measures about 2.65× more
 messages/s this way). The dialect and the protocol are pinned by that import: the v20
 module's decoder takes MAVLink 2 packets (magic 0xFD) and MAVLink 1 packets (0xFE) alike,
 and nothing here reads or sets the ``MAVLINK20`` environment variable, so no other module's

@@ -1,4 +1,4 @@
-"""What trimd sends to an ArduSub vehicle, and when (``shared/docs/ardusub.md``).
+"""What trimd sends to an ArduSub vehicle, and when (``docs/ardusub.md``).
 
 :class:`Commander` is the vehicle policy of the MAVLink link. It runs in the link's I/O
 thread (it owns the pymavlink ``MAVLink`` object there, so nothing else writes) and knows

@@ -6,7 +6,7 @@
   yaw); surge, sway and throttle from the pilot.
 * ALT_HOLD: STABILIZE plus PID depth hold. Without a position sensor the horizontal
   thrusters get only the pilot's surge and sway, so at a tilted hold the vehicle holds
-  depth but not station and drifts, as a real ArduSub vehicle does (method.md §3); with
+  depth but not station and drifts, as a real ArduSub vehicle does (docs/method.md §3); with
   ``station=True`` (a position fix) a PID on north/east holds station as well.
 
 Every PID has integral action, bounded by the axis's authority and frozen while the axis

@@ -1,6 +1,6 @@
 """The simulated vehicle served as an ArduSub autopilot over MAVLink 2 (pymavlink).
 
-What a ground station sees (``shared/docs/ardusub.md``): HEARTBEAT as MAV_TYPE_SUBMARINE
+What a ground station sees (``docs/ardusub.md``): HEARTBEAT as MAV_TYPE_SUBMARINE
 from an ArduPilot autopilot (sysid 1, compid 1) with the ArduSub mode number and the armed
 bit; ATTITUDE (stream EXTRA1, 10 Hz), VFR_HUD (EXTRA2, 10 Hz), SERVO_OUTPUT_RAW (RC_CHAN,
 2 Hz), SCALED_PRESSURE2 (RAW_SENS, 2 Hz; the external depth sensor), GLOBAL_POSITION_INT

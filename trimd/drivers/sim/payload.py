@@ -135,7 +135,7 @@ def mass_properties(profile: Profile, payload: tuple[PayloadItem, ...] = ()
     >>> from trimd.core.profile_yaml import load_profile
     >>> p = load_profile("sabertooth-dh2")
     >>> mp = mass_properties(p, parse_payload("10@AftSB", p))
-    >>> [round(float(v), 4) for v in mp.r_g]   # method.md §3: x_g ≈ -8.6 mm, y_g ≈ 5.0 mm
+    >>> [round(float(v), 4) for v in mp.r_g]   # docs/method.md §3: x_g ≈ -8.6 mm, y_g ≈ 5.0 mm
     [-0.0086, 0.005, 0.0]
     """
     g = profile.gravity_m_s2

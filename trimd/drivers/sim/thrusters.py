@@ -10,7 +10,7 @@ spin-up lag, and τ = T·f (Fossen eq. 11.3).
 Mixing of the six axis inputs (X, Y, Z, K, M, N order, each in [−1, 1]):
 
 * ArduSub FRAME_CONFIG 2 (BlueROV2 Heavy, 8 thrusters): the AP_Motors6DOF factor table
-  (``shared/docs/ardusub.md``); the vertical group (roll, pitch, throttle) and the
+  (``docs/ardusub.md``); the vertical group (roll, pitch, throttle) and the
   horizontal group (yaw, forward, lateral) are each scaled down together when one of
   their outputs exceeds 1;
 * any other vehicle: least squares, outputs = pinv(T·diag(k))·τ, each axis scaled to the

@@ -49,7 +49,7 @@ class Truth:
     nu : [u, v, w, p, q, r] [m/s, rad/s] (body FRD).
     tau : generalised force of the thrusters [N, N·m] (body FRD), after spin-up lag.
     g_eta : restoring forces g(η) at the true attitude [N, N·m] (Fossen eq. 4.6).
-    mass : true mass properties (W, B, r_g, r_b; ``mass.net`` = q of method.md §3).
+    mass : true mass properties (W, B, r_g, r_b; ``mass.net`` = q of docs/method.md §3).
     payload : the hidden payload items.
     m_ext_kg : added mass of the weights [kg] (floats not included).
     """
