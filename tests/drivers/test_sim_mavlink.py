@@ -190,4 +190,4 @@ def test_parameters_follow_the_channels_whatever_the_thruster_order(bluerov: Pro
             33, 34, 35, 36, 37, 38, 39, 40, 0]
         assert [params[f"MOT_{n}_DIRECTION"] for n in range(1, 9)] == [1] * 7 + [-1]
     finally:
-        server.conn.close()
+        server.close()
