@@ -81,6 +81,11 @@ class PilotStation(threading.Thread):
             self.conn.mav.command_long_send(1, 1, mavlink2.MAV_CMD_DO_SET_MODE, 0, 1, number,
                                             0, 0, 0, 0, 0)
 
+    def request_streams(self, hz: int) -> None:
+        """REQUEST_DATA_STREAM for all streams, as MAVProxy does every 15 s (4 Hz)."""
+        with self._lock:
+            self.conn.mav.request_data_stream_send(1, 1, mavlink2.MAV_DATA_STREAM_ALL, hz, 1)
+
     def got(self, kind: str, after: float = 0.0) -> list[Any]:
         """Messages of ``kind`` received after wall time ``after``."""
         return [m for t, m in list(self.received) if t > after and m.get_type() == kind]
@@ -191,6 +196,43 @@ def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
         assert after == []
         assert healths(samples)[-1].mode == "MANUAL"
     assert pilot.got("COMMAND_LONG", t_yielded) == []          # no mode "restored" over it
+
+
+def vehicle_rate(msgs: list[Any], t0: float, t1: float) -> float:
+    """Messages per second of vehicle time (``time_boot_ms``) within [t0, t1)."""
+    return sum(t0 <= m.time_boot_ms / 1000 < t1 for m in msgs) / (t1 - t0)
+
+
+def test_a_station_lowering_the_rates_is_noticed_and_asked_again(
+        beside_pilot: tuple[MavlinkLink, PilotStation, SimVehicle]) -> None:
+    link, pilot, vehicle = beside_pilot
+    t: dict[str, float] = {}
+
+    async def go() -> list[Sample]:
+        stream = link.samples()
+        t_end = vehicle.t_s + 12.0
+        await collect(link, lambda s: vehicle.t_s >= t_end, stream)
+        t["low"] = vehicle.t_s
+        pilot.request_streams(2)
+        t_end = vehicle.t_s + 25.0
+        return await collect(link, lambda s: vehicle.t_s >= t_end, stream)
+
+    samples = asyncio.run(go())
+    low = t["low"]
+    attitude = pilot.got("ATTITUDE")
+    before, during, after = (vehicle_rate(attitude, low - 5, low),
+                             vehicle_rate(attitude, low + 0.3, low + 1.5),
+                             vehicle_rate(attitude, low + 15, low + 25))
+    print(f"ATTITUDE per vehicle second: {before:.1f} before, {during:.1f} just after the "
+          f"other station's 2 Hz request, {after:.1f} 15..25 s later")
+    assert before == pytest.approx(10, rel=0.1)
+    assert during == pytest.approx(2, abs=1)
+    assert after == pytest.approx(10, rel=0.1)
+    asked = [m for m in pilot.got("COMMAND_LONG")
+             if m.command == mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL]
+    assert {int(m.param1) for m in asked[-3:]} == {30, 36, 74}  # attitude, servo, depth
+    warnings = [w for w in healths(samples)[-1].warnings() if w.startswith("the vehicle sent")]
+    assert len(warnings) == 1 and "not the 10 Hz trimd asked for" in warnings[0], warnings
 
 
 # ------------------------------------------------------------------ trimd run, end to end

@@ -7,7 +7,10 @@ nothing of sockets:
 * a GCS HEARTBEAT (type 6) at 1 Hz, always;
 * when the vehicle appears (again): MAV_CMD_SET_MESSAGE_INTERVAL for each message in
   :data:`STREAMS`, one at a time; a refusal or no answer falls back to REQUEST_DATA_STREAM
-  for that message's stream, with a warning; PARAM_REQUEST_READ for FRAME_CONFIG,
+  for that message's stream, with a warning; then, for the whole session, whenever
+  ATTITUDE, SERVO_OUTPUT_RAW or the depth message arrives at less than 70 % of the rate
+  asked (:mod:`~trimd.drivers.mavlink.rates`: another ground station's request won), the
+  same request again, with one warning the first time; PARAM_REQUEST_READ for FRAME_CONFIG,
   SERVOn_FUNCTION and MOT_n_DIRECTION, and a warning for each disagreement with the profile;
 * HoldAttitude: ALT_HOLD (MAV_CMD_DO_SET_MODE), then SET_ATTITUDE_TARGET with the body-rate
   and throttle-ignore bits (type_mask 71) at 4 Hz, with neutral MANUAL_CONTROL at 10 Hz
@@ -34,6 +37,7 @@ HEARTBEAT in the wanted mode) and fails with a LinkError on refusal or after 3 s
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from collections.abc import Callable
@@ -49,10 +53,13 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release
 from trimd.drivers.mavlink.ardusub import mode_number
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.drivers.mavlink.rates import RateWatch
 from trimd.drivers.mavlink.stations import Stations
 from trimd.drivers.mavlink.url import MavlinkOptions
 
 __all__ = ["HOLD_PERIOD_S", "PILOT_PERIOD_S", "STREAMS", "Commander", "pilot_axes"]
+
+log = logging.getLogger("trimd.drivers.mavlink.link")
 
 #: message → (message id, rate [Hz], legacy REQUEST_DATA_STREAM stream id)
 STREAMS: dict[str, tuple[int, float, int]] = {
@@ -142,6 +149,9 @@ class Commander:
         self._requests: dict[int, _Request] = {}
         self._mode_wanted: tuple[str, Future[None] | None] | None = None
         self._streams: deque[str] = deque()
+        self.rates = RateWatch()
+        self._watched: set[str] = set()
+        self._rates_warned = False
         self._params_wanted: set[str] = set()
         self._params_seen: set[str] = set()
         self._params_due = math.inf
@@ -154,6 +164,7 @@ class Commander:
         depth = _DEPTH_MESSAGE[self.options.depth]
         self._streams = deque(n for n in STREAMS if n in (
             "ATTITUDE", "SERVO_OUTPUT_RAW", "SYS_STATUS", depth))
+        self.rates, self._watched = RateWatch(), {"ATTITUDE", "SERVO_OUTPUT_RAW", depth}
         names = ["FRAME_CONFIG", *(f"SERVO{n}_FUNCTION" for n in range(1, 17)),
                  *(f"MOT_{t.channel}_DIRECTION" for t in self.profile.thrusters
                    if t.channel <= 12)]
@@ -180,6 +191,7 @@ class Commander:
         :class:`~trimd.core.samples.PilotInput` when it shows that someone else changed
         the mode while trimd commanded (trimd has stopped commanding then)."""
         kind = msg.get_type()
+        self.rates.note(msg)
         if kind == "COMMAND_ACK":
             request = self._requests.get(int(msg.command))
             target = int(getattr(msg, "target_system", 0) or 0)  # MAVLink 2 extension
@@ -323,6 +335,8 @@ class Commander:
             self._send_pilot(sysid, now)
             due["pilot"] = now + PILOT_PERIOD_S
         self._tick_requests(now, sysid, compid)
+        if not self._streams:
+            self._check_rates()
         if now >= self._params_due:
             self._params_answered(now)
         waits = [due["heartbeat"], self._params_due,
@@ -368,10 +382,27 @@ class Commander:
                 request.tries += 1
                 request.next_send = now + _RETRY_S
 
+    def _check_rates(self) -> None:
+        """Ask again for each watched message that arrives too slowly."""
+        for name, got in self.rates.low():
+            asked = self.rates.asked[name]
+            self.rates.forget(name)
+            self._streams.append(name)
+            text = (f"the vehicle sent {name} at {got:.1f} Hz, not the {asked:g} Hz trimd "
+                    "asked for (another ground station's rate request?): asked again, and "
+                    "will whenever it happens again")
+            if not self._rates_warned:
+                self._rates_warned = True
+                self.warn(text)
+            else:
+                log.info("%s", text)
+
     def _request_stream(self, name: str, now: float) -> None:
         msg_id, hz, stream = STREAMS[name]
 
         def answered(result: int | None) -> None:
+            if name in self._watched and result is not None:
+                self.rates.asked_for(name, hz)
             if result == _ACCEPTED:
                 return
             sysid, compid = self.decoder.vehicle or (0, 0)
