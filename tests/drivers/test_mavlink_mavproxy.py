@@ -20,11 +20,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.drivers.test_mavlink_link import TRIMD, fast_profile, free_udp_port, wait_bound
 from tests.helpers import REPO
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.mavlink_server import open_mavlink2
 from trimd.drivers.sim.vehicle import SimVehicle
 
 MAVPROXY = [sys.executable, "-m", "MAVProxy.mavproxy"]
@@ -44,8 +46,8 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
                                                               float, Path]:
     """One ``trimd run`` against ``trimd sim`` at 10× (through MAVProxy or directly): the
     result, every JSON line, the wall time it took [s] and MAVProxy's tlog."""
-    profile, trimd_port, master_port = (fast_profile(tmp_path, NAME), free_udp_port(),
-                                        free_udp_port())
+    profile, trimd_port, master_port, helper_port = (
+        fast_profile(tmp_path, NAME), free_udp_port(), free_udp_port(), free_udp_port())
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     procs: list[subprocess.Popen[str]] = []
     t0 = time.monotonic()
@@ -61,7 +63,8 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
         if through_mavproxy:
             procs.append(subprocess.Popen(
                 [*MAVPROXY, f"--master=udpin:127.0.0.1:{master_port}",
-                 f"--out=udpout:127.0.0.1:{trimd_port}", "--daemon", "--non-interactive",
+                 f"--out=udpout:127.0.0.1:{trimd_port}",
+                 f"--out=udpout:127.0.0.1:{helper_port}", "--daemon", "--non-interactive",
                  "--default-modules=", f"--logfile={tlog}", f"--state-basedir={tmp_path}"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
                 env=env))
@@ -72,6 +75,8 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
              f"mavlink:udpout:127.0.0.1:{serve}", "--rate", "10", "--options",
              "armed=true,mode=ALT_HOLD"],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env))
+        if through_mavproxy:
+            switch_off_pilot_failsafe(helper_port)
         out, err = run.communicate(timeout=240)
     finally:
         for p in reversed(procs):
@@ -85,6 +90,23 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
     assert run.returncode == 0, err
     lines = [json.loads(x) for x in out.splitlines()]
     return lines[-1], lines, took, tlog
+
+
+def switch_off_pilot_failsafe(port: int) -> None:
+    """PARAM_SET FS_PILOT_INPUT = 0 through MAVProxy's ``--out`` to udp ``port`` until the
+    vehicle confirms: the 10× simulator's 3 s failsafe is 0.3 s of wall time, which trimd's
+    MANUAL_CONTROL through MAVProxy can miss on a loaded machine."""
+    conn = open_mavlink2(f"udpin:127.0.0.1:{port}", 254, 1)
+    deadline = time.monotonic() + 60.0                    # hang guard
+    try:
+        while time.monotonic() < deadline:
+            conn.mav.param_set_send(1, 1, b"FS_PILOT_INPUT", 0, mavlink2.MAV_PARAM_TYPE_INT8)
+            msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.2)
+            if msg is not None and msg.param_id == "FS_PILOT_INPUT" and msg.param_value == 0:
+                return
+        raise AssertionError("the vehicle never confirmed FS_PILOT_INPUT = 0")
+    finally:
+        conn.close()
 
 
 def error(result: dict[str, Any]) -> tuple[np.ndarray, float]:
@@ -115,8 +137,10 @@ def test_a_trim_through_mavproxy_completes_close_to_the_truth(
           f"m_ext {d_m:+.3f} kg")
     assert np.all(np.abs(d_cg[:2]) < 1e-3) and abs(d_cg[2]) < 3e-3, d_cg
     assert abs(d_m) < 0.2
+    # MAVProxy's 4 Hz REQUEST_DATA_STREAM (15 s after it found the vehicle) was overruled
     warnings = [x["text"] for x in lines if x.get("type") == "warning"]
     print("warnings:", warnings)
+    assert any(w.startswith("the vehicle sent ") and "asked again" in w for w in warnings)
     assert tlog.stat().st_size > 0
 
 

@@ -10,6 +10,7 @@ what trimd sends. Wall-clock limits only keep a broken link from hanging the sui
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import math
 import os
@@ -17,6 +18,7 @@ import subprocess
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -49,21 +51,29 @@ _ALT_HOLD = 2
 class PilotStation(threading.Thread):
     """A pymavlink ground station as QGroundControl (sysid 255, component 190) with a
     joystick: a heartbeat each second and MANUAL_CONTROL at 20 Hz (neutral unless
-    :attr:`sticks` says otherwise); records every message it receives with its wall time."""
+    :attr:`sticks` says otherwise); records every message it receives with its wall time.
+    ``failsafe_off``: first switch ArduSub's pilot-input failsafe off (PARAM_SET
+    FS_PILOT_INPUT = 0, every 0.2 s until the vehicle confirms): at 10× its 3 s are 0.3 s
+    of wall time, which a loaded machine can miss between two MANUAL_CONTROL."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, *, failsafe_off: bool = False) -> None:
         super().__init__(daemon=True)
         self.conn = open_mavlink2(f"udpout:127.0.0.1:{port}", 255, 190)
         self.sticks = (0, 0, 500, 0)    # x, y, z, r: neutral
+        self.failsafe_on = failsafe_off  # still to switch off
         self.received: list[tuple[float, Any]] = []
         self.stop = threading.Event()
         self._lock = threading.Lock()
 
     def run(self) -> None:
-        next_beat = 0.0
+        next_beat = next_param = 0.0
         while not self.stop.is_set():
             now = time.monotonic()
             with self._lock:
+                if self.failsafe_on and now >= next_param:
+                    self.conn.mav.param_set_send(1, 1, b"FS_PILOT_INPUT", 0,
+                                                 mavlink2.MAV_PARAM_TYPE_INT8)
+                    next_param = now + 0.2
                 if now >= next_beat:
                     self.conn.mav.heartbeat_send(mavlink2.MAV_TYPE_GCS,
                                                  mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, 4)
@@ -74,6 +84,9 @@ class PilotStation(threading.Thread):
                 msg = self.conn.recv_match(blocking=True, timeout=left)
                 if msg is not None:
                     self.received.append((time.monotonic(), msg))
+                    if (msg.get_type() == "PARAM_VALUE" and msg.param_id == "FS_PILOT_INPUT"
+                            and msg.param_value == 0):
+                        self.failsafe_on = False
         self.conn.close()
 
     def set_mode(self, number: int) -> None:
@@ -160,6 +173,11 @@ def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
         stream = link.samples()
         seen = await collect(link, lambda s: any(
             "ground station sysid 255 component 190" in h.detail for h in healths(s)), stream)
+        pilot.sticks = (300, 0, 500, 0)     # the pilot flies before trimd commands: fine
+        t_end = vehicle.t_s + 3.0
+        seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
+        pilot.sticks = (0, 0, 500, 0)
+        assert not any(isinstance(x, PilotInput) for x in seen)
         await link.send(HoldAttitude(*target))
         t_end = vehicle.t_s + 15.0
         seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
@@ -236,10 +254,10 @@ def test_a_station_lowering_the_rates_is_noticed_and_asked_again(
 
 
 # ------------------------------------------------------------------ trimd run, end to end
-@pytest.mark.slow
-@pytest.mark.parametrize("takeover", ["sticks", "mode"])
-def test_trimd_run_releases_and_exits_1_when_the_pilot_takes_over(
-        tmp_path: Any, takeover: str) -> None:
+@contextlib.contextmanager
+def trim_beside_pilot(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], PilotStation]]:
+    """``trimd run --headless --yes --json`` and a pilot's station on ``trimd sim`` (10×)
+    served on two endpoints; everything stopped on the way out."""
     profile, trimd_port, pilot_port = (fast_profile(tmp_path, "sabertooth-dh2"),
                                        free_udp_port(), free_udp_port())
     env = {**os.environ, "PYTHONPATH": str(REPO)}
@@ -247,35 +265,51 @@ def test_trimd_run_releases_and_exits_1_when_the_pilot_takes_over(
         [*TRIMD, "run", "--link", f"mavlink:udpin:127.0.0.1:{trimd_port}", "--profile",
          str(profile), "--headless", "--yes", "--json", "--no-record"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
-    wait_bound(trimd_port)
-    sim = subprocess.Popen(
-        [*TRIMD, "sim", "--profile", str(profile), "--payload", "10@AftSB", "--serve",
-         f"mavlink:udpout:127.0.0.1:{trimd_port}", "--serve",
-         f"mavlink:udpin:127.0.0.1:{pilot_port}", "--rate", "10", "--options",
-         "armed=true,mode=ALT_HOLD"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
-    pilot = PilotStation(pilot_port)
-    pilot.start()
-    lines: list[dict[str, Any]] = []
+    procs = [run]
+    pilot = PilotStation(pilot_port, failsafe_off=True)
     try:
-        assert run.stdout is not None
-        for line in run.stdout:                  # until the first hold is collecting data
-            lines.append(json.loads(line))
-            if lines[-1].get("phase") == "collect":
-                break
+        wait_bound(trimd_port)
+        procs.append(subprocess.Popen(
+            [*TRIMD, "sim", "--profile", str(profile), "--payload", "10@AftSB", "--serve",
+             f"mavlink:udpout:127.0.0.1:{trimd_port}", "--serve",
+             f"mavlink:udpin:127.0.0.1:{pilot_port}", "--rate", "10", "--options",
+             "armed=true,mode=ALT_HOLD"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env))
+        pilot.start()
+        yield run, pilot
+    finally:
+        pilot.stop.set()
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait()
+        if pilot.is_alive():
+            pilot.join(timeout=5)
+
+
+def until_collecting(run: subprocess.Popen[str]) -> list[dict[str, Any]]:
+    """trimd run's JSON lines up to the first one of a hold collecting data."""
+    assert run.stdout is not None
+    lines: list[dict[str, Any]] = []
+    for line in run.stdout:
+        lines.append(json.loads(line))
+        if lines[-1].get("phase") == "collect":
+            return lines
+    raise AssertionError(f"trimd run ended before collecting: {lines[-5:]}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("takeover", ["sticks", "mode"])
+def test_trimd_run_releases_and_exits_1_when_the_pilot_takes_over(
+        tmp_path: Path, takeover: str) -> None:
+    with trim_beside_pilot(tmp_path) as (run, pilot):
+        lines = until_collecting(run)
         if takeover == "sticks":
             pilot.sticks = (0, 0, 800, 0)        # throttle up, 60 %
         else:
             pilot.set_mode(_MANUAL)
         t_takeover = time.monotonic()
         out, err = run.communicate(timeout=60)
-    finally:
-        pilot.stop.set()
-        for p in (run, sim):
-            if p.poll() is None:
-                p.kill()
-        sim.wait()
-        pilot.join(timeout=5)
     assert run.returncode == 1, err
     reason = ("stick input from sysid 255" if takeover == "sticks"
               else "mode changed to MANUAL by another station")
@@ -289,3 +323,22 @@ def test_trimd_run_releases_and_exits_1_when_the_pilot_takes_over(
     # released: at most the one level target (in flight or sent on the takeover)
     late = pilot.got("SET_ATTITUDE_TARGET", t_takeover + 1.0)
     assert all(abs(euler_from_quaternion(*m.q)[1]) < 1e-6 for m in late) and len(late) <= 1
+
+
+@pytest.mark.slow
+def test_trimd_run_completes_when_the_pilots_station_lowers_the_rates(tmp_path: Path) -> None:
+    with trim_beside_pilot(tmp_path) as (run, pilot):
+        lines = until_collecting(run)
+        t_low = time.monotonic()
+        pilot.request_streams(2)                # every stream at 2 Hz, mid-hold
+        out, err = run.communicate(timeout=150)
+    assert run.returncode == 0, err
+    lines += [json.loads(x) for x in out.splitlines()]
+    assert lines[-1]["type"] == "result"
+    warnings = [x["text"] for x in lines if x.get("type") == "warning"]
+    assert any(w.startswith("the vehicle sent ") and "asked again" in w for w in warnings), (
+        warnings)
+    asked = [m for m in pilot.got("COMMAND_LONG", t_low)
+             if m.command == mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL]
+    assert {int(m.param1) for m in asked} >= {30, 36, 74}      # attitude, servo, depth
+    assert pilot.got("MANUAL_CONTROL") == []

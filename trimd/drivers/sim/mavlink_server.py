@@ -19,9 +19,10 @@ STABILIZE and ALT_HOLD (other modes are denied: GUIDED needs a position estimate
 ALT_HOLD, SET_ATTITUDE_TARGET with the throttle-ignore bit (64) holds that attitude (roll,
 pitch, absolute yaw) until 5 s after the last such message; MANUAL_CONTROL (z = 500
 neutral) from the GCS system id (SYSID_MYGCS = 255) on any endpoint, whichever station
-sent it (the last one wins, as in ArduSub); without pilot input for 3 s an
-armed vehicle disarms (FS_PILOT_INPUT = 2); PARAM_REQUEST_READ / PARAM_REQUEST_LIST for
-FRAME_CONFIG, SERVOn_FUNCTION, MOT_n_DIRECTION and the failsafe parameters.
+sent it (the last one wins, as in ArduSub); without pilot input for FS_PILOT_TIMEOUT
+(3 s) an armed vehicle disarms (FS_PILOT_INPUT = 2; 0 turns the failsafe off);
+PARAM_REQUEST_READ / PARAM_REQUEST_LIST for FRAME_CONFIG, SERVOn_FUNCTION,
+MOT_n_DIRECTION and the failsafe parameters, and PARAM_SET for the failsafe parameters.
 
 Every time (stream schedules, the 5 s and 3 s timeouts, ``time_boot_ms``) is simulated
 time; only :meth:`MavlinkServer.run` paces simulated time against the wall clock (real
@@ -60,6 +61,7 @@ DEFAULT_STREAM_HZ = {1: 2.0, 2: 2.0, 3: 2.0, 6: 3.0, 10: 10.0, 11: 10.0}
 
 _ATTITUDE_TARGET_TIMEOUT_S = 5.0
 _PILOT_TIMEOUT_S = 3.0
+_SETTABLE = ("FS_PILOT_INPUT", "FS_PILOT_TIMEOUT")  # PARAM_SET takes these
 _POLL_S = 0.25          # longest simulated time between two looks at the endpoints
 _GCS_SYSID = 255
 _THROTTLE_IGNORE = 64
@@ -172,7 +174,9 @@ class MavlinkServer:
         if t - self._attitude_target_t > _ATTITUDE_TARGET_TIMEOUT_S:
             self._attitude_target_t = math.nan
             v.level()
-        if v.armed and t - self._pilot_t > _PILOT_TIMEOUT_S:
+        failsafe, timeout = self._params["FS_PILOT_INPUT"][0], self._params[
+            "FS_PILOT_TIMEOUT"][0]
+        if v.armed and failsafe and t - self._pilot_t > timeout:
             v.arm(False)
             self._statustext("Failsafe: pilot input lost, disarming")
 
@@ -211,6 +215,10 @@ class MavlinkServer:
                 names[msg.param_index] if msg.param_index < len(names) else "")
             if name in self._params:
                 self._param_value(name)
+        elif kind == "PARAM_SET" and msg.param_id in _SETTABLE:
+            _, kind_id = self._params[msg.param_id]
+            self._params[msg.param_id] = (float(msg.param_value), kind_id)
+            self._param_value(msg.param_id)
         elif kind == "PARAM_REQUEST_LIST":
             for name in self._params:
                 self._param_value(name)
