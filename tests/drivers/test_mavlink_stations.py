@@ -37,6 +37,7 @@ from trimd.app.connect import open_link
 from trimd.core.profile import Profile
 from trimd.core.samples import HoldAttitude, PilotInput, Sample
 from trimd.drivers.mavlink.link import MavlinkLink
+from trimd.drivers.mavlink.rates import RateWatch
 from trimd.drivers.mavlink.stations import STICK_THRESHOLD, Stations, stick_deflection
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.dynamics import euler_from_quaternion
@@ -342,3 +343,62 @@ def test_trimd_run_completes_when_the_pilots_station_lowers_the_rates(tmp_path: 
              if m.command == mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL]
     assert {int(m.param1) for m in asked} >= {30, 36, 74}      # attitude, servo, depth
     assert pilot.got("MANUAL_CONTROL") == []
+
+
+# ------------------------------------------------------------------ the rate watch
+def _timed(kind: str, t_s: float) -> Any:
+    mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+    if kind == "ATTITUDE":
+        msg = mav.attitude_encode(round(t_s * 1000), 0, 0, 0, 0, 0, 0)
+    else:
+        msg = mav.vfr_hud_encode(0, 0, 0, 0, -5.0, 0)
+    msg.pack(mav)
+    return msg
+
+
+def _feed(watch: RateWatch, t0: float, t1: float, attitude_hz: float, depth_hz: float
+          ) -> list[tuple[float, list[tuple[str, float]]]]:
+    """ATTITUDE (the clock) and VFR_HUD at those rates from t0 to t1; what low() said."""
+    events = sorted([(t0 + k / attitude_hz, "ATTITUDE")
+                     for k in range(round((t1 - t0) * attitude_hz))]
+                    + [(t0 + (k + 0.5) / depth_hz, "VFR_HUD")
+                       for k in range(round((t1 - t0) * depth_hz))])
+    said = []
+    for t, kind in events:
+        watch.note(_timed(kind, t))
+        said.append((t, watch.low()))
+    return said
+
+
+def test_the_rate_watch_notices_a_lowered_rate_and_a_silence() -> None:
+    watch = RateWatch()
+    _feed(watch, 0.0, 1.0, 10, 5)                       # the clock is known
+    watch.asked_for("ATTITUDE", 10.0)
+    watch.asked_for("VFR_HUD", 5.0)
+    assert all(low == [] for _, low in _feed(watch, 1.0, 20.0, 10, 5))
+    assert watch.rate("ATTITUDE") == pytest.approx(10, abs=0.3)
+    said = _feed(watch, 20.0, 30.0, 4, 2)               # another station: 4 Hz and 2 Hz
+    first = next((t, low) for t, low in said if low)
+    assert 20.0 < first[0] < 23.0, first                 # noticed within 3 s (5 s window)
+    assert {name for name, _ in first[1]} <= {"ATTITUDE", "VFR_HUD"}
+    watch.forget("ATTITUDE")
+    watch.forget("VFR_HUD")
+    assert watch.low() == []                             # asked again: not judged meanwhile
+
+    # a drop to 0.5 Hz is noticed by its silence after 0.6 s, not after a whole window
+    slow = RateWatch()
+    _feed(slow, 0.0, 1.0, 10, 5)
+    slow.asked_for("VFR_HUD", 5.0)
+    said = _feed(slow, 1.0, 10.0, 10, 5) + _feed(slow, 10.0, 14.0, 10, 0.5)
+    first_t = next(t for t, low in said if low)
+    assert 10.5 < first_t < 10.8, first_t
+
+
+def test_the_rate_watch_starts_over_when_the_vehicle_reboots() -> None:
+    watch = RateWatch()
+    _feed(watch, 100.0, 101.0, 10, 5)
+    watch.asked_for("ATTITUDE", 10.0)
+    _feed(watch, 101.0, 110.0, 10, 5)
+    assert watch.rate("ATTITUDE") == pytest.approx(10, abs=0.3)
+    _feed(watch, 0.0, 2.0, 10, 5)                        # booted again: time_boot_ms from 0
+    assert watch.rate("ATTITUDE") is None and watch.low() == []

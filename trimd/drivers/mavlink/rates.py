@@ -5,7 +5,10 @@ beside trimd (QGroundControl, MAVProxy: REQUEST_DATA_STREAM at 4 Hz every 15 s) 
 what trimd asked for. :class:`RateWatch` counts each watched message over the last
 :data:`WINDOW_S` of vehicle time (``time_boot_ms``, so a simulator running faster than
 real time and network jitter do not matter) and names those that fall below
-:data:`LOW_FRACTION` of the rate asked; the commander then asks again.
+:data:`LOW_FRACTION` of the rate asked, or that have been silent for :data:`GAP_PERIODS`
+periods (at least :data:`GAP_MIN_S`: a drop to 1 Hz or less is noticed long before a
+window's average shows it, and before the procedure's stream timeout); the commander then
+asks again.
 """
 
 from __future__ import annotations
@@ -14,12 +17,16 @@ import math
 from collections import deque
 from typing import Any
 
-__all__ = ["LOW_FRACTION", "WINDOW_S", "RateWatch"]
+__all__ = ["GAP_MIN_S", "GAP_PERIODS", "LOW_FRACTION", "WINDOW_S", "RateWatch"]
 
 #: Rates are judged over this much vehicle time [s], starting once a request took effect.
 WINDOW_S = 5.0
 #: A rate below this fraction of the rate asked is too low.
 LOW_FRACTION = 0.7
+#: A message silent for this many of its periods (asked) is too slow, at once …
+GAP_PERIODS = 3.0
+#: … but never for less than this [s] of vehicle time.
+GAP_MIN_S = 0.5
 _REBOOT_S = 1.0             # the vehicle clock going back this far: a reboot, start over
 
 
@@ -51,7 +58,8 @@ class RateWatch:
                 for name in self._times:
                     self._times[name].clear()
                     self._since[name] = t
-            if not t <= self.t_vehicle:
+                self.t_vehicle = t
+            elif not t <= self.t_vehicle:  # also the first time (NaN)
                 self.t_vehicle = t
         times = self._times.get(msg.get_type())
         if times is not None and math.isfinite(self.t_vehicle):
@@ -70,11 +78,16 @@ class RateWatch:
         return len(self._times[name]) / WINDOW_S
 
     def low(self) -> list[tuple[str, float]]:
-        """(message, received rate [Hz]) of those below :data:`LOW_FRACTION` of the rate
-        asked."""
+        """(message, received rate [Hz]) of those too slow: below :data:`LOW_FRACTION`
+        of the rate asked over the window, or silent for too long (rate: 1 / silence)."""
         out = []
         for name, hz in self.asked.items():
             got = self.rate(name)
+            times = self._times[name]
+            last = max(times[-1] if times else -math.inf, self._since[name])
+            silence = self.t_vehicle - last
             if got is not None and got < LOW_FRACTION * hz:
                 out.append((name, got))
+            elif silence > max(GAP_PERIODS / hz, GAP_MIN_S):
+                out.append((name, 1 / silence))
         return out
