@@ -124,7 +124,10 @@ def test_stations_come_go_and_only_sticks_to_the_vehicle_count() -> None:
     assert stations.heartbeat(beat, 10.0) == (255, 190)
     assert stations.heartbeat(beat, 11.0) is None           # known
     assert stations.present(13.9) == [(255, 190)] and stations.gone(13.9) == []
-    assert stations.gone(14.1) == [(255, 190)] and stations.present(14.1) == []
+    stations.heard((255, 190), 13.0)                    # e.g. its stick input
+    stations.heard((7, 1), 13.0)                        # not a station: not added
+    assert stations.present(15.9) == [(255, 190)]
+    assert stations.gone(16.1) == [(255, 190)] and stations.present(16.1) == []
     assert stations.heartbeat(beat, 20.0) == (255, 190)     # back
     sub = mav.heartbeat_encode(mavlink2.MAV_TYPE_SUBMARINE, 3, 0, 0, 4)
     sub.pack(mav)

@@ -293,6 +293,7 @@ class MavlinkLink:
                     self._commander.on_vehicle(now)
             took = self._commander.on_message(msg, now)
         else:
+            self._stations.heard(source, now)
             took = self._from_other(msg, kind, now)
         if took is not None:
             samples.append(PilotInput(now, took))

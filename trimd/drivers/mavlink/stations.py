@@ -76,6 +76,12 @@ class Stations:
         self.seen[source] = now
         return source if last is None or now - last > STATION_TIMEOUT_S else None
 
+    def heard(self, source: tuple[int, int], now: float) -> None:
+        """Any packet from a known station at ``now`` [s] shows it is still there (its
+        heartbeats may be lost on a busy link while its stick input arrives)."""
+        if source in self.seen:
+            self.seen[source] = max(self.seen[source], now)
+
     def present(self, now: float) -> list[tuple[int, int]]:
         """The stations whose heartbeat was heard within :data:`STATION_TIMEOUT_S`."""
         return sorted(s for s, t in self.seen.items() if now - t <= STATION_TIMEOUT_S)
