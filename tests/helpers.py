@@ -199,9 +199,15 @@ def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
 
 def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any]
                            ) -> tuple[np.ndarray, np.ndarray]:
-    """Apply ``proposal`` to the simulated vehicle carrying ``payload``: with thrusters off
-    it must float within 0.5° of level. Returns roll and pitch [deg] before and after."""
+    """Apply ``proposal`` to the simulated vehicle carrying ``payload``, thrusters off: on
+    each axis it must float within the profile's level tolerance or within the proposal's
+    own predicted trim ± its 95 % interval, whichever is larger, and never beyond 1°.
+    Returns roll and pitch [deg] before and after."""
+    d = proposal_to_dict(proposal) if isinstance(proposal, Proposal) else proposal
+    predicted = np.array([d["predicted_roll_deg"], d["predicted_pitch_deg"]], dtype=float)
+    sigma = np.array(d["predicted_trim_std_deg"], dtype=float)
     before = passive_attitude_deg(profile, payload)
     after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
-    assert np.all(np.abs(after) < 0.5), (before, after)
+    as_said = (np.abs(after) <= profile.level_tol_deg) | (np.abs(after - predicted) <= 1.96 * sigma)
+    assert np.all(as_said) and np.all(np.abs(after) < 1.0), (before, after, predicted, sigma)
     return before, after
