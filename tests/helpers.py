@@ -12,7 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import AsyncIterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +32,7 @@ from trimd.core.samples import (
     Sample,
     Thrusters,
 )
-from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.config import SimConfig, with_presets
 from trimd.drivers.sim.vehicle import SimVehicle
 
 REPO = Path(__file__).resolve().parent.parent
@@ -173,10 +173,15 @@ def ballast_payload(proposal: Proposal | dict[str, Any], profile: Profile) -> st
                     if abs(s["net_down_N"]) > 0)
 
 
-def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
-    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling."""
-    vehicle = SimVehicle(profile, SimConfig(payload=payload, armed=False, mode="MANUAL",
-                                            noise=0.0, depth_m=20.0))
+def passive_attitude_deg(profile: Profile, payload: str, config: SimConfig | None = None
+                         ) -> np.ndarray:
+    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling.
+
+    ``config`` (e.g. the trimmed vehicle's, with ``truth=perturbed``) gives the true
+    vehicle: its seed and profile errors are kept; noise and disturbances are off."""
+    base = with_presets(config or SimConfig(), disturb="none")
+    vehicle = SimVehicle(profile, replace(base, payload=payload, armed=False, mode="MANUAL",
+                                          noise=0.0, depth_m=20.0))
     vehicle.run_for(150.0)
     angles = []
     for _ in range(300):
@@ -185,11 +190,13 @@ def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
     return np.degrees(np.mean(angles, axis=0))
 
 
-def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any]
-                           ) -> tuple[np.ndarray, np.ndarray]:
-    """Apply ``proposal`` to the simulated vehicle carrying ``payload``: with thrusters off
-    it must float within 0.5° of level. Returns roll and pitch [deg] before and after."""
-    before = passive_attitude_deg(profile, payload)
-    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
+def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any],
+                           config: SimConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Apply ``proposal`` to the simulated vehicle carrying ``payload`` (the true vehicle of
+    ``config``, see :func:`passive_attitude_deg`): with thrusters off it must float within
+    0.5° of level. Returns roll and pitch [deg] before and after."""
+    before = passive_attitude_deg(profile, payload, config)
+    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile),
+                                 config)
     assert np.all(np.abs(after) < 0.5), (before, after)
     return before, after
