@@ -1,6 +1,7 @@
 """What many tests share: where things are, true payloads, synthetic equilibrium holds, a
-minimal stand-in vehicle and link, and the physics check of a proposal (applied to the
-simulated vehicle, it must leave it level with thrusters off).
+minimal stand-in vehicle and link, the physics check of a proposal (applied to the
+simulated vehicle, it must leave it level with thrusters off), and a full trim of the
+simulated vehicle with its truth beside the result (:func:`sim_trim`).
 
 The stand-in vehicle has a first-order attitude response and the thruster outputs that
 balance g(η) at its current attitude; it keeps procedure tests independent of the
@@ -18,7 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.app.connect import open_link
+from trimd.app.session import Session, SessionResult
+from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.core.estimate import HoldSamples
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.profile import Profile
@@ -33,6 +36,8 @@ from trimd.core.samples import (
     Thrusters,
 )
 from trimd.drivers.sim.config import SimConfig, with_presets
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.truth import passive_trim_deg
 from trimd.drivers.sim.vehicle import SimVehicle
 
 REPO = Path(__file__).resolve().parent.parent
@@ -200,3 +205,51 @@ def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | 
                                  config)
     assert np.all(np.abs(after) < 0.5), (before, after)
     return before, after
+
+
+@dataclass(frozen=True)
+class SimTrim:
+    """One full trim of the simulated vehicle: what trimd concluded, and the truth.
+
+    Attributes
+    ----------
+    result : how the session ended, its estimate and proposal.
+    vehicle : the simulated vehicle at the end (``vehicle.truth.mass.net`` is the TRUE
+        q = [W − B, W·r_g − B·r_b] [N, N·m]; ``vehicle.t_s`` the simulated time the trim
+        took [s]).
+    """
+
+    result: SessionResult
+    vehicle: SimVehicle
+
+    @property
+    def q_true(self) -> np.ndarray:
+        """The true net weight and moments q [N, N·m] (body FRD, origin CG0)."""
+        return self.vehicle.truth.mass.net
+
+    def trim_after_proposal_deg(self) -> tuple[float, float]:
+        """Roll and pitch [deg] at which the TRUE vehicle floats, thrusters off, once the
+        session's proposal is put on it."""
+        assert self.result.proposal is not None, self.result.reason
+        extra = ballast_payload(self.result.proposal, self.vehicle.profile)  # type: ignore[arg-type]
+        return passive_trim_deg(self.vehicle.ballasted(extra).net)
+
+
+def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
+             method: str = "milp") -> SimTrim:
+    """Run the whole trim procedure, headless and confirmed, on the in-process simulated
+    vehicle ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (e.g. ``options="disturb=real,
+    truth=perturbed"``), proposing ballast by ``method``. Time is the simulator's alone
+    (no wall-clock Ticks), so a seed gives the same result every time."""
+    async def go() -> SimTrim:
+        url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
+        link = await open_link(url, profile)
+        assert isinstance(link, SimLink)
+        session = Session(link, profile, recorder=None, presenters=[], confirmed=True,
+                          propose=lambda est: propose_ballast(est, profile, method=method),
+                          wall_clock=False)
+        try:
+            return SimTrim(await session.run(), link.vehicle)
+        finally:
+            await link.close()
+    return asyncio.run(go())
