@@ -37,7 +37,7 @@ from trimd.core.samples import (
 )
 from trimd.drivers.sim.config import SimConfig, with_presets
 from trimd.drivers.sim.link import SimLink
-from trimd.drivers.sim.truth import passive_trim_deg
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg
 from trimd.drivers.sim.vehicle import SimVehicle
 
 REPO = Path(__file__).resolve().parent.parent
@@ -226,6 +226,13 @@ class SimTrim:
     def q_true(self) -> np.ndarray:
         """The true net weight and moments q [N, N·m] (body FRD, origin CG0)."""
         return self.vehicle.truth.mass.net
+
+    @property
+    def implied_truth(self) -> tuple[float, np.ndarray]:
+        """m_ext [kg] and r_g [m] an exact estimate of the true q reports through the
+        nominal profile (``trimd.drivers.sim.truth.implied_mass``): what to compare the
+        estimate's m_ext and r_g with when the vehicle differs from its profile."""
+        return implied_mass(self.vehicle.profile, self.q_true)
 
     def trim_after_proposal_deg(self) -> tuple[float, float]:
         """Roll and pitch [deg] at which the TRUE vehicle floats, thrusters off, once the

@@ -19,7 +19,7 @@ from trimd.core.model import restoring_forces
 from trimd.core.profile import Profile
 from trimd.drivers.sim.config import TRUTH_PERTURBED, SimConfig, parse_sim_options, with_presets
 from trimd.drivers.sim.thrusters import ThrusterBank
-from trimd.drivers.sim.truth import passive_trim_deg
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg
 from trimd.drivers.sim.vehicle import SimVehicle
 
 
@@ -69,6 +69,12 @@ def test_true_net_quantities_and_reproducible_by_seed(bluerov: Profile) -> None:
     again = SimVehicle(bluerov, perturbed(7, payload))
     assert np.array_equal(again.truth.mass.net, q) and again.offset == v.offset
     assert not np.allclose(SimVehicle(bluerov, perturbed(8, payload)).truth.mass.net, q)
+    # what an exact estimate reads through the nominal profile: the same q, another m_ext
+    m_ext, r_g_seen = implied_mass(bluerov, q)
+    assert abs(m_ext - m) == pytest.approx(0.01 * bluerov.buoyancy_N / bluerov.gravity_m_s2)
+    W_seen = (bluerov.mass_kg + m_ext) * bluerov.gravity_m_s2
+    assert np.allclose(W_seen * r_g_seen - bluerov.buoyancy_N * np.asarray(bluerov.r_b_m),
+                       q[1:])
     # the noise and disturbances do not move the truth: one seed, one vehicle
     real = with_presets(perturbed(7, payload), disturb="real")
     assert np.array_equal(SimVehicle(bluerov, real).truth.mass.net, q)

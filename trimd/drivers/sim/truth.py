@@ -14,12 +14,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.profile import Profile, ThrustCurve
 from trimd.drivers.sim.config import SimConfig
 
-__all__ = ["TruthOffset", "passive_trim_deg", "perturb_profile"]
+__all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
@@ -100,3 +100,25 @@ def passive_trim_deg(net: ArrayLike) -> tuple[float, float]:
     """
     _, nx, ny, nz = (float(v) for v in np.asarray(net, float))
     return (math.degrees(math.atan2(ny, nz)), math.degrees(math.atan2(-nx, math.hypot(ny, nz))))
+
+
+def implied_mass(profile: Profile, net: ArrayLike) -> tuple[float, NDArray[np.float64]]:
+    """m_ext [kg] and r_g [m] (body FRD, origin CG0) that q = [W − B, W·r_g − B·r_b]
+    [N, N·m] implies through the *profile's* B and r_b: what an exact estimate of q
+    reports. On a vehicle that differs from its profile these are the numbers to compare
+    an estimate's m_ext and r_g with (the hidden payload's mass is not identifiable then:
+    1 % of B is 1.2 kg on the Sabertooth).
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> from trimd.drivers.sim.payload import mass_properties, parse_payload
+    >>> p = load_profile("sabertooth-dh2")
+    >>> m_ext, r_g = implied_mass(p, mass_properties(p, parse_payload("10@AftSB", p)).net)
+    >>> round(m_ext, 9), [round(float(v), 4) for v in r_g]
+    (10.0, [-0.0086, 0.005, 0.0])
+    """
+    q = np.asarray(net, float)
+    B = profile.buoyancy_N
+    W = float(q[0]) + B
+    return W / profile.gravity_m_s2 - profile.mass_kg, (q[1:] + B * np.asarray(profile.r_b_m)) / W
