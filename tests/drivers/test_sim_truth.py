@@ -90,7 +90,10 @@ def test_url_options(bluerov: Profile) -> None:
         link = await open_link("sim:payload=0.4@W-aft-ctr,truth=perturbed,seed=3", bluerov)
         return link.truth()  # type: ignore[attr-defined, no-any-return]
 
-    assert "W − B" in asyncio.run(truth_line())
+    line = asyncio.run(truth_line())
+    assert "off its profile (B ×" in line and "an exact estimate reads m_ext" in line
+    nominal = SimVehicle(bluerov, SimConfig(payload="0.4@W-aft-ctr"))
+    assert nominal.true_profile is bluerov and "off its profile" not in nominal.describe_truth()
 
 
 def test_the_vehicle_floats_at_the_true_passive_trim(bluerov: Profile) -> None:

@@ -33,7 +33,7 @@ from trimd.drivers.sim.dynamics import RigidBody, euler_from_quaternion, initial
 from trimd.drivers.sim.payload import MassProperties, PayloadItem, mass_properties, parse_payload
 from trimd.drivers.sim.sensors import Reading, Sensors
 from trimd.drivers.sim.thrusters import Mixer, ThrusterBank
-from trimd.drivers.sim.truth import passive_trim_deg, perturb_profile
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg, perturb_profile
 
 __all__ = ["SAMPLE_KINDS", "SimVehicle", "Truth"]
 
@@ -237,7 +237,15 @@ class SimVehicle:
         r_g = ", ".join(f"{1000 * v:+.1f}" for v in m.r_g)
         net = self.mass.net
         roll, pitch = passive_trim_deg(net)
-        return (f"simulator truth: payload {items}; m_ext {self.truth.m_ext_kg:.3f} kg, "
+        text = (f"simulator truth: payload {items}; m_ext {self.truth.m_ext_kg:.3f} kg, "
                 f"W − B {net[0]:+.2f} N, r_g ({r_g}) mm, "
                 f"W·r_g − B·r_b ({', '.join(f'{v:+.3f}' for v in net[1:])}) N·m; "
                 f"passive trim roll {roll:+.2f}°, pitch {pitch:+.2f}°")
+        if self.true_profile is self.profile:
+            return text
+        o = self.offset
+        m_ext, r_g_seen = implied_mass(self.profile, net)
+        return (f"{text}; the vehicle is off its profile (B ×{o.buoyancy_factor:.3f}, r_b "
+                f"{', '.join(f'{1000 * v:+.1f}' for v in o.r_b_offset_m)} mm, thrust "
+                f"±{100 * self.config.thrust_err:g} %): an exact estimate reads m_ext "
+                f"{m_ext:.3f} kg, r_g ({', '.join(f'{1000 * v:+.1f}' for v in r_g_seen)}) mm")
