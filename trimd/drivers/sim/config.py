@@ -80,6 +80,12 @@ class SimConfig:
         (ESC and controller jitter), before rounding to integer µs; reported PWM includes
         it.
 
+    clock_jump_s, clock_jump_at_s : the vehicle's clock (the stamp of every sample; the
+        physics is unaffected) jumps by ``clock_jump_s`` [s] (negative: back) once
+        ``clock_jump_at_s`` [s] of simulated time have passed, as a time sync does. The
+        in-process link and the serial server show it; the MAVLink server's
+        time_boot_ms does not.
+
     A vehicle that differs from its profile (the simulator flies the truth; everything
     that reads the profile, the controller included, sees the nominal vehicle). The sign
     and direction of each error is drawn from ``seed`` (its own random stream):
@@ -131,6 +137,8 @@ class SimConfig:
     gyro_wander_tau_s: float = 120.0
     thruster_dither_us: float = 0.0
     thruster_dither_tau_s: float = 0.3
+    clock_jump_s: float = 0.0
+    clock_jump_at_s: float = 60.0
     buoyancy_err: float = 0.0
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0

@@ -188,20 +188,22 @@ class SimVehicle:
     # ------------------------------------------------------------------ telemetry
     def sample(self, kind: str) -> Sample:
         """The latest ``kind`` sample (one of :data:`SAMPLE_KINDS`), stamped with the time
-        of the reading it comes from."""
+        of the reading it comes from on the vehicle's clock (``SimConfig.clock_jump_s``)."""
         r = self.reading
+        c = self.config
+        t = r.t_s + c.clock_jump_s if c.clock_jump_s and r.t_s >= c.clock_jump_at_s else r.t_s
         if kind == "attitude":
-            return Attitude(r.t_s, r.phi, r.theta, r.psi, r.p, r.q, r.r)
+            return Attitude(t, r.phi, r.theta, r.psi, r.p, r.q, r.r)
         if kind == "thrusters":
-            return Thrusters(r.t_s, tuple(float(p) for p in self.pwm_us))
+            return Thrusters(t, tuple(float(p) for p in self.pwm_us))
         if kind == "depth":
-            return Depth(r.t_s, r.depth_m)
+            return Depth(t, r.depth_m)
         if kind == "velocity":
-            return Velocity(r.t_s, r.u, r.v, r.w)
+            return Velocity(t, r.u, r.v, r.w)
         if kind == "battery":
-            return Battery(r.t_s, self.voltage_V)
+            return Battery(t, self.voltage_V)
         if kind == "health":
-            return Health(r.t_s, True, self.mode, self.armed,
+            return Health(t, True, self.mode, self.armed,
                           vehicle=f"simulated {self.profile.name}")
         raise ValueError(f"unknown sample kind {kind!r} (known: {', '.join(SAMPLE_KINDS)})")
 
