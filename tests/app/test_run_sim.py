@@ -23,6 +23,7 @@ from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 
 # (profile, payload, seed, |x_g|/|y_g| limit [m], z_g limit [m], m_ext limit [kg])
@@ -117,3 +118,14 @@ def test_headless_confirmation_prompt_refuses_or_stops(tmp_path: Path, how: str)
     reason = "stopped by SIGTERM" if how == "SIGTERM" else "not confirmed by the operator"
     assert proc.returncode == 1 and reason in out + err, (out[-800:], err[-800:])
     assert "command: hold" not in out  # nothing was commanded
+
+
+def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
+    """One seed, one result (the coverage bench relies on it), on a vehicle off its
+    profile; the truth it returns is that vehicle's."""
+    first, again = (sim_trim(bluerov, "0.4@W-aft-stbd", 3, "truth=perturbed") for _ in range(2))
+    assert first.result.phase is Phase.DONE, first.result.reason
+    assert first.result.estimate is not None and again.result.estimate is not None
+    assert np.array_equal(first.result.estimate.q, again.result.estimate.q)
+    assert np.array_equal(first.q_true, again.q_true)
+    assert first.vehicle.true_profile.buoyancy_N != bluerov.buoyancy_N
