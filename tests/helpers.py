@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.signal import lfilter
 
 from trimd.app.connect import open_link
 from trimd.app.session import Session, SessionResult
@@ -52,24 +53,35 @@ def payload_truth(profile: Profile, m_ext: float, r_ext: np.ndarray) -> tuple[fl
 
 
 def equilibrium_holds(profile: Profile, W: float, r_g: np.ndarray, *, n: int = 200,
-                      attitude_noise_deg: float = 0.0, thrust_noise: float = 0.0,
+                      attitude_noise_deg: float = 0.0, thrust_noise: float | np.ndarray = 0.0,
+                      wander_deg: float = 0.0, wander_tau_s: float = 5.0,
+                      thruster_every: int = 1, rate_hz: float = 10.0,
                       rng: np.random.Generator | None = None,
                       tilts_deg: tuple[tuple[float, float], ...] = ((0, 0), (20, 20)),
                       ) -> list[HoldSamples]:
     """Steady holds where τ = g(η) at the true attitude, plus optional noise.
 
-    Attitude noise [deg] corrupts the measured roll/pitch; thrust noise is a fraction of
-    the largest force (force rows) or moment (moment rows) of the hold.
+    Attitude noise [deg] (white) and wander [deg] (first-order Gauss–Markov with
+    correlation time ``wander_tau_s`` [s], the error of an attitude estimate at rest)
+    corrupt the measured roll/pitch; thrust noise is a fraction of the largest force
+    (force rows) or moment (moment rows) of the hold, one per row when an array. The
+    thruster outputs are sampled every ``thruster_every``-th attitude sample and held
+    (zero-order hold), as a link at a lower thruster rate delivers them.
     """
     rng = rng or np.random.default_rng(0)
+    rho = np.exp(-1 / (wander_tau_s * rate_hz))
     holds = []
     for k, (roll, pitch) in enumerate(tilts_deg):
         phi, theta = np.radians(roll), np.radians(pitch)
         tau = restoring_forces(phi, theta, W, profile.buoyancy_N, r_g, profile.r_b_m)
         scale = np.r_[np.full(3, np.abs(tau[:3]).max()), np.full(3, np.abs(tau[3:]).max())]
         noise_att = np.radians(attitude_noise_deg) * rng.standard_normal((n, 2))
-        taus = tau + thrust_noise * scale * rng.standard_normal((n, 6))
-        holds.append(HoldSamples(np.arange(n) * 0.1 + 100.0 * k, phi + noise_att[:, 0],
+        drive = np.radians(wander_deg) * np.sqrt(1 - rho**2) * rng.standard_normal((n, 2))
+        drive[0] = np.radians(wander_deg) * rng.standard_normal(2)
+        noise_att += lfilter([1.0], [1.0, -rho], drive, axis=0)
+        taus = tau + np.asarray(thrust_noise) * scale * rng.standard_normal((n, 6))
+        taus = taus[np.arange(n) // thruster_every * thruster_every]
+        holds.append(HoldSamples(np.arange(n) / rate_hz + 1000.0 * k, phi + noise_att[:, 0],
                                  theta + noise_att[:, 1], taus, f"hold {k}"))
     return holds
 
