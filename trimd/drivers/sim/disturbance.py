@@ -5,10 +5,11 @@ every dt, is
 
     x[k+1] = a·x[k] + σ·√(1 − a²)·w[k],   a = exp(−dt/τ),   w[k] ~ N(0, 1)
 
-(Fossen 2011, §8.2.1, in discrete form): stationary, zero mean, variance σ², autocorrelation
-exp(−|lag|/τ). Each process starts from its stationary distribution, so a run has the
-stated amplitude from its first step. Trajectories are computed a block of steps at a time
-(one ``scipy.signal.lfilter`` call per thousand steps), so a step costs an index.
+(the exact discretisation of ẋ = −x/τ + white noise): stationary, zero mean, variance σ²,
+autocorrelation exp(−|lag|/τ). Each process starts from its stationary distribution, so a
+run has the stated amplitude from its first step. Trajectories are computed a block of
+steps at a time (one ``scipy.signal.lfilter`` call per thousand steps), so a step costs an
+index.
 
 :class:`Disturbances` holds every process a :class:`~trimd.drivers.sim.config.SimConfig`
 switches on, each from its own seeded random stream: switching one on or off changes none
