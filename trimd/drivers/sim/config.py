@@ -51,7 +51,8 @@ class SimConfig:
     damping : hydrodynamic damping on (off only for energy tests).
     thruster_lag_s : first-order spin-up time constant of each thruster [s].
     voltage_V : battery voltage [V]; 0 means the profile's nominal voltage.
-    noise : factor on every sensor noise level below (0 = perfect sensors).
+    noise : factor on every white sensor noise level below (0 = perfect sensors; the slow
+        disturbances further down are not scaled).
     attitude_noise_rad, rate_noise_rad_s, gyro_bias_rad_s, depth_noise_m,
     depth_rate_noise_m_s, dvl_noise_m_s : sensor noise standard deviations (the gyro bias
         is drawn once per seed with this standard deviation).
