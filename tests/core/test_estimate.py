@@ -115,6 +115,19 @@ def test_a_single_tilted_hold_is_refused_for_what_it_is(sabertooth: Profile) -> 
         estimate_static(holds, sabertooth)
 
 
+def test_rows_the_fit_drops_do_not_count_towards_identifiability(sabertooth: Profile) -> None:
+    """Without the Z row, W − B shows only in the tilted hold's force rows, which the fit
+    drops (a drifting vehicle): refuse, rather than print −5 ± 34 kg."""
+    W, r_g = payload_truth(sabertooth, 10.0, np.array([-1.0, 0.6, 0.1]))
+    holds = equilibrium_holds(sabertooth, W, r_g, thrust_noise=0.01)
+    no_z = (True, True, False, True, True, True)
+    with pytest.raises(EstimationError, match=r"W − B is not identifiable .*force rows count "
+                                              r"at level holds only"):
+        estimate_static(holds, sabertooth, dofs=no_z)
+    est = estimate_static(holds, sabertooth, dofs=no_z, level_forces_only=False)
+    assert abs(est.m_ext_kg - 10.0) < 4 * est.m_ext_std_kg
+
+
 def test_depth_hold_without_station_keeping_recovers_net_force(sabertooth: Profile) -> None:
     """At a tilt, only the vertical thrusters carry W − B: X = Y = 0 and body Z is
     (W − B)/(cosφ·cosθ) along the world vertical; the force rows together stay exact."""
