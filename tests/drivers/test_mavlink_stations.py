@@ -144,11 +144,10 @@ def test_stations_come_go_and_only_sticks_to_the_vehicle_count() -> None:
 # ------------------------------------------------------------------ in-process, routed
 @pytest.fixture()
 def beside_pilot(bluerov: Profile) -> Iterator[tuple[MavlinkLink, PilotStation, SimVehicle]]:
-    """trimd's link (pilot=always: it would feed the failsafe if it were alone) and a
-    pilot's station, both on the served simulator, armed in MANUAL."""
+    """trimd's link (the default pilot=hold: neutral sticks during a hold if it were
+    alone) and a pilot's station, both on the served simulator, armed in MANUAL."""
     trimd_port, pilot_port = free_udp_port(), free_udp_port()
-    link = asyncio.run(open_link(
-        f"mavlink:udpin:127.0.0.1:{trimd_port}?pilot=always&timeout=2", bluerov))
+    link = asyncio.run(open_link(f"mavlink:udpin:127.0.0.1:{trimd_port}?timeout=2", bluerov))
     assert isinstance(link, MavlinkLink)
     vehicle = SimVehicle(bluerov, SimConfig(payload="0.4@W-aft-ctr", armed=True,
                                             mode="MANUAL", seed=1))
