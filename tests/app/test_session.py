@@ -131,12 +131,20 @@ def test_abort_is_not_held_up_by_a_command_awaiting_confirmation(
     assert [type(c) for c in slow.sent] == [HoldAttitude, Release]
 
 
-def test_link_that_goes_quiet_is_lost_and_released(sabertooth: Profile, link: FakeLink) -> None:
+def test_link_that_goes_quiet_mid_hold_is_released_within_a_second_of_its_last_sample(
+        sabertooth: Profile, link: FakeLink) -> None:
+    """The release's stamp is session time (the samples' clock, advanced by the wall
+    clock while the link is quiet), as the recorder keeps it."""
     link.hang_at = 40.0
-    session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)
+    recorder = ListRecorder()
+    session = Session(link, sabertooth, recorder=recorder, presenters=[], confirmed=True)
     result = run(session)
-    assert result.phase is Phase.FAILED and "link lost" in result.reason
+    assert result.phase is Phase.FAILED and "link lost: no telemetry" in result.reason
+    assert result.cause == "link"
     assert isinstance(link.sent[-1], Release) and link.closed
+    last = recorder.samples[-1].t_s
+    [t_release] = [t for t, c in recorder.commands if isinstance(c, Release)]
+    assert last + sabertooth.procedure.link_timeout_s < t_release <= last + 1.0
 
 
 def test_link_that_ends_fails_the_session(sabertooth: Profile, link: FakeLink) -> None:
@@ -159,6 +167,38 @@ def test_waits_for_confirmation_then_commands(sabertooth: Profile, link: FakeLin
         return await task
     result = asyncio.run(main())
     assert result.phase is Phase.DONE
+
+
+def test_a_vehicle_that_talks_but_never_connects_fails_after_the_connect_timeout(
+        sabertooth: Profile) -> None:
+    """Telemetry keeps coming, but the link never connects (no handshake): the connect
+    timeout still runs, and the failure says what the link said."""
+    from dataclasses import replace
+
+    from trimd.core.samples import Attitude, Health
+
+    class Unanswering:
+        description = "unanswering"
+        sent: ClassVar[list[Command]] = []
+
+        async def samples(self) -> Any:
+            while True:
+                await asyncio.sleep(0.01)
+                yield Attitude(0.0, 0, 0, 0, 0, 0, 0)
+                yield Health(0.0, False, "MANUAL", True, detail="no handshake yet")
+
+        async def send(self, command: Command) -> None:
+            self.sent.append(command)
+
+        async def close(self) -> None:
+            return None
+
+    quick = replace(sabertooth, procedure=replace(sabertooth.procedure, connect_timeout_s=0.5))
+    result = run(Session(Unanswering(), quick, recorder=None, presenters=[], confirmed=True))
+    assert result.phase is Phase.FAILED and result.cause == "link"
+    assert result.reason == ("link lost: the vehicle did not connect within 0.5 s: "
+                             "no handshake yet")
+    assert Unanswering.sent == []
 
 
 def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None:

@@ -217,7 +217,7 @@ def _procedure(node: _Node) -> ProcedureLimits:
         settle_timeout_s=node.number("settle_timeout_s", 120.0, positive=True),
         collect_max_s=node.number("collect_max_s", 120.0, positive=True),
         connect_timeout_s=node.number("connect_timeout_s", 30.0, positive=True),
-        link_timeout_s=node.number("link_timeout_s", 3.0, positive=True),
+        link_timeout_s=node.number("link_timeout_s", 0.8, positive=True),
         target_cg_std_m=node.number("target_cg_std_m", 0.001, positive=True),
         target_m_ext_std_kg=node.number("target_m_ext_std_kg", 0.05, positive=True),
     )
