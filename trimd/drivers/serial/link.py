@@ -17,7 +17,14 @@ to ``time.monotonic()``.
 
 Link loss: no valid sentence for ``timeout_s`` (default 1 s) after the handshake yields a
 disconnected :class:`Health` (the reader checks every 50 ms); a device error (a port
-unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream.
+unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream
+with a :class:`LinkError` saying why. So does a vehicle answering the handshake with
+another protocol version. Until the handshake is answered, each VHSTA gives a
+disconnected Health saying what is missing.
+
+The pilot: when the vehicle reports (VHSTA) that control went from trimd's hold or
+open-loop input back to the pilot while trimd still commands, the link yields a
+:class:`PilotInput`, on which the procedure releases and ends.
 """
 
 from __future__ import annotations
@@ -34,7 +41,15 @@ import serial
 
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, HoldAttitude, OpenLoop, Release, Sample
+from trimd.core.samples import (
+    Command,
+    Health,
+    HoldAttitude,
+    OpenLoop,
+    PilotInput,
+    Release,
+    Sample,
+)
 from trimd.drivers.limits import check_command
 from trimd.drivers.serial.protocol import (
     MAX_OUTPUTS,
@@ -112,7 +127,10 @@ class SerialLink:
         self.vehicle: Version | None = None
         self.dropped = 0
         self.unmapped = 0
-        self._problem = "waiting for the vehicle's version sentence (VHVER)"
+        self._problem = ("the vehicle sends telemetry but has not answered trimd's version "
+                         "sentence (TRVER) with VHVER")
+        self._fatal = ""   # why the stream ended, for the LinkError that ends it
+        self._flying = ""  # who flies, as the vehicle's last VHSTA said
         self._clock = _VehicleClock()
         self._pending: deque[Sample] = deque()
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -139,6 +157,8 @@ class SerialLink:
             while True:
                 while self._pending:
                     yield self._pending.popleft()
+                if self._fatal and not self._closed:
+                    raise LinkError(self._fatal)
                 if self._finished or self._closed:
                     return
                 wake.clear()
@@ -194,13 +214,13 @@ class SerialLink:
                 data = self.port.read(self.port.in_waiting or 1)
             except (serial.SerialException, OSError, LinkError) as exc:
                 if not self._stop.is_set():
-                    self._lose(f"{self.description}: {exc}", time.monotonic())
-                    self._finished = True
-                    self._notify()
+                    self._end(f"{self.description}: {exc}", time.monotonic())
                 return
             now = time.monotonic()
             for sentence in self.parser.feed(data) if data else ():
                 self._on_sentence(sentence, now)
+            if self._finished:
+                return
             if self._connected and now - self._last_rx[0] > self.timeout_s:
                 self._lose(f"no data from the vehicle for {now - self._last_rx[0]:.1f} s", now)
             if self._pending:
@@ -216,10 +236,13 @@ class SerialLink:
         self._last_rx = (now, t_s)
         out = to_sample(s, t_s, self.channels)
         if isinstance(out, Version):
-            ok = out.version == VERSION
-            self.vehicle = out if ok else None
-            self._problem = "" if ok else (f"the vehicle ({out.name}) speaks serial protocol "
-                                           f"version {out.version}, trimd speaks {VERSION}")
+            if out.version == VERSION:
+                self.vehicle, self._problem = out, ""
+            elif not self._finished:
+                self.vehicle = None
+                self._problem = (f"the vehicle ({out.name}) speaks serial protocol version "
+                                 f"{out.version}, trimd speaks {VERSION}")
+                self._end(self._problem, now)
             return
         if isinstance(out, Health):
             self._connected = self.vehicle is not None
@@ -227,10 +250,26 @@ class SerialLink:
                          out.detail if self._connected else self._problem,
                          self.vehicle.name if self.vehicle else "")
             self._last = out
+            self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
         if out is None:
             self.unmapped += 1
         else:
             self._emit(out)
+
+    def _on_control(self, control: str, health: Health) -> None:
+        """The vehicle handed control back to the pilot (HOLD/OPEN → PILOT) while trimd
+        commands: say so with a PilotInput (trimd's own release sets ``_active`` first)."""
+        handed_back = self._flying in ("HOLD", "OPEN") and control == "PILOT"
+        self._flying = control
+        if handed_back and isinstance(self._active, HoldAttitude | OpenLoop):
+            self._emit(PilotInput(health.t_s, f"the vehicle reports control PILOT, mode "
+                                              f"{health.mode}"))
+
+    def _end(self, reason: str, now: float) -> None:
+        """The stream ends: a disconnected Health, then a LinkError saying ``reason``."""
+        self._lose(reason, now)
+        self._fatal, self._finished = reason, True
+        self._notify()
 
     def _lose(self, detail: str, now: float) -> None:
         """The vehicle is gone: stop repeating a command (one must come again after a
