@@ -8,7 +8,6 @@ from trimd.app.session import SessionResult
 from trimd.cli.run import _exit_code
 from trimd.core.events import Cause, Phase
 
-
 CASES = [
     (Phase.DONE, Cause.NONE, 0),
     (Phase.FAILED, Cause.PILOT, 1),        # the pilot took over: not a link error
