@@ -418,10 +418,11 @@ def test_trimd_run_against_a_vehicle_of_another_version_or_one_that_never_answer
 
 @pytest.mark.slow
 def test_trimd_run_ends_with_exit_1_when_the_pilot_takes_over_mid_hold(
-        served: tuple[SerialServer, threading.Event], capsys: pytest.CaptureFixture[str]
-        ) -> None:
+        served: tuple[SerialServer, threading.Event], capsys: pytest.CaptureFixture[str],
+        tmp_path: Path) -> None:
     """The pilot switches the vehicle to MANUAL during the first hold: trimd releases
-    at once, exits 1 with the reason and makes no estimate."""
+    at once, exits 1 with the reason and makes no estimate; the replay of its log ends
+    the same way."""
     server, _ = served
     done = threading.Event()
 
@@ -436,20 +437,25 @@ def test_trimd_run_ends_with_exit_1_when_the_pilot_takes_over_mid_hold(
     watcher.start()
     try:
         code = main(["run", "--link", f"serial:{server.path}", "--profile", "sabertooth-dh2",
-                     "--headless", "--yes", "--no-record", "--json"])
+                     "--headless", "--yes", "--record", str(tmp_path / "s.tlog"), "--json"])
     finally:
         done.set()
         watcher.join(timeout=5)
     captured = capsys.readouterr()
     assert code == 1, captured.err
-    assert ("trimd: failed: the pilot took over (the vehicle reports control PILOT, mode "
-            "MANUAL): trimd released control") in captured.err
+    said = ("the pilot took over (the vehicle reports control PILOT, mode MANUAL): trimd "
+            "released control")
+    assert f"trimd: failed: {said}" in captured.err
     lines = [json.loads(x) for x in captured.out.splitlines()]
     assert "result" not in {x["type"] for x in lines}
     commands = [x for x in lines if x["type"] == "command"]
     assert commands[-1]["command"].startswith("release")
     assert server.heard["REL"] >= 1 and not server.pilot_latched
     assert server.control == "PILOT" and server.vehicle.mode == "MANUAL"
+    assert main(["replay", str(tmp_path / "s.tlog"), "--json"]) == 1
+    replayed = capsys.readouterr()
+    assert said in replayed.err
+    assert "result" not in {json.loads(x)["type"] for x in replayed.out.splitlines()}
 
 
 # ---------------------------------------------------------------------- trimd run
