@@ -41,7 +41,7 @@ from trimd.core.samples import (
     Sample,
     VehicleText,
 )
-from trimd.drivers.serial.link import SerialLink, open_serial_link
+from trimd.drivers.serial.link import NOT_TAKEN_AFTER, SerialLink, open_serial_link
 from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
@@ -235,6 +235,7 @@ def test_served_vehicle_rates_hold_release_and_link_lost(
         held = await collect(link, lambda s: s.t_s > t0 + 60.0)
         assert server.control == "HOLD"
         assert [h.detail for h in held if isinstance(h, Health)][-1] == "control HOLD"
+        assert not any(isinstance(s, PilotInput) for s in held)   # trimd flies it
         att = [s for s in held if isinstance(s, Attitude)][-40:]
         for got, want in zip(np.mean([(a.phi, a.theta, a.psi) for a in att], axis=0), target,
                              strict=True):
@@ -376,6 +377,32 @@ class PtyVehicle:
         finally:
             os.close(self.master)
             os.close(self._slave)
+
+
+def test_a_vehicle_that_never_takes_trimd_s_hold_is_flown_by_its_pilot(
+        sabertooth: Profile) -> None:
+    vehicle = PtyVehicle("1,bench")   # its status always says control PILOT
+    thread = threading.Thread(target=vehicle.run, daemon=True)
+    thread.start()
+
+    async def go() -> None:
+        link = open_serial_link(vehicle.path, sabertooth)
+        await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        await link.send(HoldAttitude(5 * DEG, 0.0, 0.0))
+        got = await collect(link, lambda s: isinstance(s, PilotInput))
+        assert got[-1].source == (f"the vehicle did not take trimd's command: control PILOT "
+                                  f"in {NOT_TAKEN_AFTER} status sentences, mode ALT_HOLD")
+        statuses = [s for s in got if isinstance(s, Health)]
+        assert len(statuses) >= NOT_TAKEN_AFTER        # not before that many said so
+        more = await collect(link, lambda s: isinstance(s, Health) and s.t_s > got[-1].t_s
+                             + 0.5)
+        assert not any(isinstance(s, PilotInput) for s in more)   # said once
+        await link.close()
+    try:
+        asyncio.run(go())
+    finally:
+        vehicle.stop.set()
+        thread.join(timeout=5)
 
 
 @pytest.mark.parametrize(("answer", "reason"), [

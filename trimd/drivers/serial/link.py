@@ -23,8 +23,10 @@ another protocol version. Until the handshake is answered, each VHSTA gives a
 disconnected Health saying what is missing.
 
 The pilot: when the vehicle reports (VHSTA) that control went from trimd's hold or
-open-loop input back to the pilot while trimd still commands, the link yields a
-:class:`PilotInput`, on which the procedure releases and ends.
+open-loop input back to the pilot while trimd still commands, or that the pilot still
+flies :data:`NOT_TAKEN_AFTER` status sentences after trimd's command, the link yields a
+:class:`PilotInput`, on which the procedure releases and ends: no data from the pilot's
+flying is taken for a hold.
 """
 
 from __future__ import annotations
@@ -63,13 +65,17 @@ from trimd.drivers.serial.protocol import (
     to_sample,
 )
 
-__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "TIMEOUT_S", "SerialLink", "open_serial_link"]
+__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "NOT_TAKEN_AFTER", "TIMEOUT_S", "SerialLink",
+           "open_serial_link"]
 
 DEFAULT_BAUD = 115_200
 #: Vehicle silence that makes the link lost [s].
 TIMEOUT_S = 1.0
 #: Period of the control sentence (and of the handshake until answered) [s].
 CONTROL_PERIOD_S = 0.5
+#: While trimd commands, this many VHSTA in a row saying control PILOT (1 Hz: the first
+#: may have left before the vehicle had trimd's command) mean the vehicle did not take it.
+NOT_TAKEN_AFTER = 3
 _READ_TIMEOUT_S = 0.05
 _WRITE_TIMEOUT_S = 1.0
 _QUEUE_MAX = 20_000
@@ -131,6 +137,8 @@ class SerialLink:
                          "sentence (TRVER) with VHVER")
         self._fatal = ""   # why the stream ended, for the LinkError that ends it
         self._flying = ""  # who flies, as the vehicle's last VHSTA said
+        self._pilot_stas = 0  # VHSTAs in a row saying PILOT while trimd commands
+        self._pilot_said = False  # a PilotInput was yielded for this command
         self._clock = _VehicleClock()
         self._pending: deque[Sample] = deque()
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -182,6 +190,8 @@ class SerialLink:
         except ValueError as exc:
             raise LinkError(f"not sent: {exc}") from None
         if isinstance(command, HoldAttitude | OpenLoop):
+            if isinstance(self._active, Heartbeat):   # trimd takes control afresh
+                self._pilot_stas, self._pilot_said = 0, False
             self._active, self._commanded = command, True
         elif isinstance(command, Release):
             self._active = Heartbeat()
@@ -250,20 +260,33 @@ class SerialLink:
                          out.detail if self._connected else self._problem,
                          self.vehicle.name if self.vehicle else "")
             self._last = out
+            self._emit(out)
             self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
-        if out is None:
+        elif out is None:
             self.unmapped += 1
         else:
             self._emit(out)
 
     def _on_control(self, control: str, health: Health) -> None:
-        """The vehicle handed control back to the pilot (HOLD/OPEN → PILOT) while trimd
-        commands: say so with a PilotInput (trimd's own release sets ``_active`` first)."""
-        handed_back = self._flying in ("HOLD", "OPEN") and control == "PILOT"
-        self._flying = control
-        if handed_back and isinstance(self._active, HoldAttitude | OpenLoop):
-            self._emit(PilotInput(health.t_s, f"the vehicle reports control PILOT, mode "
-                                              f"{health.mode}"))
+        """While trimd commands, the pilot flies if the vehicle handed control back (HOLD/
+        OPEN → PILOT) or never took trimd's command (PILOT in :data:`NOT_TAKEN_AFTER`
+        status sentences in a row): say so with one PilotInput. trimd's own release sets
+        ``_active`` first, so the PILOT after it is no takeover."""
+        previous, self._flying = self._flying, control
+        if (control != "PILOT" or self._pilot_said
+                or not isinstance(self._active, HoldAttitude | OpenLoop)):
+            self._pilot_stas = 0
+            return
+        self._pilot_stas += 1
+        if previous in ("HOLD", "OPEN"):
+            source = f"the vehicle reports control PILOT, mode {health.mode}"
+        elif self._pilot_stas >= NOT_TAKEN_AFTER:
+            source = (f"the vehicle did not take trimd's command: control PILOT in "
+                      f"{self._pilot_stas} status sentences, mode {health.mode}")
+        else:
+            return
+        self._pilot_said = True
+        self._emit(PilotInput(health.t_s, source))
 
     def _end(self, reason: str, now: float) -> None:
         """The stream ends: a disconnected Health, then a LinkError saying ``reason``."""
