@@ -1,6 +1,7 @@
 """What many tests share: where things are, true payloads, synthetic equilibrium holds, a
-minimal stand-in vehicle and link, and the physics check of a proposal (applied to the
-simulated vehicle, it must leave it level with thrusters off).
+minimal stand-in vehicle and link, the physics check of a proposal (applied to the
+simulated vehicle, it must leave it level with thrusters off), and a full trim of the
+simulated vehicle with its truth beside the result (:func:`sim_trim`).
 
 The stand-in vehicle has a first-order attitude response and the thruster outputs that
 balance g(η) at its current attitude; it keeps procedure tests independent of the
@@ -12,13 +13,16 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import AsyncIterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.signal import lfilter
 
-from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.app.connect import open_link
+from trimd.app.session import Session, SessionResult
+from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.core.estimate import HoldSamples
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.profile import Profile
@@ -32,7 +36,9 @@ from trimd.core.samples import (
     Sample,
     Thrusters,
 )
-from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.config import SimConfig, with_presets
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg
 from trimd.drivers.sim.vehicle import SimVehicle
 
 REPO = Path(__file__).resolve().parent.parent
@@ -47,24 +53,35 @@ def payload_truth(profile: Profile, m_ext: float, r_ext: np.ndarray) -> tuple[fl
 
 
 def equilibrium_holds(profile: Profile, W: float, r_g: np.ndarray, *, n: int = 200,
-                      attitude_noise_deg: float = 0.0, thrust_noise: float = 0.0,
+                      attitude_noise_deg: float = 0.0, thrust_noise: float | np.ndarray = 0.0,
+                      wander_deg: float = 0.0, wander_tau_s: float = 5.0,
+                      thruster_every: int = 1, rate_hz: float = 10.0,
                       rng: np.random.Generator | None = None,
                       tilts_deg: tuple[tuple[float, float], ...] = ((0, 0), (20, 20)),
                       ) -> list[HoldSamples]:
     """Steady holds where τ = g(η) at the true attitude, plus optional noise.
 
-    Attitude noise [deg] corrupts the measured roll/pitch; thrust noise is a fraction of
-    the largest force (force rows) or moment (moment rows) of the hold.
+    Attitude noise [deg] (white) and wander [deg] (first-order Gauss–Markov with
+    correlation time ``wander_tau_s`` [s], the error of an attitude estimate at rest)
+    corrupt the measured roll/pitch; thrust noise is a fraction of the largest force
+    (force rows) or moment (moment rows) of the hold, one per row when an array. The
+    thruster outputs are sampled every ``thruster_every``-th attitude sample and held
+    (zero-order hold), as a link at a lower thruster rate delivers them.
     """
     rng = rng or np.random.default_rng(0)
+    rho = np.exp(-1 / (wander_tau_s * rate_hz))
     holds = []
     for k, (roll, pitch) in enumerate(tilts_deg):
         phi, theta = np.radians(roll), np.radians(pitch)
         tau = restoring_forces(phi, theta, W, profile.buoyancy_N, r_g, profile.r_b_m)
         scale = np.r_[np.full(3, np.abs(tau[:3]).max()), np.full(3, np.abs(tau[3:]).max())]
         noise_att = np.radians(attitude_noise_deg) * rng.standard_normal((n, 2))
-        taus = tau + thrust_noise * scale * rng.standard_normal((n, 6))
-        holds.append(HoldSamples(np.arange(n) * 0.1 + 100.0 * k, phi + noise_att[:, 0],
+        drive = np.radians(wander_deg) * np.sqrt(1 - rho**2) * rng.standard_normal((n, 2))
+        drive[0] = np.radians(wander_deg) * rng.standard_normal(2)
+        noise_att += lfilter([1.0], [1.0, -rho], drive, axis=0)
+        taus = tau + np.asarray(thrust_noise) * scale * rng.standard_normal((n, 6))
+        taus = taus[np.arange(n) // thruster_every * thruster_every]
+        holds.append(HoldSamples(np.arange(n) / rate_hz + 1000.0 * k, phi + noise_att[:, 0],
                                  theta + noise_att[:, 1], taus, f"hold {k}"))
     return holds
 
@@ -177,10 +194,15 @@ def ballast_payload(proposal: Proposal | dict[str, Any], profile: Profile) -> st
                     if abs(s["net_down_N"]) > 0)
 
 
-def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
-    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling."""
-    vehicle = SimVehicle(profile, SimConfig(payload=payload, armed=False, mode="MANUAL",
-                                            noise=0.0, depth_m=20.0))
+def passive_attitude_deg(profile: Profile, payload: str, config: SimConfig | None = None
+                         ) -> np.ndarray:
+    """Mean roll and pitch [deg] of the simulated vehicle, disarmed, after settling.
+
+    ``config`` (e.g. the trimmed vehicle's, with ``truth=perturbed``) gives the true
+    vehicle: its seed and profile errors are kept; noise and disturbances are off."""
+    base = with_presets(config or SimConfig(), disturb="none")
+    vehicle = SimVehicle(profile, replace(base, payload=payload, armed=False, mode="MANUAL",
+                                          noise=0.0, depth_m=20.0))
     vehicle.run_for(150.0)
     angles = []
     for _ in range(300):
@@ -189,11 +211,74 @@ def passive_attitude_deg(profile: Profile, payload: str) -> np.ndarray:
     return np.degrees(np.mean(angles, axis=0))
 
 
-def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any]
-                           ) -> tuple[np.ndarray, np.ndarray]:
-    """Apply ``proposal`` to the simulated vehicle carrying ``payload``: with thrusters off
-    it must float within 0.5° of level. Returns roll and pitch [deg] before and after."""
-    before = passive_attitude_deg(profile, payload)
-    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile))
-    assert np.all(np.abs(after) < 0.5), (before, after)
+def assert_proposal_levels(profile: Profile, payload: str, proposal: Proposal | dict[str, Any],
+                           config: SimConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Apply ``proposal`` to the simulated vehicle carrying ``payload`` (the true vehicle of
+    ``config``, see :func:`passive_attitude_deg`), thrusters off: on each axis it must float
+    within the profile's level tolerance or within the proposal's own predicted trim ± its
+    95 % interval, whichever is larger, and never beyond 1°. Returns roll and pitch [deg]
+    before and after."""
+    d = proposal_to_dict(proposal) if isinstance(proposal, Proposal) else proposal
+    predicted = np.array([d["predicted_roll_deg"], d["predicted_pitch_deg"]], dtype=float)
+    sigma = np.array(d["predicted_trim_std_deg"], dtype=float)
+    before = passive_attitude_deg(profile, payload, config)
+    after = passive_attitude_deg(profile, payload + "+" + ballast_payload(proposal, profile),
+                                 config)
+    as_said = (np.abs(after) <= profile.level_tol_deg) | (np.abs(after - predicted) <= 1.96 * sigma)
+    assert np.all(as_said) and np.all(np.abs(after) < 1.0), (before, after, predicted, sigma)
     return before, after
+
+
+@dataclass(frozen=True)
+class SimTrim:
+    """One full trim of the simulated vehicle: what trimd concluded, and the truth.
+
+    Attributes
+    ----------
+    result : how the session ended, its estimate and proposal.
+    vehicle : the simulated vehicle at the end (``vehicle.truth.mass.net`` is the TRUE
+        q = [W − B, W·r_g − B·r_b] [N, N·m]; ``vehicle.t_s`` the simulated time the trim
+        took [s]).
+    """
+
+    result: SessionResult
+    vehicle: SimVehicle
+
+    @property
+    def q_true(self) -> np.ndarray:
+        """The true net weight and moments q [N, N·m] (body FRD, origin CG0)."""
+        return self.vehicle.truth.mass.net
+
+    @property
+    def implied_truth(self) -> tuple[float, np.ndarray]:
+        """m_ext [kg] and r_g [m] an exact estimate of the true q reports through the
+        nominal profile (``trimd.drivers.sim.truth.implied_mass``): what to compare the
+        estimate's m_ext and r_g with when the vehicle differs from its profile."""
+        return implied_mass(self.vehicle.profile, self.q_true)
+
+    def trim_after_proposal_deg(self) -> tuple[float, float]:
+        """Roll and pitch [deg] at which the TRUE vehicle floats, thrusters off, once the
+        session's proposal is put on it."""
+        assert self.result.proposal is not None, self.result.reason
+        extra = ballast_payload(self.result.proposal, self.vehicle.profile)  # type: ignore[arg-type]
+        return passive_trim_deg(self.vehicle.ballasted(extra).net)
+
+
+def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
+             method: str = "milp") -> SimTrim:
+    """Run the whole trim procedure, headless and confirmed, on the in-process simulated
+    vehicle ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (e.g. ``options="disturb=real,
+    truth=perturbed"``), proposing ballast by ``method``. Time is the simulator's alone
+    (no wall-clock Ticks), so a seed gives the same result every time."""
+    async def go() -> SimTrim:
+        url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
+        link = await open_link(url, profile)
+        assert isinstance(link, SimLink)
+        session = Session(link, profile, recorder=None, presenters=[], confirmed=True,
+                          propose=lambda est: propose_ballast(est, profile, method=method),
+                          wall_clock=False)
+        try:
+            return SimTrim(await session.run(), link.vehicle)
+        finally:
+            await link.close()
+    return asyncio.run(go())

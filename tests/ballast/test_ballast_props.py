@@ -76,7 +76,7 @@ def test_every_method_levels_random_payloads(name: str, method: str, data: st.Da
     p = propose_ballast(estimate_for(profile, [payload]), profile, method)
     assert p.success
     assert_within_limits(profile, p)
-    tol = 0.5 if method == "milp" else 0.01
+    tol = profile.level_tol_deg + 1e-6 if method == "milp" else 0.01
     net = check_levels(profile, [payload], p, tol)
     W = sum(b[0] for b in true_bodies(profile, [payload])
             + ballast_bodies(profile, p)) * profile.gravity_m_s2

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
 from collections import Counter
 
@@ -96,3 +97,22 @@ def test_link_streams_in_simulated_time_and_obeys(sabertooth: Profile) -> None:
             await link.send(Release())
 
     asyncio.run(scenario())
+
+
+def test_vehicle_clock_jump(sabertooth: Profile) -> None:
+    """``clock_jump_s``: the sample stamps jump once; the samples keep coming at the same
+    simulated pace."""
+    async def stamps() -> list[float]:
+        link = await open_link("sim:clock_jump_s=400,clock_jump_at_s=5", sabertooth)
+        out = []
+        async for s in link.samples():
+            if isinstance(s, Attitude):
+                out.append(s.t_s)
+            if len(out) == 200:
+                return out
+        return out
+
+    t = asyncio.run(stamps())
+    jump = [b - a for a, b in itertools.pairwise(t) if b - a > 1.0]
+    assert len(t) == 200 and jump == pytest.approx([400.05])
+    assert max(x for x in t if x < 100) < 5.0 <= min(x for x in t if x > 100) - 400.0

@@ -265,7 +265,7 @@ def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list
 
 
 def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "milp", *,
-                    level_tol_deg: float = 0.25, node_limit: int = STAGE_NODES
+                    level_tol_deg: float | None = None, node_limit: int = STAGE_NODES
                     ) -> Proposal:
     """Propose ballast for ``estimate`` on ``profile`` by ``method`` (see :data:`METHODS`).
 
@@ -274,8 +274,8 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     estimate : the static estimate (its net quantities q and covariance q_cov are used).
     profile : the vehicle the estimate was made on: slots, inventory, window.
     method : ``lp``, ``line``, ``general`` or ``milp``.
-    level_tol_deg : for ``milp``, the largest passive roll or pitch accepted [deg]; the
-        continuous methods level exactly.
+    level_tol_deg : for ``milp``, the largest passive roll or pitch accepted [deg]
+        (default: the profile's ``level_tol_deg``); the continuous methods level exactly.
     node_limit : the integer solver's branch-and-bound budget per stage; when reached, the
         best solution found is proposed and the message says so (nothing is proposed if
         none was found). A node budget, not a time limit: the same proposal on any machine.
@@ -292,7 +292,8 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
         covariance that is not symmetric positive semi-definite.
     ProfileError : the estimate was made with another profile's buoyancy or gravity.
     """
-    items, tol, window = _setup(method, profile, level_tol_deg)
+    items, tol, window = _setup(method, profile, profile.level_tol_deg
+                                if level_tol_deg is None else level_tol_deg)
     _check_inputs(estimate, profile)
     note, amounts = "", None
     if method == "line":

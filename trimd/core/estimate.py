@@ -7,26 +7,32 @@ stacks into one weighted linear least-squares problem for q. The weight W, the c
 gravity r_g and m_ext = W/g − m then follow from the profile's buoyancy B and centre of
 buoyancy r_b; q itself does not depend on that prior.
 
-Each hold enters at its *mean* attitude (docs/method.md §3: average over the steady window).
-Regressing on every sample's measured attitude would put the attitude noise into the
-design matrix, and errors in the regressors bias least squares towards zero: at a level
-hold the z-moment coefficient sin φ is pure noise, which pulled W·z_g − B·z_b (about
-B·|z_b|, hundreds of N·m) towards 0 by enough to bias z_g by 20–30 µm. The mean
-attitude's own uncertainty (sample spread over the effective sample count) is carried
-into the covariance through ∂(G·q)/∂(φ, θ).
+The fit is generalised least squares over *hold means*: each hold enters as its mean τ̄
+at its mean attitude, G(φ̄, θ̄)·q = τ̄. Regressing on every sample's measured attitude
+instead would put the attitude noise into the regressors and bias the fit towards zero
+(at a level hold the z-moment coefficient sin φ is pure noise); repeated samples (thruster
+outputs held onto the faster attitude stream) would count as independent.
 
-Weighting: the rows of each hold fall into two groups, forces [N] and moments [N·m];
-each group gets its own noise variance from the residuals of a first fit, inflated by
-the residuals' lag-1 autocorrelation (an effective-sample-size correction). The three
-force rows of a hold share one weight on purpose: their coefficients are the body
-components of the world vertical, so together they recover W − B exactly even when the
-vehicle holds depth but not station and only its vertical thrusters carry the load —
-as long as drag is the same in every direction. It is not (heave drag ≫ sway drag), so
-by default only level holds, where the vehicle does not drift, contribute force rows.
+The uncertainty of a hold's mean comes from its per-sample residuals
+e(t) = τ(t) − G(φ(t), θ(t))·q: attitude noise, attitude wander and thruster noise all
+enter there, with their real correlation between rows and over time. Their long-run
+covariance (:mod:`trimd.core.longrun`: Bartlett kernel, window chosen from the data) is
+the covariance of the hold's mean, seconds-long correlation included. Each row is weighted
+by its own variance, and the covariance of q is the sandwich H⁻¹·(Σ Aᵀ·W·C·W·A)·H⁻¹, which
+holds whatever the weights. A hold too short for its own correlation time is flagged
+(:attr:`HoldSummary.resolved`): its ± is then likely too small.
+
+Which rows: the force rows' coefficients are the body components of the world vertical,
+so together they would recover W − B even when the vehicle holds depth but not station
+and only its vertical thrusters carry the load — if drag were the same in every
+direction. It is not (heave drag ≫ sway drag), so by default only level holds, where the
+vehicle does not drift, contribute force rows. The identifiability check looks at exactly
+the rows the fit uses.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -34,7 +40,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
-from trimd.core.model import restoring_matrix, restoring_matrix_jacobian, thrust_configuration
+from trimd.core.longrun import MeanCovariance, mean_covariance
+from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
 
 __all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs"]
@@ -47,6 +54,7 @@ _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 _MIN_RELATIVE_SINGULAR = 0.02
 #: A hold whose mean roll and pitch are below this [rad] (≈ 3°) counts as level.
 _LEVEL_RAD = np.radians(3.0)
+_MOMENT_ROWS = np.array([False, False, False, True, True, True])
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +78,10 @@ class HoldSamples:
 
 @dataclass(frozen=True)
 class HoldSummary:
-    """What one hold contributed: mean attitude [deg], sample count, window [s]."""
+    """What one hold contributed: mean attitude [deg], sample count, window [s], and how
+    many independent samples they were worth (``effective_samples``); ``resolved`` is
+    False when the hold was too short for its own correlation time (its ± is then likely
+    too small: hold longer)."""
 
     label: str
     roll_deg: float
@@ -78,6 +89,8 @@ class HoldSummary:
     samples: int
     t_start_s: float
     t_end_s: float
+    effective_samples: float = math.nan
+    resolved: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,60 +151,68 @@ def measurable_dofs(profile: Profile) -> tuple[bool, ...]:
     return tuple(bool(np.linalg.norm(P[:, k] - np.eye(6)[k]) < 1e-6) for k in range(6))
 
 
-def _check_identifiable(holds: Sequence[HoldSamples], rows: NDArray[np.bool_]) -> None:
-    """Refuse, naming the missing direction, when the holds cannot determine q."""
-    G = np.concatenate([restoring_matrix(np.mean(h.phi), np.mean(h.theta))[rows]
-                        for h in holds])
-    _, s, vt = np.linalg.svd(G, full_matrices=False)
-    if s[-1] >= _MIN_RELATIVE_SINGULAR * s[0]:
+def _check_identifiable(holds: Sequence[HoldSamples], G: Sequence[FloatArray],
+                        rows: Sequence[NDArray[np.bool_]]) -> None:
+    """Refuse, naming the missing direction, when the rows the fit uses cannot determine q."""
+    A = np.concatenate([Gk[r] for Gk, r in zip(G, rows, strict=True)])
+    _, s, vt = np.linalg.svd(A, full_matrices=False)
+    if len(s) == 4 and s[-1] >= _MIN_RELATIVE_SINGULAR * s[0]:
         return
-    name = _PARAM_NAMES[int(np.argmax(np.abs(vt[-1])))]
+    name = _PARAM_NAMES[int(np.argmax(np.abs(vt[-1])))] if len(s) == 4 else _PARAM_NAMES[3]
     tilts = ", ".join(f"({np.degrees(np.mean(h.phi)):.1f}°, {np.degrees(np.mean(h.theta)):.1f}°)"
                       for h in holds)
     if all(_is_level(h) for h in holds):
         raise EstimationError(
             f"{name} is not identifiable: every hold was level (holds at roll, pitch {tilts});"
             " add a tilted hold, e.g. roll = pitch = 20°")
-    used = ", ".join(d for d, r in zip(TAU_NAMES, rows, strict=True) if r)
+    used = "; ".join(f"{h.label or k + 1}: " + ",".join(d for d, u in zip(TAU_NAMES, r,
+                                                                          strict=True) if u)
+                     for k, (h, r) in enumerate(zip(holds, rows, strict=True)))
     raise EstimationError(
-        f"{name} is not identifiable from holds at roll, pitch {tilts} with the measured "
-        f"rows {used}: at any one attitude the moment about the vertical is invisible, so "
-        "at least two holds at different attitudes are needed (e.g. level and roll = pitch "
-        "= 20°)")
-
-
-def _lag1(r: FloatArray) -> float:
-    """Pooled lag-1 autocorrelation of the columns of ``r``, clipped to [0, 0.99].
-
-    Pooled (each column weighted by its variance), as the variance it corrects is pooled:
-    a plain mean of per-column values lets a column of negligible spread (a thruster row
-    stuck in its deadband, say) inflate the variance of the whole group.
-    """
-    if r.shape[0] < 3:
-        return 0.0
-    c = r - r.mean(axis=0)
-    den = float(np.sum(c * c))
-    if den <= 0:
-        return 0.0
-    return float(np.clip(np.sum(c[1:] * c[:-1]) / den, 0.0, 0.99))
-
-
-def _mean_attitude_cov(hold: HoldSamples) -> FloatArray:
-    """Covariance [rad²] of a hold's mean (φ, θ): spread over the effective sample count."""
-    att = np.column_stack([hold.phi, hold.theta])
-    c = att - att.mean(axis=0)
-    kappa = (1 + (rho := _lag1(c))) / (1 - rho)
-    return np.cov(c, rowvar=False) * kappa / len(att)
-
-
-def _attitude_jacobian(phi: float, theta: float, q: FloatArray) -> FloatArray:
-    """∂(G(φ, θ)·q)/∂(φ, θ), shape (6, 2) [N or N·m per rad]."""
-    d: FloatArray = np.einsum("ijk,j->ik", restoring_matrix_jacobian(phi, theta), q)
-    return d
+        f"{name} is not identifiable from holds at roll, pitch {tilts} with the rows used "
+        f"({used}): force rows count at level holds only, and at any one attitude the "
+        "moment about the vertical is invisible, so at least two holds at different "
+        "attitudes with the Z row measured at a level one are needed (e.g. level and "
+        "roll = pitch = 20°)")
 
 
 def _is_level(hold: HoldSamples) -> bool:
     return bool(abs(np.mean(hold.phi)) < _LEVEL_RAD and abs(np.mean(hold.theta)) < _LEVEL_RAD)
+
+
+def _residual_means(holds: Sequence[HoldSamples], rows: Sequence[NDArray[np.bool_]],
+                    q: FloatArray) -> list[MeanCovariance]:
+    """Per hold, the mean of τ − G(φ, θ)·q over its samples (the rows used) with its
+    long-run covariance: attitude noise, wander and thruster noise all enter through the
+    per-sample residual, correlated as they really are."""
+    out = []
+    for h, r in zip(holds, rows, strict=True):
+        e = h.tau[:, r] - np.einsum("nij,j->ni", restoring_matrix(h.phi, h.theta)[:, r], q)
+        out.append(mean_covariance(e))
+    return out
+
+
+def _group_scales(holds: Sequence[HoldSamples],
+                  used: Sequence[NDArray[np.bool_]]) -> list[FloatArray]:
+    """Per hold, 1/spread of each used row, pooled over all force rows and over all moment
+    rows of all holds [1/N, 1/(N·m)]."""
+    dev: dict[bool, list[FloatArray]] = {False: [], True: []}
+    for h, r in zip(holds, used, strict=True):
+        d = h.tau[:, r] - h.tau[:, r].mean(axis=0)
+        for column, is_moment in zip(d.T, np.flatnonzero(r) >= 3, strict=True):
+            dev[bool(is_moment)].append(column)
+    rms = {m: max(float(np.sqrt(np.mean(np.concatenate(v) ** 2))) if v else 1.0, 1e-12)
+           for m, v in dev.items()}
+    return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
+
+
+def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
+                  weights: Sequence[FloatArray]) -> FloatArray:
+    """q minimising Σ_k ‖w_k·(τ̄_k − A_k·q)‖²."""
+    Aw = np.concatenate([Ak * w[:, None] for Ak, w in zip(A, weights, strict=True)])
+    yw = np.concatenate([t * w for t, w in zip(tau, weights, strict=True)])
+    q: FloatArray = np.linalg.lstsq(Aw, yw, rcond=None)[0]
+    return q
 
 
 def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
@@ -239,39 +260,34 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         if not (np.all(np.isfinite(h.phi)) and np.all(np.isfinite(h.theta))
                 and np.all(np.isfinite(h.tau))):
             raise EstimationError(f"hold {h.label!r} contains NaN or infinite values")
-    _check_identifiable(holds, rows)
-
-    force = rows.copy()
-    force[3:] = False
-    moment = rows & ~force
     level = [_is_level(h) for h in holds]
     use_force = [lv or not (level_forces_only and any(level)) for lv in level]
+    used = [rows & (_MOMENT_ROWS | f) for f in use_force]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
     G = [restoring_matrix(*a) for a in attitude]
-    groups = [(k, m) for k, f in enumerate(use_force)
-              for m in ((force, moment) if f else (moment,)) if np.any(m)]
-    A = [np.tile(G[k][m], (len(holds[k].phi), 1)) for k, m in groups]
-    y = [holds[k].tau[:, m].reshape(-1) for k, m in groups]
-    q0 = np.linalg.lstsq(np.concatenate(A), np.concatenate(y), rcond=None)[0]
-
-    variances = []
-    for (k, m), Ag, yg in zip(groups, A, y, strict=True):
-        r = (yg - Ag @ q0).reshape(len(holds[k].phi), int(np.sum(m)))
-        kappa = (1 + (rho := _lag1(r))) / (1 - rho)
-        variances.append(float(np.mean(r * r)) * kappa)
-    scale = max(max(variances), 1e-300)
-    weights = [1.0 / np.sqrt(max(v, 1e-12 * scale, 1e-300)) for v in variances]
-    Aw = np.concatenate([Ag * w for Ag, w in zip(A, weights, strict=True)])
-    yw = np.concatenate([yg * w for yg, w in zip(y, weights, strict=True)])
-    q = np.linalg.lstsq(Aw, yw, rcond=None)[0]
-    H_inv = np.linalg.inv(Aw.T @ Aw)
-    # q moves by −H⁻¹·Σ n·w²·G_mᵀ·D_m·δ for an error δ in a hold's mean attitude
-    c = np.zeros((len(holds), 4, 2))
-    for (k, m), w in zip(groups, weights, strict=True):
-        c[k] += len(holds[k].phi) * w**2 * G[k][m].T @ _attitude_jacobian(*attitude[k], q)[m]
-    spread = sum((ck @ _mean_attitude_cov(h) @ ck.T for ck, h in zip(c, holds, strict=True)),
-                 np.zeros((4, 4)))
-    q_cov = H_inv + H_inv @ spread @ H_inv
+    _check_identifiable(holds, G, used)
+    A = [Gk[r] for Gk, r in zip(G, used, strict=True)]
+    tau = [h.tau[:, r].mean(axis=0) for h, r in zip(holds, used, strict=True)]
+    # a first fit with one scale for the forces and one for the moments (the pooled
+    # spread: a single row's spread can be zero, a thruster idle in its dead band), then
+    # generalised least squares over the hold means weighted by their long-run variances,
+    # twice (the residuals depend on q)
+    scale = _group_scales(holds, used)
+    q = _weighted_fit(A, tau, scale)
+    for _ in range(2):
+        means = _residual_means(holds, used, q)
+        var = [np.diag(m.cov) for m in means]
+        floor = max(1e-12 * max(float(v.max()) for v in var),
+                    min(float(v.min()) for v in var), 1e-300)
+        # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
+        weights = [np.sqrt(floor / np.maximum(v, floor)) for v in var]
+        q = _weighted_fit(A, tau, weights)
+    means = _residual_means(holds, used, q)
+    # sandwich covariance: the weights need not be exact for it to hold
+    H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
+    meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
+                zip(A, weights, means, strict=True)), np.zeros((4, 4)))
+    q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)
     W = float(q[0] + B)
@@ -286,8 +302,9 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     residuals = np.concatenate([h.tau - Gh @ q for h, Gh in zip(holds, G, strict=True)])
     residual_rms = np.sqrt(np.mean(residuals**2, axis=0))
     summaries = tuple(HoldSummary(h.label, float(np.degrees(a[0])), float(np.degrees(a[1])),
-                                  len(h.phi), float(h.t_s[0]), float(h.t_s[-1]))
-                      for h, a in zip(holds, attitude, strict=True))
+                                  len(h.phi), float(h.t_s[0]), float(h.t_s[-1]),
+                                  m.effective_samples, m.resolved)
+                      for h, a, m in zip(holds, attitude, means, strict=True))
     return StaticEstimate(
         q=q, q_cov=q_cov, weight_N=W, buoyancy_N=B, r_b_m=r_b, r_g_m=r_g,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from trimd.core.decision import StopRule, informative_rows
 from trimd.core.effort import MAX_THRUSTER_AGE_S
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
@@ -34,7 +35,8 @@ from trimd.core.events import (
     TrimResult,
 )
 from trimd.core.guards import Guard
-from trimd.core.model import restoring_matrix, tau_from_pwm
+from trimd.core.longrun import mean_covariance
+from trimd.core.model import tau_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
@@ -53,7 +55,6 @@ __all__ = ["Procedure"]
 #: Telemetry the precheck needs, in samples per second of sample time.
 MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
 PRECHECK_WINDOW_S = 5.0
-CONFIDENCE_CHECK_EVERY_S = 2.0
 #: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
 BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
 #: Before the holds, depth may wander by this share of max_depth_excursion_m over the
@@ -101,6 +102,7 @@ class Procedure:
         self.estimate: StaticEstimate | None = None
         self.proposal: object | None = None
         self.guard = Guard(profile.procedure, min_rates_hz=MIN_RATES_HZ)
+        self.rule = StopRule.for_profile(profile)
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
@@ -114,7 +116,7 @@ class Procedure:
         self._holds: list[_Hold] = []
         self._psi = 0.0
         self._settling: HoldSettling | None = None
-        self._next_check = math.nan
+        self._look = 0
 
     # ---------------------------------------------------------------- public interface
     def step(self, event: Event) -> list[Output]:
@@ -196,7 +198,7 @@ class Procedure:
         if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
             return []
         if self.phase is Phase.COLLECT and self._time_left() < 0:
-            return self._end_hold(self._confident())
+            return self._end_hold(self._decided())
         tau = self._tau(a.t_s)
         if not self._settling.attitude(a, tau is not None) or tau is None:
             return []
@@ -272,10 +274,9 @@ class Procedure:
         sp = self.profile.holds[k]
         phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
         self._holds.append(_Hold(phi, theta))
-        floor = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
-                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
-        self._settling = HoldSettling(self.proc, phi, theta, floor)
-        self._next_check = math.nan
+        self._settling = HoldSettling(self.proc, phi, theta, self.rule.effort_floor(
+            math.radians(self.proc.attitude_tol_deg), phi, theta))
+        self._look = 0
         self.guard.start(self._t, self._depth.depth_m if self._depth else math.nan,
                          "the hold's start depth")
         out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
@@ -283,17 +284,16 @@ class Procedure:
                                  f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
 
     def _maybe_next_hold(self) -> list[Output]:
-        """After a collected sample: move on once confident, or at collect_max_s."""
-        timed_out = self._t - self._t_phase >= self.proc.collect_max_s
-        if math.isnan(self._next_check):
-            self._next_check = self._t + self.proc.min_steady_s
-        if not timed_out and self._t < self._next_check:
+        """After a collected sample: at each look of the stop rule, move on once the
+        decision is known; at the last look (``collect_max_s``), move on anyway."""
+        looks = self.rule.looks_s
+        if self._look >= len(looks) or self._t - self._t_phase < looks[self._look]:
             return []
-        self._next_check = self._t + CONFIDENCE_CHECK_EVERY_S
-        confident = self._confident()
-        if not confident and not timed_out:
+        self._look += 1
+        decided = self._decided()
+        if not decided and self._look < len(looks):
             return []
-        return self._end_hold(confident)
+        return self._end_hold(decided)
 
     def _end_hold(self, confident: bool) -> list[Output]:
         hold = self._holds[-1]
@@ -303,37 +303,29 @@ class Procedure:
                                 cause=Cause.TIMEOUT)
         out: list[Output] = []
         if not confident:
-            out.append(Notice(self._t, "warning", f"hold {len(self._holds)}: target "
-                              "confidence not reached in collect_max_s; using what was "
-                              f"collected ({len(hold.t)} samples)"))
+            out.append(Notice(self._t, "warning", f"hold {len(self._holds)}: the level "
+                              f"tolerance ({self.profile.level_tol_deg:g}°) and the buoyancy "
+                              "window were not reached at 95 % in collect_max_s; using what "
+                              f"was collected ({len(hold.t)} samples): the ± says how well "
+                              "the proposal is known"))
         if len(self._holds) < len(self.profile.holds):
             return out + self._next_hold()
         return out + self._solve()
 
-    def _confident(self) -> bool:
-        """Is the estimate (or, before the last hold, this hold's mean) precise enough?"""
+    def _decided(self) -> bool:
+        """Is what the operator acts on known well enough (:class:`StopRule`)? Before the
+        last hold: this hold's mean effort on the rows that carry information at its
+        attitude (at level: Z, K and M); at the last: the estimate."""
         if len(self._holds) < len(self.profile.holds):
-            return self._hold_precise(self._holds[-1])
+            hold = self._holds[-1]
+            rows = informative_rows(hold.phi, hold.theta)
+            tau = np.array(hold.tau).reshape(-1, 6)[:, rows]
+            return len(tau) >= 3 and self.rule.hold_decided(mean_covariance(tau), rows)
         try:
             est = estimate_static(self._hold_samples(), self.profile)
         except EstimationError:
             return False
-        return bool(np.all(est.r_g_std_m <= self.proc.target_cg_std_m)
-                    and est.m_ext_std_kg <= self.proc.target_m_ext_std_kg)
-
-    def _hold_precise(self, hold: _Hold) -> bool:
-        """Standard errors of the hold's mean force and moments (batch means) against the
-        targets, translated through g and the weight. Only the rows that carry
-        information at this attitude count (at level: Z, K and M)."""
-        tau = np.array(hold.tau)
-        if len(tau) < 20:
-            return False
-        batches = np.array([b.mean(axis=0) for b in np.array_split(tau, 10)])
-        se = batches.std(axis=0, ddof=1) / math.sqrt(len(batches))
-        informative = np.abs(restoring_matrix(hold.phi, hold.theta)).max(axis=1) > 0.05
-        limit = np.r_[np.full(3, self.proc.target_m_ext_std_kg * self.profile.gravity_m_s2),
-                      np.full(3, self.proc.target_cg_std_m * self.profile.weight_N)]
-        return bool(np.all(se[informative] <= limit[informative]))
+        return self.rule.estimate_decided(est)
 
     def _solve(self) -> list[Output]:
         try:

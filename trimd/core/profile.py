@@ -112,8 +112,6 @@ class ProcedureLimits:
     collect_max_s: float
     connect_timeout_s: float
     link_timeout_s: float
-    target_cg_std_m: float
-    target_m_ext_std_kg: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,6 +134,7 @@ class Profile:
     slots: tuple[BallastSlot, ...]
     inventory: tuple[BallastPiece, ...]
     net_buoyancy_pct: tuple[float, float]
+    level_tol_deg: float
     holds: tuple[HoldSetpoint, ...]
     procedure: ProcedureLimits
     frame_config: int | None = None

@@ -117,7 +117,7 @@ _KNOWN_KEYS = {
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "target_cg_std_m", "target_m_ext_std_kg",
+    "connect_timeout_s", "link_timeout_s", "level_tol_deg",
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
 }
 
@@ -218,8 +218,6 @@ def _procedure(node: _Node) -> ProcedureLimits:
         collect_max_s=node.number("collect_max_s", 120.0, positive=True),
         connect_timeout_s=node.number("connect_timeout_s", 30.0, positive=True),
         link_timeout_s=node.number("link_timeout_s", 0.8, positive=True),
-        target_cg_std_m=node.number("target_cg_std_m", 0.001, positive=True),
-        target_m_ext_std_kg=node.number("target_m_ext_std_kg", 0.05, positive=True),
     )
     if p.max_tilt_deg >= 60:
         raise node.fail("max_tilt_deg", f"expected less than 60 degrees, got {p.max_tilt_deg}")
@@ -289,6 +287,7 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
     if not 0 <= window[0] <= window[1]:
         raise ballast.fail("net_buoyancy_pct", f"expected [low, high] with 0 <= low <= high, "
                                                f"got {list(window)}")
+    level_tol_deg = ballast.number("level_tol_deg", 0.5, positive=True)
     ballast.done()
 
     procedure = _procedure(top.child("procedure"))
@@ -319,7 +318,8 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
         linear_damping=linear, quadratic_damping=quadratic,  # type: ignore[arg-type]
         nominal_voltage_V=top.number("nominal_voltage_V", 16.0, positive=True),
         thrusters=thrusters, slots=tuple(slots), inventory=inventory,
-        net_buoyancy_pct=(window[0], window[1]), holds=tuple(holds), procedure=procedure,
+        net_buoyancy_pct=(window[0], window[1]), level_tol_deg=level_tol_deg,
+        holds=tuple(holds), procedure=procedure,
         frame_config=frame,
     )
     top.done()

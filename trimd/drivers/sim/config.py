@@ -9,6 +9,15 @@ position contains commas (``payload=3.5@0.2,-0.1,0.05``): a comma-separated piec
     sim:payload=10@AftSB
     sim:payload=0.4@W-aft-ctr,seed=3,current_m_s=0.05
     sim:payload=3.5@0.2,-0.1,0.05,noise=0,dvl=1
+    sim:payload=0.4@W-aft-ctr,disturb=real,truth=perturbed,seed=7
+    sim:disturb=real,ahrs_wander_deg=0.2
+
+Two preset keys set several fields at once, before the other keys whatever their order (so
+a key can change one field of a preset): ``disturb=real`` (:data:`DISTURB_REAL`, the slow
+disturbances of a real vehicle; ``disturb=none``, the default, has none) and
+``truth=perturbed`` (:data:`TRUTH_PERTURBED`, a vehicle that differs from its profile;
+``truth=profile``, the default, is the profile exactly). In Python:
+:func:`with_presets`.
 """
 
 from __future__ import annotations
@@ -20,7 +29,8 @@ from typing import Any
 
 from trimd.core.errors import LinkError
 
-__all__ = ["SimConfig", "parse_sim_options"]
+__all__ = ["DISTURB_REAL", "PRESETS", "TRUTH_PERTURBED", "SimConfig", "parse_sim_options",
+           "with_presets"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +51,8 @@ class SimConfig:
     damping : hydrodynamic damping on (off only for energy tests).
     thruster_lag_s : first-order spin-up time constant of each thruster [s].
     voltage_V : battery voltage [V]; 0 means the profile's nominal voltage.
-    noise : factor on every sensor noise level below (0 = perfect sensors).
+    noise : factor on every white sensor noise level below (0 = perfect sensors; the slow
+        disturbances further down are not scaled).
     attitude_noise_rad, rate_noise_rad_s, gyro_bias_rad_s, depth_noise_m,
     depth_rate_noise_m_s, dvl_noise_m_s : sensor noise standard deviations (the gyro bias
         is drawn once per seed with this standard deviation).
@@ -49,6 +60,42 @@ class SimConfig:
     attitude_bandwidth_rad_s, depth_bandwidth_rad_s : controller bandwidths [rad/s].
     attitude_hz, thrusters_hz, depth_hz, velocity_hz, battery_hz, health_hz : sample
         rates of the in-process link [Hz of simulated time].
+
+    Slow disturbances, each a first-order Gauss–Markov process
+    (:mod:`trimd.drivers.sim.disturbance`) of the stated standard deviation and
+    correlation time [s]; an amplitude of 0 (the default) switches it off:
+
+    ahrs_wander_deg, ahrs_wander_tau_s : error of the AHRS roll and pitch estimate [deg]
+        (each). The controller holds the estimate, so in a hold the true vehicle wanders
+        and the reported attitude does not; at rest the reported attitude wanders.
+    attitude_wander_deg, attitude_wander_tau_s : wander of the attitude the controller
+        holds, roll and pitch [deg] (what disturbances and a loose attitude loop leave of a
+        hold): true and reported attitude wander together.
+    depth_wander_m, depth_wander_tau_s : error of the depth sensor [m] (pressure
+        fluctuation, waves); depth hold follows it, so the vehicle heaves.
+    current_wander_m_s, current_wander_tau_s : varying water current, north and east
+        components [m/s] (each), added to the ``current_m_s`` one.
+    gyro_wander_deg_s, gyro_wander_tau_s : varying gyro bias of p, q, r [deg/s] (each),
+        added to the constant ``gyro_bias_rad_s`` one (bias instability).
+    thruster_dither_us, thruster_dither_tau_s : PWM dither of each thruster's output [µs]
+        (ESC and controller jitter), before rounding to integer µs; reported PWM includes
+        it.
+
+    clock_jump_s, clock_jump_at_s : the vehicle's clock (the stamp of every sample; the
+        physics is unaffected) jumps by ``clock_jump_s`` [s] (negative: back) once
+        ``clock_jump_at_s`` [s] of simulated time have passed, as a time sync does. The
+        in-process link and the serial server show it; the MAVLink server's
+        time_boot_ms does not.
+
+    A vehicle that differs from its profile (the simulator flies the truth; everything
+    that reads the profile, the controller included, sees the nominal vehicle). The sign
+    and direction of each error is drawn from ``seed`` (its own random stream):
+
+    buoyancy_err : true buoyancy B = (1 ± buoyancy_err)·profile B [fraction].
+    cob_err_mm : true centre of buoyancy r_b = profile r_b + cob_err_mm in a random
+        direction [mm].
+    thrust_err : each thruster's true thrust = (1 ± thrust_err)·profile curve, the sign
+        drawn separately per thruster and per direction (forward, reverse) [fraction].
     """
 
     payload: str = ""
@@ -79,9 +126,62 @@ class SimConfig:
     velocity_hz: float = 5.0
     battery_hz: float = 1.0
     health_hz: float = 1.0
+    ahrs_wander_deg: float = 0.0
+    ahrs_wander_tau_s: float = 20.0
+    attitude_wander_deg: float = 0.0
+    attitude_wander_tau_s: float = 10.0
+    depth_wander_m: float = 0.0
+    depth_wander_tau_s: float = 20.0
+    current_wander_m_s: float = 0.0
+    current_wander_tau_s: float = 60.0
+    gyro_wander_deg_s: float = 0.0
+    gyro_wander_tau_s: float = 120.0
+    thruster_dither_us: float = 0.0
+    thruster_dither_tau_s: float = 0.3
+    clock_jump_s: float = 0.0
+    clock_jump_at_s: float = 60.0
+    buoyancy_err: float = 0.0
+    cob_err_mm: float = 0.0
+    thrust_err: float = 0.0
 
+
+#: ``disturb=real``: what a real vehicle at rest in a pool or calm sea shows (ArduSub's AHRS
+#: wanders ≈ 0.1° over tens of seconds; MEMS gyro bias instability ≈ 0.01–0.05 °/s; a
+#: pressure sensor and ripples ≈ 1 cm; thruster outputs reported at 0.4 of the attitude
+#: rate, as a ground station's requested stream rates give). The PWM dither is small on
+#: purpose: the controller already jitters the outputs with the sensor noise, and on the
+#: BlueROV2 Heavy (vertical thrusters at the edge of the T200 deadband, small roll
+#: stiffness) 3 µs of dither alone wanders roll by ≈ 1° (std); with this set its roll
+#: shows ≈ 0.25° (std), ≈ 0.12° of it slow (5 s means); the Sabertooth ≈ 0.11° / 0.09°.
+DISTURB_REAL: dict[str, Any] = {
+    "ahrs_wander_deg": 0.1, "ahrs_wander_tau_s": 20.0,
+    "attitude_wander_deg": 0.1, "attitude_wander_tau_s": 10.0,
+    "depth_wander_m": 0.01, "depth_wander_tau_s": 20.0,
+    "current_m_s": 0.03, "current_wander_m_s": 0.02, "current_wander_tau_s": 60.0,
+    "gyro_wander_deg_s": 0.02, "gyro_wander_tau_s": 120.0,
+    "thruster_dither_us": 0.5, "thruster_dither_tau_s": 0.3,
+    "attitude_hz": 10.0, "thrusters_hz": 4.0,
+}
+
+#: ``truth=perturbed``: the vehicle of issue 12 that its profile does not describe
+#: exactly (buoyancy 1 % off, centre of buoyancy 5 mm off, thrust 5 % off the table).
+TRUTH_PERTURBED: dict[str, Any] = {"buoyancy_err": 0.01, "cob_err_mm": 5.0, "thrust_err": 0.05}
 
 _FIELDS = {f.name: f for f in dataclasses.fields(SimConfig)}
+
+
+def _defaults(fields: dict[str, Any]) -> dict[str, Any]:
+    """The default value of each of ``fields``."""
+    return {key: _FIELDS[key].default for key in fields}
+
+
+#: Preset keys of a ``sim:`` URL: key → value → the fields it sets (``none`` and
+#: ``profile`` set the fields of the other value back to their defaults).
+PRESETS: dict[str, dict[str, dict[str, Any]]] = {
+    "disturb": {"real": DISTURB_REAL, "none": _defaults(DISTURB_REAL)},
+    "truth": {"perturbed": TRUTH_PERTURBED, "profile": _defaults(TRUTH_PERTURBED)},
+}
+
 _TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 
@@ -108,13 +208,43 @@ def parse_sim_options(text: str, base: SimConfig | None = None) -> SimConfig:
             pairs[-1][1] += "," + piece
         else:
             raise LinkError(f"sim option '{piece}': expected KEY=VALUE")
+    presets = {key: value.strip() for key, value in pairs if key in PRESETS}
+    base = with_presets(base or SimConfig(), **presets)
     values: dict[str, Any] = {}
     for key, value in pairs:
+        if key in PRESETS:
+            continue
         if key not in _FIELDS:
-            near = difflib.get_close_matches(key, _FIELDS, n=1)
+            near = difflib.get_close_matches(key, [*_FIELDS, *PRESETS], n=1)
             hint = f" (did you mean '{near[0]}'?)" if near else ""
             raise LinkError(f"unknown sim option '{key}'{hint}")
         values[key] = _convert(key, value.strip())
+    return dataclasses.replace(base, **values)
+
+
+def with_presets(base: SimConfig | None = None, **presets: str) -> SimConfig:
+    """``base`` with the fields of each preset (``disturb="real"``, ``truth="perturbed"``;
+    :data:`PRESETS`) set, the rest of ``base`` kept.
+
+    Raises
+    ------
+    LinkError
+        For an unknown preset key or value.
+
+    Examples
+    --------
+    >>> c = with_presets(SimConfig(seed=3), disturb="real", truth="perturbed")
+    >>> c.seed, c.ahrs_wander_deg, c.cob_err_mm, c.thrusters_hz / c.attitude_hz
+    (3, 0.1, 5.0, 0.4)
+    """
+    values: dict[str, Any] = {}
+    for key, name in presets.items():
+        if key not in PRESETS:
+            raise LinkError(f"unknown sim preset '{key}' (known: {', '.join(PRESETS)})")
+        if name not in PRESETS[key]:
+            raise LinkError(f"sim option {key}={name}: expected one of "
+                            f"{', '.join(PRESETS[key])}")
+        values.update(PRESETS[key][name])
     return dataclasses.replace(base or SimConfig(), **values)
 
 

@@ -74,6 +74,8 @@ class Controller:
         self.position_target = (0.0, 0.0)
         self.pilot = (0.0, 0.0, 0.0, 0.0)
         self.open_loop: tuple[float, ...] | None = None
+        #: wander added to the held roll and pitch [rad] (``SimConfig.attitude_wander_deg``)
+        self.setpoint_offset: tuple[float, ...] = (0.0, 0.0)
         self._i = [0.0] * 6          # integrals: K, M, N, depth, north, east
         self._saturated = [False] * 6
 
@@ -101,7 +103,12 @@ class Controller:
             self.set_target(self.target[0], self.target[1], self.target[2] + yaw * _YAW_RATE * dt)
         # attitude error as a rotation vector in the body frame: q_e = q_m* ⊗ q_t
         a0, a1, a2, a3 = quaternion_from_euler(reading.phi, reading.theta, reading.psi)
-        b0, b1, b2, b3 = self._q_t
+        d_phi, d_theta = self.setpoint_offset
+        if d_phi or d_theta:
+            phi_t, theta_t, psi_t = self.target
+            b0, b1, b2, b3 = quaternion_from_euler(phi_t + d_phi, theta_t + d_theta, psi_t)
+        else:
+            b0, b1, b2, b3 = self._q_t
         w = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
         s = 2.0 if w >= 0 else -2.0
         pid = self._pid

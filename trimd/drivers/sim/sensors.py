@@ -11,6 +11,10 @@ all scaled by ``SimConfig.noise``:
   station keeping uses is the true one (a perfect position fix);
 * the water current: a horizontal NED velocity of mean speed ``current_m_s`` whose speed
   and direction wander slowly (periods of 10 and 15 min) with seeded phases.
+
+On top of these, the slow disturbances of :mod:`trimd.drivers.sim.disturbance` when they
+are on: an AHRS roll/pitch error, a varying gyro bias, a depth-sensor error and a
+varying current.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from trimd.drivers.sim.config import SimConfig
+from trimd.drivers.sim.disturbance import Disturbances
 from trimd.drivers.sim.dynamics import State, euler_from_quaternion
 
 __all__ = ["Reading", "Sensors"]
@@ -51,10 +56,17 @@ class Reading(NamedTuple):
 
 
 class Sensors:
-    """Noisy measurements of the true state, and the water current, for one seed."""
+    """Noisy measurements of the true state, and the water current, for one seed.
 
-    def __init__(self, config: SimConfig) -> None:
+    Parameters
+    ----------
+    config : noise levels, current and seed.
+    disturbances : the slow disturbances (stepped by the vehicle).
+    """
+
+    def __init__(self, config: SimConfig, disturbances: Disturbances) -> None:
         c = config
+        self.disturbances = disturbances
         self._rng = np.random.default_rng(c.seed)
         self.gyro_bias = tuple(float(b) for b in
                                c.noise * c.gyro_bias_rad_s * self._rng.standard_normal(3))
@@ -83,6 +95,11 @@ class Sensors:
         depth_rate = (2.0 * (q1 * q3 - q0 * q2) * u + 2.0 * (q2 * q3 + q0 * q1) * v
                       + (1.0 - 2.0 * (q1 * q1 + q2 * q2)) * w)
         bp, bq, br = self.gyro_bias
+        d = self.disturbances
+        if d.active:
+            phi, theta = phi + d.ahrs_rad[0], theta + d.ahrs_rad[1]
+            depth += d.depth_m
+            bp, bq, br = bp + d.gyro_rad_s[0], bq + d.gyro_rad_s[1], br + d.gyro_rad_s[2]
         return Reading(t_s, phi + n[0], theta + n[1], _wrap(psi + n[2]),
                        p + bp + n[3], q + bq + n[4], r + br + n[5],
                        depth + n[6], depth_rate + n[7], u + n[8], v + n[9], w + n[10],
@@ -91,12 +108,13 @@ class Sensors:
     def current(self, t_s: float) -> tuple[float, float, float]:
         """Water current [m/s] in NED at ``t_s`` (horizontal, slowly varying)."""
         c = self._current
+        cn, ce = self.disturbances.current_m_s
         if c == 0.0:
-            return (0.0, 0.0, 0.0)
+            return (cn, ce, 0.0) if cn or ce else (0.0, 0.0, 0.0)
         a, b, d = self._phase
         speed = c * (1.0 + 0.3 * math.sin(2 * math.pi * t_s / 600.0 + a))
         heading = d + 0.5 * math.sin(2 * math.pi * t_s / 900.0 + b)
-        return (speed * math.cos(heading), speed * math.sin(heading), 0.0)
+        return (speed * math.cos(heading) + cn, speed * math.sin(heading) + ce, 0.0)
 
 
 def _wrap(angle: float) -> float:

@@ -105,16 +105,22 @@ class Mixer:
                     out[i] /= peak
         return tuple(out)
 
-    def pwm(self, outputs: Sequence[float]) -> tuple[int, ...]:
-        """Integer PWM [µs] for normalised outputs (reversal applied, saturated)."""
+    def pwm(self, outputs: Sequence[float], dither_us: Sequence[float] = ()
+            ) -> tuple[int, ...]:
+        """Integer PWM [µs] for normalised outputs (reversal applied, saturated), with
+        ``dither_us`` [µs] per thruster added before rounding (kept within the range)."""
         result = []
         for out, (sign, neutral, up, down) in zip(outputs, self._pwm_scale, strict=True):
             o = sign * out
             if o > 0.0:
-                result.append(round(neutral + (o if o < 1.0 else 1.0) * up))
+                result.append(neutral + (o if o < 1.0 else 1.0) * up)
             else:
-                result.append(round(neutral + (o if o > -1.0 else -1.0) * down))
-        return tuple(result)
+                result.append(neutral + (o if o > -1.0 else -1.0) * down)
+        if not dither_us:
+            return tuple([round(p) for p in result])
+        return tuple([round(min(max(p + d, neutral - down), neutral + up))
+                      for p, d, (_, neutral, up, down) in zip(result, dither_us,
+                                                               self._pwm_scale, strict=True)])
 
     def neutral(self) -> tuple[int, ...]:
         """PWM of every thruster at rest (disarmed)."""

@@ -5,15 +5,18 @@ in-process link, the MAVLink server, a serial server): commands go in as method 
 telemetry comes out as ``trimd.core.samples`` values, and tests read :attr:`SimVehicle.truth`.
 Time is simulated: nothing here reads a clock.
 
-One step of ``dt`` (default 10 ms): the sensors read the state, the controller (when armed)
-turns the reading into axis inputs, the mixer into integer PWM, the thrusters into τ
-through their curves and spin-up lag, and RK4 advances the state with τ and the water
-current held over the step.
+The vehicle flies :attr:`SimVehicle.true_profile` (the profile itself, unless the config
+perturbs it: :mod:`trimd.drivers.sim.truth`); its mixer and controller, like trimd, know only
+the nominal profile.
+
+One step of ``dt`` (default 10 ms): the slow disturbances advance, the sensors read the
+state, the controller (when armed) turns the reading into axis inputs, the mixer into
+integer PWM (plus dither), the thrusters into τ through their curves and spin-up lag, and
+RK4 advances the state with τ and the water current held over the step.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -25,10 +28,12 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.controller import MODES, Controller
+from trimd.drivers.sim.disturbance import Disturbances
 from trimd.drivers.sim.dynamics import RigidBody, euler_from_quaternion, initial_state
 from trimd.drivers.sim.payload import MassProperties, PayloadItem, mass_properties, parse_payload
 from trimd.drivers.sim.sensors import Reading, Sensors
 from trimd.drivers.sim.thrusters import Mixer, ThrusterBank
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg, perturb_profile
 
 __all__ = ["SAMPLE_KINDS", "SimVehicle", "Truth"]
 
@@ -49,7 +54,8 @@ class Truth:
     nu : [u, v, w, p, q, r] [m/s, rad/s] (body FRD).
     tau : generalised force of the thrusters [N, N·m] (body FRD), after spin-up lag.
     g_eta : restoring forces g(η) at the true attitude [N, N·m] (Fossen eq. 4.6).
-    mass : true mass properties (W, B, r_g, r_b; ``mass.net`` = q of docs/method.md §3).
+    mass : true mass properties (W, B, r_g, r_b; ``mass.net`` = q of docs/method.md §3),
+        of the true profile when the config perturbs it.
     payload : the hidden payload items.
     m_ext_kg : added mass of the weights [kg] (floats not included).
     """
@@ -74,6 +80,14 @@ class SimVehicle:
     >>> v.run_for(1.0)
     >>> round(v.t_s, 6), v.truth.m_ext_kg, len(v.pwm_us)
     (1.0, 10.0, 6)
+
+    Attributes
+    ----------
+    profile : the nominal profile (what trimd, the mixer and the controller read).
+    true_profile : the profile the physics flies (buoyancy, r_b and thrust curves off by
+        ``offset`` when the config perturbs them).
+    offset : how ``true_profile`` differs from ``profile``.
+    disturbances : the slow disturbances (their present values).
     """
 
     def __init__(self, profile: Profile, config: SimConfig | None = None) -> None:
@@ -82,13 +96,15 @@ class SimVehicle:
             raise ValueError(f"simulated mode must be one of {MODES}, got {c.mode!r}")
         self.profile = profile
         self.config = c
+        self.true_profile, self.offset = perturb_profile(profile, c)
         self.payload = parse_payload(c.payload, profile)
-        self.mass = mass_properties(profile, self.payload)
-        self.body = RigidBody(profile, self.mass, damping=c.damping)
+        self.mass = mass_properties(self.true_profile, self.payload)
+        self.body = RigidBody(self.true_profile, self.mass, damping=c.damping)
         self.voltage_V = c.voltage_V or profile.nominal_voltage_V
         self.mixer = Mixer(profile, self.voltage_V)
-        self.thrusters = ThrusterBank(profile, self.voltage_V, c.thruster_lag_s)
-        self.sensors = Sensors(c)
+        self.thrusters = ThrusterBank(self.true_profile, self.voltage_V, c.thruster_lag_s)
+        self.disturbances = Disturbances(c, len(profile.thrusters))
+        self.sensors = Sensors(c, self.disturbances)
         self.controller = Controller(profile, self.mixer, c.dt_s, station=c.station,
                                      attitude_bandwidth=c.attitude_bandwidth_rad_s,
                                      depth_bandwidth=c.depth_bandwidth_rad_s)
@@ -111,10 +127,15 @@ class SimVehicle:
     def step(self) -> None:
         """Advance one step of ``dt_s``."""
         t, dt, x, sensors = self.steps * self.dt_s, self.dt_s, self.x, self.sensors
+        d = self.disturbances
+        if d.active:
+            d.step()
+            self.controller.setpoint_offset = d.setpoint_rad
         self.reading = reading = sensors.read(t, x)
         if self.armed:
             mixer = self.mixer
-            self.pwm_us = mixer.pwm(mixer.outputs(self.controller.update(reading, self.mode)))
+            self.pwm_us = mixer.pwm(mixer.outputs(self.controller.update(reading, self.mode)),
+                                    d.dither_us)
         self.tau = tau = self.thrusters.step(self.pwm_us, dt)
         self.x = self.body.rk4(x, tau, sensors.current(t), dt)
         self.steps += 1
@@ -167,20 +188,22 @@ class SimVehicle:
     # ------------------------------------------------------------------ telemetry
     def sample(self, kind: str) -> Sample:
         """The latest ``kind`` sample (one of :data:`SAMPLE_KINDS`), stamped with the time
-        of the reading it comes from."""
+        of the reading it comes from on the vehicle's clock (``SimConfig.clock_jump_s``)."""
         r = self.reading
+        c = self.config
+        t = r.t_s + c.clock_jump_s if c.clock_jump_s and r.t_s >= c.clock_jump_at_s else r.t_s
         if kind == "attitude":
-            return Attitude(r.t_s, r.phi, r.theta, r.psi, r.p, r.q, r.r)
+            return Attitude(t, r.phi, r.theta, r.psi, r.p, r.q, r.r)
         if kind == "thrusters":
-            return Thrusters(r.t_s, tuple(float(p) for p in self.pwm_us))
+            return Thrusters(t, tuple(float(p) for p in self.pwm_us))
         if kind == "depth":
-            return Depth(r.t_s, r.depth_m)
+            return Depth(t, r.depth_m)
         if kind == "velocity":
-            return Velocity(r.t_s, r.u, r.v, r.w)
+            return Velocity(t, r.u, r.v, r.w)
         if kind == "battery":
-            return Battery(r.t_s, self.voltage_V)
+            return Battery(t, self.voltage_V)
         if kind == "health":
-            return Health(r.t_s, True, self.mode, self.armed,
+            return Health(t, True, self.mode, self.armed,
                           vehicle=f"simulated {self.profile.name}")
         raise ValueError(f"unknown sample kind {kind!r} (known: {', '.join(SAMPLE_KINDS)})")
 
@@ -196,14 +219,35 @@ class SimVehicle:
             payload=self.payload,
             m_ext_kg=sum(p.mass_kg for p in self.payload if p.mass_kg > 0))
 
+    def ballasted(self, extra_payload: str) -> MassProperties:
+        """True mass properties with ``extra_payload`` (payload syntax, e.g. a ballast
+        proposal's pieces) added to the hidden payload: with :func:`passive_trim_deg` of
+        its ``net``, where the true vehicle would float after ballasting.
+
+        Raises
+        ------
+        ProfileError
+            For a malformed item or a slot the profile does not have.
+        """
+        extra = parse_payload(extra_payload, self.profile)
+        return mass_properties(self.true_profile, self.payload + extra)
+
     def describe_truth(self) -> str:
         """The hidden payload and what a perfect estimate would find, for people."""
         m = self.mass
         items = ", ".join(p.label for p in self.payload) or "none"
         r_g = ", ".join(f"{1000 * v:+.1f}" for v in m.r_g)
         net = self.mass.net
-        return (f"simulator truth: payload {items}; m_ext {self.truth.m_ext_kg:.3f} kg, "
+        roll, pitch = passive_trim_deg(net)
+        text = (f"simulator truth: payload {items}; m_ext {self.truth.m_ext_kg:.3f} kg, "
                 f"W − B {net[0]:+.2f} N, r_g ({r_g}) mm, "
                 f"W·r_g − B·r_b ({', '.join(f'{v:+.3f}' for v in net[1:])}) N·m; "
-                f"passive trim roll {math.degrees(math.atan2(net[2], net[3])):+.2f}°, "
-                f"pitch {math.degrees(math.atan2(-net[1], math.hypot(net[2], net[3]))):+.2f}°")
+                f"passive trim roll {roll:+.2f}°, pitch {pitch:+.2f}°")
+        if self.true_profile is self.profile:
+            return text
+        o = self.offset
+        m_ext, r_g_seen = implied_mass(self.profile, net)
+        return (f"{text}; the vehicle is off its profile (B ×{o.buoyancy_factor:.3f}, r_b "
+                f"{', '.join(f'{1000 * v:+.1f}' for v in o.r_b_offset_m)} mm, thrust "
+                f"±{100 * self.config.thrust_err:g} %): an exact estimate reads m_ext "
+                f"{m_ext:.3f} kg, r_g ({', '.join(f'{1000 * v:+.1f}' for v in r_g_seen)}) mm")

@@ -1,0 +1,138 @@
+"""A simulated vehicle whose truth differs from its profile (``truth=perturbed``).
+
+The physics flies the perturbed vehicle (buoyancy, centre of buoyancy, thrust curves off by
+the stated amounts, directions from the seed); trimd and the simulated autopilot read the
+nominal profile; the true net quantities q and the passive trim after ballasting are
+available to tests.
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+import numpy as np
+import pytest
+
+from tests.helpers import passive_attitude_deg, payload_truth
+from trimd.app.connect import open_link
+from trimd.core.model import restoring_forces
+from trimd.core.profile import Profile
+from trimd.drivers.sim.config import TRUTH_PERTURBED, SimConfig, parse_sim_options, with_presets
+from trimd.drivers.sim.thrusters import ThrusterBank
+from trimd.drivers.sim.truth import implied_mass, passive_trim_deg
+from trimd.drivers.sim.vehicle import SimVehicle
+
+
+def perturbed(seed: int, payload: str = "") -> SimConfig:
+    return with_presets(SimConfig(seed=seed, payload=payload), truth="perturbed")
+
+
+@pytest.mark.parametrize("name", ["bluerov", "sabertooth"])
+def test_truth_differs_from_the_profile_by_the_stated_amounts(
+        name: str, request: pytest.FixtureRequest) -> None:
+    profile: Profile = request.getfixturevalue(name)
+    signs, directions = set(), []
+    for seed in range(12):
+        v = SimVehicle(profile, perturbed(seed))
+        true = v.true_profile
+        assert v.profile is profile                      # what trimd and the autopilot read
+        assert abs(true.buoyancy_N / profile.buoyancy_N - 1) == pytest.approx(0.01)
+        d_rb = np.subtract(true.r_b_m, profile.r_b_m)
+        assert 1000 * np.linalg.norm(d_rb) == pytest.approx(5.0)
+        signs.add(np.sign(true.buoyancy_N - profile.buoyancy_N))
+        directions.append(d_rb / np.linalg.norm(d_rb))
+        # thrust of every thruster, both directions, is 5 % off the profile's curve; the
+        # deadband (zero thrust) is where it was
+        nominal = ThrusterBank(profile, v.voltage_V, 0.0)
+        for pwm in (1300, 1490, 1700, 1900):
+            true_f = np.array(v.thrusters.thrust([pwm] * len(v.pwm_us)))
+            nominal_f = np.array(nominal.thrust([pwm] * len(v.pwm_us)))
+            if 1450 < pwm < 1550:
+                assert np.all(true_f == nominal_f)
+            else:
+                assert np.allclose(np.abs(true_f / nominal_f - 1), 0.05), (pwm, true_f)
+    assert signs == {-1.0, 1.0}
+    assert np.linalg.norm(np.mean(directions, axis=0)) < 0.6      # not one direction
+
+
+def test_true_net_quantities_and_reproducible_by_seed(bluerov: Profile) -> None:
+    payload, m, r = "0.4@0.1,-0.05,0.1", 0.4, np.array([0.1, -0.05, 0.1])
+    v = SimVehicle(bluerov, perturbed(7, payload))
+    W, r_g = payload_truth(bluerov, m, r)
+    B, r_b = bluerov.buoyancy_N * v.offset.buoyancy_factor, np.add(bluerov.r_b_m,
+                                                                   v.offset.r_b_offset_m)
+    q = v.truth.mass.net
+    assert np.allclose(q, np.r_[W - B, W * r_g - B * r_b])
+    nominal = SimVehicle(bluerov, SimConfig(payload=payload)).truth.mass.net
+    assert abs(q[0] - nominal[0]) == pytest.approx(0.01 * bluerov.buoyancy_N)
+    assert 4.0 < 1000 * np.linalg.norm(q[1:] - nominal[1:]) / B < 6.0   # ≈ 5 mm of r_b
+    again = SimVehicle(bluerov, perturbed(7, payload))
+    assert np.array_equal(again.truth.mass.net, q) and again.offset == v.offset
+    assert not np.allclose(SimVehicle(bluerov, perturbed(8, payload)).truth.mass.net, q)
+    # what an exact estimate reads through the nominal profile: the same q, another m_ext
+    m_ext, r_g_seen = implied_mass(bluerov, q)
+    assert abs(m_ext - m) == pytest.approx(0.01 * bluerov.buoyancy_N / bluerov.gravity_m_s2)
+    W_seen = (bluerov.mass_kg + m_ext) * bluerov.gravity_m_s2
+    assert np.allclose(W_seen * r_g_seen - bluerov.buoyancy_N * np.asarray(bluerov.r_b_m),
+                       q[1:])
+    # the noise and disturbances do not move the truth: one seed, one vehicle
+    real = with_presets(perturbed(7, payload), disturb="real")
+    assert np.array_equal(SimVehicle(bluerov, real).truth.mass.net, q)
+
+
+def test_url_options(bluerov: Profile) -> None:
+    c = parse_sim_options("truth=perturbed,seed=3,cob_err_mm=2")
+    assert (c.buoyancy_err, c.cob_err_mm, c.thrust_err, c.seed) == (0.01, 2.0, 0.05, 3)
+    assert parse_sim_options("truth=profile", base=c) == SimConfig(seed=3)
+    assert TRUTH_PERTURBED == {"buoyancy_err": 0.01, "cob_err_mm": 5.0, "thrust_err": 0.05}
+
+    async def truth_line() -> str:
+        link = await open_link("sim:payload=0.4@W-aft-ctr,truth=perturbed,seed=3", bluerov)
+        return link.truth()  # type: ignore[attr-defined, no-any-return]
+
+    line = asyncio.run(truth_line())
+    assert "off its profile (B ×" in line and "an exact estimate reads m_ext" in line
+    nominal = SimVehicle(bluerov, SimConfig(payload="0.4@W-aft-ctr"))
+    assert nominal.true_profile is bluerov and "off its profile" not in nominal.describe_truth()
+
+
+def test_the_vehicle_floats_at_the_true_passive_trim(bluerov: Profile) -> None:
+    """Disarmed, the perturbed vehicle floats where its TRUE q says (not where the
+    profile's does), and :meth:`SimVehicle.ballasted` predicts it after ballasting."""
+    config = perturbed(5, "0.4@W-aft-ctr")
+    v = SimVehicle(bluerov, config)
+    nominal = passive_trim_deg(SimVehicle(bluerov, SimConfig(payload=config.payload))
+                               .truth.mass.net)
+    predicted = passive_trim_deg(v.truth.mass.net)
+    assert np.max(np.abs(np.subtract(predicted, nominal))) > 2.0     # 5 mm of r_b shows
+    assert np.allclose(passive_attitude_deg(bluerov, config.payload, config), predicted,
+                       atol=0.05)
+    extra = "-0.2@W-aft-ctr+0.1@W-front-stbd"
+    after = passive_trim_deg(v.ballasted(extra).net)
+    # (sinking at a tilt, the Munk moment of the added masses moves it by < 0.1°)
+    assert np.allclose(passive_attitude_deg(bluerov, config.payload + "+" + extra, config),
+                       after, atol=0.15)
+
+
+def test_a_hold_balances_the_true_vehicle_with_the_true_thrust(bluerov: Profile) -> None:
+    """Station-keeping hold, noise off: the thrust the vehicle really makes balances the
+    TRUE g(η); τ computed from the reported PWM through the profile's curves is off by the
+    thrust error (what trimd would see)."""
+    from trimd.core.model import tau_from_pwm
+
+    config = with_presets(SimConfig(seed=1, payload="0.4@W-aft-ctr", noise=0.0, station=True),
+                          truth="perturbed")
+    v = SimVehicle(bluerov, config)
+    v.hold_attitude(np.radians(10), np.radians(10), 0.0)
+    v.run_for(90.0)
+    true_tau, profile_tau = [], []
+    for _ in range(100):
+        v.run_for(0.1)
+        true_tau.append(v.truth.tau)
+        profile_tau.append(tau_from_pwm(bluerov, v.pwm_us, v.voltage_V))
+    t = v.truth
+    g = restoring_forces(t.eta[3], t.eta[4], t.mass.W, t.mass.B, t.mass.r_g, t.mass.r_b)
+    assert np.allclose(np.mean(true_tau, axis=0), g, atol=0.02)
+    seen = np.mean(profile_tau, axis=0)
+    assert np.max(np.abs(seen - g)) > 0.02                     # the thrust error shows
+    assert np.max(np.abs(seen - g)) < 0.1 * np.max(np.abs(g))  # and is about 5 %

@@ -1,0 +1,121 @@
+"""When has a hold collected enough? The stop rule, on the quantities the operator acts on.
+
+The operator acts on a ballast proposal. It leaves the vehicle level to within the error
+of the estimated net moments divided by the vehicle's metacentric stiffness, and its net
+buoyancy off by the error of W − B. So collecting stops when, at 95 %,
+
+- the passive roll and pitch the proposal would leave are within the profile's
+  ``level_tol_deg``: z·σ(W·y_g − B·y_b)/k ≤ tol and z·σ(W·x_g − B·x_b)/k ≤ tol, with
+  k = W·z_g − B·z_b [N·m/rad] the stiffness (restoring moment per radian of tilt: the
+  estimate's once the tilted hold is in, the profile's before);
+- W − B is known to within half the profile's net-buoyancy window:
+  z·σ(W − B) ≤ (high − low)/2 % of the weight;
+- the stiffness itself is known to within :data:`STIFFNESS_TOLERANCE` of its value;
+- every hold is worth at least ``MIN_EFFECTIVE`` independent samples (its ± is resolved).
+
+A vehicle with a small metacentric height (a BlueROV2: k ≈ 1–3 N·m/rad) therefore
+collects longer than a stiff one, as it must. The rule is checked only at a fixed
+schedule of looks (collection times growing by :data:`LOOK_GROWTH` from ``min_steady_s``
+to ``collect_max_s``), and z is the Bonferroni quantile for that many looks, so that the
+chance that any look stops on a too-optimistic σ stays within 5 %. Units: N, N·m, rad, s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import norm
+
+from trimd.core.estimate import StaticEstimate
+from trimd.core.longrun import MeanCovariance
+from trimd.core.model import restoring_matrix
+from trimd.core.profile import Profile
+
+__all__ = ["LOOK_GROWTH", "STIFFNESS_TOLERANCE", "StopRule", "informative_rows"]
+
+FloatArray = NDArray[np.float64]
+#: Each look comes this many times later (in collection time) than the one before.
+LOOK_GROWTH = 1.5
+#: The stiffness must be known to this share of its value.
+STIFFNESS_TOLERANCE = 0.1
+#: The chance that the decision is wrong, over all looks together.
+ALPHA = 0.05
+#: A row of G(φ, θ) with no coefficient above this carries no information.
+INFORMATIVE = 0.05
+
+
+def informative_rows(phi: float, theta: float) -> NDArray[np.bool_]:
+    """The rows of g(η) = τ that depend on q at (``phi``, ``theta``) [rad]: at level Z, K
+    and M (X, Y and the yaw moment N carry nothing there)."""
+    return np.asarray(np.abs(restoring_matrix(phi, theta)).max(axis=1) > INFORMATIVE, bool)
+
+
+@dataclass(frozen=True)
+class StopRule:
+    """The stop rule for one profile.
+
+    Attributes
+    ----------
+    level_tol_rad : the largest passive roll or pitch the proposal may leave [rad].
+    buoyancy_half_window_N : half the width of the net-buoyancy window [N].
+    stiffness_prior_Nm : the profile's W·z_g − B·z_b with z_g = 0 [N·m/rad].
+    looks_s : collection times [s] at which the rule is checked.
+    """
+
+    level_tol_rad: float
+    buoyancy_half_window_N: float
+    stiffness_prior_Nm: float
+    looks_s: tuple[float, ...]
+
+    @classmethod
+    def for_profile(cls, profile: Profile) -> StopRule:
+        proc = profile.procedure
+        looks = [proc.min_steady_s]
+        while looks[-1] * LOOK_GROWTH < proc.collect_max_s:
+            looks.append(looks[-1] * LOOK_GROWTH)
+        if looks[-1] < proc.collect_max_s:
+            looks.append(proc.collect_max_s)
+        low, high = profile.net_buoyancy_pct
+        return cls(math.radians(profile.level_tol_deg),
+                   (high - low) / 200 * profile.weight_N,
+                   -profile.buoyancy_N * profile.r_b_m[2], tuple(looks))
+
+    @property
+    def z(self) -> float:
+        """The two-sided quantile for a 1 − ALPHA decision over all looks."""
+        return float(norm.ppf(1 - ALPHA / (2 * len(self.looks_s))))
+
+    def row_limits(self, stiffness_Nm: float | None = None) -> FloatArray:
+        """The largest σ of a hold's mean τ row [N, N·m] that the decision tolerates."""
+        k = max(stiffness_Nm or self.stiffness_prior_Nm, 1e-9)
+        return np.r_[np.full(3, self.buoyancy_half_window_N),
+                     np.full(3, self.level_tol_rad * k)] / self.z
+
+    def hold_decided(self, mean: MeanCovariance, rows: NDArray[np.bool_]) -> bool:
+        """Is one hold's mean τ (the ``rows`` that carry information at its attitude)
+        known well enough? Used before the last hold, when no estimate exists yet."""
+        sigma = np.sqrt(np.diag(mean.cov))
+        return mean.resolved and bool(np.all(sigma <= self.row_limits()[rows]))
+
+    def estimate_decided(self, est: StaticEstimate) -> bool:
+        """Are the proposal's level, its net buoyancy and the stiffness known well enough?"""
+        sigma = np.sqrt(np.diag(est.q_cov))
+        k = float(est.q[3])
+        if k <= 0 or not all(h.resolved for h in est.holds):
+            return False
+        limits = np.r_[self.buoyancy_half_window_N, self.level_tol_rad * k,
+                       self.level_tol_rad * k, STIFFNESS_TOLERANCE * k] / self.z
+        return bool(np.all(sigma <= limits))
+
+    def effort_floor(self, attitude_tol_rad: float, phi: float, theta: float) -> FloatArray:
+        """Effort drift [N, N·m per row of τ] too small to matter while settling at
+        (``phi``, ``theta``) [rad]: half the buoyancy window for forces, and for moments
+        what a tilt within the attitude tolerance changes anyway (the stiffness times
+        ``attitude_tol_rad``); unbounded on rows that carry no information there (yaw at
+        level). Slow wander below it is left to the estimate's long-run variance."""
+        floor = np.r_[np.full(3, self.buoyancy_half_window_N),
+                      np.full(3, attitude_tol_rad * self.stiffness_prior_Nm)]
+        return np.where(informative_rows(phi, theta), floor, np.inf)

@@ -1,0 +1,128 @@
+"""A simulated vehicle that differs from its profile, and its passive trim.
+
+The simulator flies a *true* profile: the nominal one with its buoyancy, centre of
+buoyancy and thrust curves off by the amounts of ``SimConfig.buoyancy_err``,
+``cob_err_mm`` and ``thrust_err``, in directions drawn from the seed. Everything that
+reads the profile — trimd, and the simulated autopilot's mixer and controller — sees the
+nominal one, as on a real vehicle whose profile was measured or computed imperfectly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from trimd.core.profile import Profile, ThrustCurve
+from trimd.drivers.sim.config import SimConfig
+
+__all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile"]
+
+#: Random stream of the perturbation (beside the noise and disturbance streams).
+_STREAM = 100
+
+
+@dataclass(frozen=True, slots=True)
+class TruthOffset:
+    """How the true vehicle differs from its profile (all zero: not at all).
+
+    Attributes
+    ----------
+    buoyancy_factor : true B / profile B.
+    r_b_offset_m : true r_b − profile r_b [m] (body FRD).
+    thrust_factors : per thruster (profile order), true / profile thrust for a forward
+        (PWM above neutral) and a reverse output.
+    """
+
+    buoyancy_factor: float
+    r_b_offset_m: tuple[float, float, float]
+    thrust_factors: tuple[tuple[float, float], ...]
+
+
+def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, TruthOffset]:
+    """The true profile of the vehicle ``config`` describes, and how it differs.
+
+    Signs (buoyancy, each thruster direction) are ±1 with equal chance and the centre of
+    buoyancy moves in a direction uniform on the sphere, all drawn from ``config.seed``;
+    the sizes are exactly those of ``config``. With no error configured the true profile
+    is ``profile`` itself.
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> p = load_profile("bluerov2-heavy")
+    >>> true, err = perturb_profile(p, SimConfig(seed=1, buoyancy_err=0.01, cob_err_mm=5))
+    >>> round(abs(true.buoyancy_N / p.buoyancy_N - 1), 6), round(1000 * float(np.linalg.norm(
+    ...     np.subtract(true.r_b_m, p.r_b_m))), 6)
+    (0.01, 5.0)
+    """
+    if not (config.buoyancy_err or config.cob_err_mm or config.thrust_err):
+        n = len(profile.thrusters)
+        return profile, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.0, 1.0),) * n)
+    rng = np.random.default_rng([config.seed, _STREAM])
+    sign_b = float(rng.choice((-1.0, 1.0)))
+    direction = rng.standard_normal(3)
+    direction /= np.linalg.norm(direction)
+    signs = rng.choice((-1.0, 1.0), size=(len(profile.thrusters), 2))
+    dx, dy, dz = (float(v) for v in 1e-3 * config.cob_err_mm * direction)
+    k = config.thrust_err
+    error = TruthOffset(buoyancy_factor=1.0 + sign_b * config.buoyancy_err,
+                        r_b_offset_m=(dx, dy, dz),
+                        thrust_factors=tuple((1.0 + k * float(f), 1.0 + k * float(r))
+                                             for f, r in signs))
+    thrusters = tuple(dataclasses.replace(t, curve=_scaled(t.curve, *f))
+                      for t, f in zip(profile.thrusters, error.thrust_factors, strict=True))
+    x_b, y_b, z_b = profile.r_b_m
+    r_b = (x_b + dx, y_b + dy, z_b + dz)
+    true = dataclasses.replace(profile, buoyancy_N=profile.buoyancy_N * error.buoyancy_factor,
+                               r_b_m=r_b, thrusters=thrusters)
+    return true, error
+
+
+def _scaled(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
+    """``curve`` with its positive thrusts × ``forward`` and negative ones × ``reverse``
+    (the deadband and PWM range unchanged)."""
+    return dataclasses.replace(curve, tables=tuple(
+        dataclasses.replace(table, thrust_N=tuple(f * (forward if f > 0 else reverse)
+                                                  for f in table.thrust_N))
+        for table in curve.tables))
+
+
+def passive_trim_deg(net: ArrayLike) -> tuple[float, float]:
+    """Roll and pitch [deg] at which the restoring forces of q = [W − B, W·r_g − B·r_b]
+    [N, N·m] have no moment: where the vehicle floats with thrusters off (Fossen eq. 4.6:
+    the moment vanishes when W·r_g − B·r_b points along gravity in the body frame,
+    below the origin).
+
+    Examples
+    --------
+    >>> [round(a, 3) for a in passive_trim_deg([0.0, -0.1, 0.05, 1.0])]
+    [2.862, 5.704]
+    """
+    _, nx, ny, nz = (float(v) for v in np.asarray(net, float))
+    return (math.degrees(math.atan2(ny, nz)), math.degrees(math.atan2(-nx, math.hypot(ny, nz))))
+
+
+def implied_mass(profile: Profile, net: ArrayLike) -> tuple[float, NDArray[np.float64]]:
+    """m_ext [kg] and r_g [m] (body FRD, origin CG0) that q = [W − B, W·r_g − B·r_b]
+    [N, N·m] implies through the *profile's* B and r_b: what an exact estimate of q
+    reports. On a vehicle that differs from its profile these are the numbers to compare
+    an estimate's m_ext and r_g with (the hidden payload's mass is not identifiable then:
+    1 % of B is 0.14 kg on the BlueROV2 Heavy, 11.9 kg on the Sabertooth).
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> from trimd.drivers.sim.payload import mass_properties, parse_payload
+    >>> p = load_profile("sabertooth-dh2")
+    >>> m_ext, r_g = implied_mass(p, mass_properties(p, parse_payload("10@AftSB", p)).net)
+    >>> round(m_ext, 9), [round(float(v), 4) for v in r_g]
+    (10.0, [-0.0086, 0.005, 0.0])
+    """
+    q = np.asarray(net, float)
+    B = profile.buoyancy_N
+    W = float(q[0]) + B
+    return W / profile.gravity_m_s2 - profile.mass_kg, (q[1:] + B * np.asarray(profile.r_b_m)) / W
