@@ -349,14 +349,16 @@ def test_the_pilot_taking_over_mid_hold_is_a_pilot_input_and_holds_no_longer_tak
 
 
 class PtyVehicle:
-    """A vehicle of our own on a pseudo-terminal: streams attitude and status every 50 ms
-    of its clock and answers trimd's TRVER with ``VHVER,<answer>`` (or never: None)."""
+    """A vehicle of our own on a pseudo-terminal: streams attitude (and, with ``status``,
+    VHSTA) every 50 ms of its clock and answers trimd's TRVER with ``VHVER,<answer>`` (or
+    never: None)."""
 
-    def __init__(self, answer: str | None) -> None:
+    def __init__(self, answer: str | None, *, status: bool = True) -> None:
         self.master, self._slave = os.openpty()
         tty.setraw(self._slave)
         self.path = os.ttyname(self._slave)
         self.answer = answer
+        self.status = status
         self.heard = b""
         self.stop = threading.Event()
 
@@ -370,8 +372,8 @@ class PtyVehicle:
                     if b"$TRVER" in data and self.answer is not None:
                         os.write(self.master, frame(f"VHVER,{self.answer}"))
                 t_ms += 50
-                os.write(self.master, frame(f"VHATT,{t_ms},0,0,0,0,0,0")
-                         + frame(f"VHSTA,{t_ms},ALT_HOLD,1,PILOT"))
+                os.write(self.master, frame(f"VHATT,{t_ms},0,0,0,0,0,0") + (
+                    frame(f"VHSTA,{t_ms},ALT_HOLD,1,PILOT") if self.status else b""))
         except OSError:
             pass   # trimd closed its side
         finally:
@@ -405,14 +407,18 @@ def test_a_vehicle_that_never_takes_trimd_s_hold_is_flown_by_its_pilot(
         thread.join(timeout=5)
 
 
-@pytest.mark.parametrize(("answer", "reason"), [
-    ("2,old", "the vehicle (old) speaks serial protocol version 2, trimd speaks 1"),
-    (None, "the vehicle did not connect within 2 s: the vehicle sends telemetry but has "
-           "not answered trimd's version sentence (TRVER) with VHVER"),
+MUTE = ("the vehicle did not connect within 2 s: the vehicle sends telemetry but has not "
+        "answered trimd's version sentence (TRVER) with VHVER")
+
+
+@pytest.mark.parametrize(("answer", "status", "reason"), [
+    ("2,old", True, "the vehicle (old) speaks serial protocol version 2, trimd speaks 1"),
+    (None, True, MUTE),
+    (None, False, MUTE),      # no VHSTA either: its attitude says it is there
 ])
 def test_trimd_run_against_a_vehicle_of_another_version_or_one_that_never_answers_exits_3(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], answer: str | None,
-        reason: str) -> None:
+        status: bool, reason: str) -> None:
     """Through a real pseudo-terminal: a version-2 vehicle fails at once, a mute one
     after connect_timeout_s (2 s here); either way with the reason, exit 3, nothing
     commanded."""
@@ -421,7 +427,7 @@ def test_trimd_run_against_a_vehicle_of_another_version_or_one_that_never_answer
     assert "connect_timeout_s: 30.0" in text
     profile.write_text(text.replace("connect_timeout_s: 30.0", "connect_timeout_s: 2.0"),
                        encoding="utf-8")
-    vehicle = PtyVehicle(answer)
+    vehicle = PtyVehicle(answer, status=status)
     thread = threading.Thread(target=vehicle.run, daemon=True)
     thread.start()
     start = time.monotonic()

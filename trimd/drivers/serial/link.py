@@ -19,8 +19,8 @@ Link loss: no valid sentence for ``timeout_s`` (default 1 s) after the handshake
 disconnected :class:`Health` (the reader checks every 50 ms); a device error (a port
 unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream
 with a :class:`LinkError` saying why. So does a vehicle answering the handshake with
-another protocol version. Until the handshake is answered, each VHSTA gives a
-disconnected Health saying what is missing.
+another protocol version. Until the handshake is answered, each VHSTA (or, without one,
+any telemetry once a second) gives a disconnected Health saying what is missing.
 
 The pilot: when the vehicle reports (VHSTA) that control went from trimd's hold or
 open-loop input back to the pilot while trimd still commands, or that the pilot still
@@ -73,6 +73,9 @@ DEFAULT_BAUD = 115_200
 TIMEOUT_S = 1.0
 #: Period of the control sentence (and of the handshake until answered) [s].
 CONTROL_PERIOD_S = 0.5
+#: Before the handshake, a vehicle's telemetry yields a disconnected Health (with the reason)
+#: at most this often [s, wall clock], VHSTA or not.
+WAITING_EVERY_S = 1.0
 #: While trimd commands, this many VHSTA in a row saying control PILOT (1 Hz: the first
 #: may have left before the vehicle had trimd's command) mean the vehicle did not take it.
 NOT_TAKEN_AFTER = 3
@@ -137,6 +140,7 @@ class SerialLink:
                          "sentence (TRVER) with VHVER")
         self._fatal = ""   # why the stream ended, for the LinkError that ends it
         self._flying = ""  # who flies, as the vehicle's last VHSTA said
+        self._t_waiting = -WAITING_EVERY_S  # monotonic: when a not-connected Health went out
         self._pilot_stas = 0  # VHSTAs in a row saying PILOT while trimd commands
         self._pilot_said = False  # a PilotInput was yielded for this command
         self._clock = _VehicleClock()
@@ -262,10 +266,17 @@ class SerialLink:
             self._last = out
             self._emit(out)
             self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
-        elif out is None:
+            if not self._connected:
+                self._t_waiting = now
+            return
+        if out is None:
             self.unmapped += 1
         else:
             self._emit(out)
+        if self.vehicle is None and now - self._t_waiting >= WAITING_EVERY_S:
+            # a vehicle that talks without a VHSTA: say why it is not connected all the same
+            self._t_waiting = now
+            self._emit(Health(t_s, False, "", False, self.parser.bad_lines, self._problem))
 
     def _on_control(self, control: str, health: Health) -> None:
         """While trimd commands, the pilot flies if the vehicle handed control back (HOLD/
