@@ -348,6 +348,16 @@ def test_the_pilot_taking_over_mid_hold_is_a_pilot_input_and_holds_no_longer_tak
     asyncio.run(go())
 
 
+def test_the_simulated_pilot_takes_over_only_in_a_mode_the_simulator_flies(
+        sabertooth: Profile) -> None:
+    server = SerialServer(SimVehicle(sabertooth, SimConfig(seed=5)))
+    try:
+        with pytest.raises(ValueError, match="not SURFACE"):
+            server.pilot_takes_over("SURFACE")
+    finally:
+        server.close()
+
+
 class PtyVehicle:
     """A vehicle of our own on a pseudo-terminal: streams attitude (and, with ``status``,
     VHSTA) every 50 ms of its clock and answers trimd's TRVER with ``VHVER,<answer>`` (or

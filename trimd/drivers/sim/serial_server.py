@@ -48,6 +48,7 @@ from trimd.drivers.serial.protocol import (
     encode_sample,
     to_command,
 )
+from trimd.drivers.sim.controller import MODES
 from trimd.drivers.sim.pacing import run_paced
 from trimd.drivers.sim.vehicle import SimVehicle
 
@@ -158,8 +159,11 @@ class SerialServer:
 
     # ------------------------------------------------------------------ the pilot
     def pilot_takes_over(self, mode: str = "MANUAL") -> None:
-        """The pilot switches the vehicle to ``mode`` and flies it (from any thread: the
-        serving thread acts on it at its next poll)."""
+        """The pilot switches the vehicle to ``mode`` (one of the simulator's
+        :data:`~trimd.drivers.sim.controller.MODES`) and flies it; from any thread: the serving
+        thread acts on it at its next poll."""
+        if mode not in MODES:
+            raise ValueError(f"the simulated vehicle flies {', '.join(MODES)}, not {mode}")
         self._takeover = mode
 
     def _pilot_takes_over(self, mode: str) -> None:
