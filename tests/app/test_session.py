@@ -15,7 +15,7 @@ from trimd.app.headless import HeadlessPresenter
 from trimd.app.session import Session
 from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, HoldAttitude, Release, Sample
+from trimd.core.samples import Command, HoldAttitude, PilotInput, Release, Sample
 
 
 class ListRecorder:
@@ -145,6 +145,31 @@ def test_link_that_goes_quiet_mid_hold_is_released_within_a_second_of_its_last_s
     last = recorder.samples[-1].t_s
     [t_release] = [t for t, c in recorder.commands if isinstance(c, Release)]
     assert last + sabertooth.procedure.link_timeout_s < t_release <= last + 1.0
+
+
+class RawFakeLink(FakeLink):
+    """A link that records its packets itself (as MAVLink does), and concludes that
+    someone else took over mid-hold."""
+
+    on_raw = None
+
+    async def samples(self) -> Any:
+        async for s in super().samples():
+            yield s
+            if self.t >= 30.0 and not getattr(self, "said", False):
+                self.said = True
+                yield PilotInput(self.t, "mode changed to MANUAL by another station")
+
+
+def test_a_raw_link_s_pilot_input_is_recorded_though_its_packets_stand_for_the_rest(
+        sabertooth: Profile, link: FakeLink) -> None:
+    raw = RawFakeLink(link.vehicle)
+    recorder = ListRecorder()
+    result = run(Session(raw, sabertooth, recorder=recorder, presenters=[], confirmed=True))
+    assert result.phase is Phase.FAILED and result.cause == "pilot"
+    assert recorder.samples == [PilotInput(recorder.samples[0].t_s,
+                                           "mode changed to MANUAL by another station")]
+    assert isinstance(raw.sent[-1], Release)
 
 
 def test_link_that_ends_fails_the_session(sabertooth: Profile, link: FakeLink) -> None:

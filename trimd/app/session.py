@@ -46,7 +46,7 @@ from trimd.core.events import (
 from trimd.core.link import Link, RawPackets
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, Release, Sample
+from trimd.core.samples import Command, Health, PilotInput, Release, Sample
 
 __all__ = ["Machine", "Presenter", "Recorder", "Session", "SessionResult"]
 
@@ -249,7 +249,10 @@ class Session:
         s = dataclasses.replace(sample, t_s=self._session_time(sample.t_s))
         self._t_last, self._wall_last = s.t_s, time.monotonic()
         self._t_now = max(self._t_now, s.t_s)
-        recorded = s if self._raw or self.recorder is None else self.recorder.sample(s)
+        # a raw link's packets are its samples, except what the link concludes itself
+        # (someone else took over): no packet says that, so it is recorded as a sample
+        packet = self._raw and not isinstance(s, PilotInput)
+        recorded = s if packet or self.recorder is None else self.recorder.sample(s)
         for presenter in self.presenters:
             self._safely(presenter.sample, recorded, self.procedure.progress)
         return recorded
