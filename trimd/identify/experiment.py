@@ -9,9 +9,10 @@ the signal, its PID output is added on roll and pitch at every attitude sample) 
 (:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
 experiment's limit from the start depth, link loss (a Health sample that is not
-connected, no telemetry, or no attitude or depth, for ``link_timeout_s``) or a disarmed
-vehicle ends the experiment; so do a timeout and an internal error — every end after the
-first command sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
+connected, no telemetry for ``link_timeout_s``, or no attitude or depth for as long as
+the guard allows each), someone else flying it or a disarmed vehicle ends the
+experiment; so do a timeout and an internal error — every end after the first command
+sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import math
 
 from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
 from trimd.core.guards import Guard
+from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
 from trimd.identify.signals import HoldAxis, Signal
@@ -52,7 +54,7 @@ class Excite:
         self.proposal = None
         # open loop drives thrusters, so no thruster stream is needed to steer by
         self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
-                           streams=("attitude", "depth"))
+                           streams=("attitude", "depth"), min_rates_hz=MIN_RATES_HZ)
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
