@@ -310,7 +310,7 @@ def test_jacobian_covariance_keeps_weakly_determined_directions() -> None:
     """Columns 10¹² apart in scale (the audit's −2.4e6 ± 0.06 came from a pseudo-inverse
     of the unscaled JᵀJ cutting the weak direction off): every standard deviation as the
     exact s²·(JᵀJ)⁻¹, an ineffective parameter infinitely uncertain."""
-    from trimd.identify.fit import jacobian_covariance
+    from trimd.identify.solve import jacobian_covariance
 
     rng = np.random.default_rng(3)
     X = rng.normal(size=(400, 4))
@@ -416,7 +416,7 @@ def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
     names = ("Z_wdot", "I_y+M_qdot", "Z_w", "M_q")
     results = {}
     for label, given in (("profile", None), ("estimate", statics)):
-        fit = fit_stage(fit_data, sabertooth, "uwq", FitOptions(max_nfev=15), statics=given)
+        fit = fit_stage(fit_data, sabertooth, "uwq", FitOptions(max_iter=8), statics=given)
         val = validate(fit.values(), val_data, sabertooth, "uwq", statics=given)
         results[label] = (relative_errors(fit.values(), sabertooth, names),
                           min(min(v.nrmse) for v in val))

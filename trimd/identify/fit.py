@@ -9,11 +9,14 @@ For one stage (:data:`trimd.identify.model.STAGES`) and one or more experiments:
 1. a starting point that owes nothing to the profile's hydrodynamic values: per excited
    DOF, a non-negative least-squares equation-error fit of M_i·ν̇_i − D_i·ν_i −
    D_i|i|·|ν_i|·ν_i = τ_i − g_i(η) on smoothed derivatives of the measurements;
-2. an output-error fit with :func:`scipy.optimize.least_squares` (trust-region reflective,
-   physical bounds: added masses ≥ 0, inertia sums > 0, damping derivatives ≤ 0, thruster
-   lag in [0, 1] s) of the simulation error over short segments, each started from the
-   measured state (a stable simulation-error objective that tolerates a poor start), all
-   experiments in one cost, each output weighted by the inverse of its spread;
+2. an output-error fit with a bounded Levenberg–Marquardt least squares
+   (:func:`trimd.identify.solve.levenberg_marquardt`; physical bounds: added masses ≥ 0,
+   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s) of the simulation
+   error over short segments, each started from the measured state (a stable
+   simulation-error objective that tolerates a poor start), all experiments in one cost,
+   each output weighted by the inverse of its spread; the simulation steps over
+   ``FitOptions.step_s`` (two samples at 50 Hz) and its Jacobian is one batched simulation
+   of every perturbed parameter vector;
 3. standard deviations and correlations from the Jacobian at the optimum
    (cov = s²·(JᵀJ)⁻¹, s² the residual variance, inverted on the column-scaled Jacobian:
    :func:`jacobian_covariance`; the simulation errors are correlated in time, so these
@@ -35,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares, nnls
+from scipy.optimize import nnls
 from scipy.signal import savgol_filter
 
 from trimd.core.errors import DataError, EstimationError
@@ -56,9 +59,10 @@ from trimd.identify.model import (
 )
 from trimd.identify.problem import Problem
 from trimd.identify.signals import axis_authority
+from trimd.identify.solve import jacobian_covariance, levenberg_marquardt
 
 __all__ = ["DOF_NAMES", "DofExcitation", "FitOptions", "ParameterEstimate", "StageFit",
-           "Validation", "excitation_of", "fit_stage", "jacobian_covariance",
+           "Validation", "excitation_of", "fit_stage",
            "not_excited_message", "nrmse", "validate"]
 
 FloatArray = NDArray[np.float64]
@@ -83,6 +87,8 @@ class FitOptions:
     Attributes
     ----------
     segment_s : simulation horizon of each segment [s].
+    step_s : longest integration step of the fit [s]: the simulation steps over whole
+        samples, as many as fit in it (at least one), and is compared at those samples.
     weights : per output name (u, v, w, p, q, r, phi, theta) the weight of its error;
         outputs not named get 1/std of the measured output.
     lag_s : thruster lag [s] when it is not fitted.
@@ -91,18 +97,19 @@ class FitOptions:
     fixed : parameters held at the given value (named as in the report).
     max_rel_std : relative standard deviation above which a parameter counts as not
         determined by the data.
-    max_nfev : iterations (function evaluations) per least-squares run.
+    max_iter : Jacobian evaluations (iterations) per least-squares run.
     min_excitation : share of the thrusters' authority the spread of τ_i must reach for
         DOF i to be fitted (:data:`MIN_EXCITATION`, :func:`excitation_of`).
     """
 
     segment_s: float = 4.0
+    step_s: float = 0.04
     weights: Mapping[str, float] = field(default_factory=dict)
     lag_s: float = 0.05
     fit_lag: bool = True
     fixed: Mapping[str, float] = field(default_factory=dict)
     max_rel_std: float = 0.3
-    max_nfev: int = 60
+    max_iter: int = 30
     min_excitation: float = MIN_EXCITATION
 
 
@@ -240,7 +247,8 @@ LAG_GRID = tuple(0.025 * k for k in range(17))
 
 
 def _initial_guess(experiments: Sequence[Experiment], stage: Stage, statics: Statics,
-                   lags: Sequence[float]) -> tuple[dict[str, float], dict[str, float]]:
+                   lags: Sequence[float], step_s: float
+                   ) -> tuple[dict[str, float], dict[str, float]]:
     """Equation-error start (module docstring, step 1) for the stage's DOFs and the lag
     (the one of ``lags`` with the smallest equation error), and the share scale of each
     hydrodynamic parameter: RMS of its regressor (ν̇_i, ν_i or ν_i²) over the RMS of
@@ -248,7 +256,7 @@ def _initial_guess(experiments: Sequence[Experiment], stage: Stage, statics: Sta
     δ of the parameter makes at the experiments' typical motion.
 
     The mass entry is at least the one whose time constant at the fastest recorded speed
-    is one sample interval (a stiffer start makes the RK4 simulation diverge)."""
+    is one integration step ``step_s`` (a stiffer start makes the RK4 simulation diverge)."""
     m = statics.mass_kg
     q_rest = statics.q_rest
     regressors: dict[int, FloatArray] = {}
@@ -282,7 +290,7 @@ def _initial_guess(experiments: Sequence[Experiment], stage: Stage, statics: Sta
     sols = solve(best)[1]
     guess: dict[str, float] = {LAG: best}
     share: dict[str, float] = {}
-    h = max(e.h_s for e in experiments)
+    h = step_s
     for i in stage.dofs:
         sol = sols[i]
         fastest = max(float(np.abs(e.nu[:, i]).max()) for e in experiments)
@@ -433,7 +441,8 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
     h = experiments[0].h_s if experiments else 0.02
     problem = Problem(experiments, st, statics.mass_kg, statics.q_rest,
                       max(2, round(opts.segment_s / h)),
-                      _weights(experiments, st, opts.weights))
+                      _weights(experiments, st, opts.weights),
+                      stride=max(1, int(opts.step_s / h + 1e-9)))
     unknown = set(opts.fixed) - set(problem.names)
     if unknown:
         raise EstimationError(f"cannot fix unknown parameters {sorted(unknown)} "
@@ -442,7 +451,7 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
     theta = np.array([prior.get(n, 0.0) for n in problem.names])
     fit_lag = opts.fit_lag and LAG not in opts.fixed
     lags = LAG_GRID if fit_lag else (opts.fixed.get(LAG, opts.lag_s),)
-    guess, share = _initial_guess(experiments, st, statics, lags)
+    guess, share = _initial_guess(experiments, st, statics, lags, problem.step)
     for name, v in guess.items():
         theta[problem.index[name]] = v
     free = [problem.index[n] for n in st.free_names if n not in opts.fixed]
@@ -466,9 +475,10 @@ def _fit(problem: Problem, theta: FloatArray, free: list[int], prior: Mapping[st
     notes: dict[str, str] = {}
     nfev = 0
     while True:
-        theta, J, nf = _solve(problem, theta, free, opts.max_nfev)
+        theta, r, J, nf = _solve(problem, theta, free, opts.max_iter)
         nfev += nf
-        std, corr, rms = _covariance(problem, theta, J)
+        std, corr = jacobian_covariance(J, r)
+        rms = float(np.sqrt(np.mean(r * r)))
         j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std)
         if j < 0:
             break
@@ -503,12 +513,13 @@ def _worst_undetermined(problem: Problem, theta: FloatArray, free: Sequence[int]
     return j if rel > max_rel_std else -1
 
 
-def _solve(problem: Problem, theta: FloatArray, free: list[int], max_nfev: int
-           ) -> tuple[FloatArray, FloatArray, int]:
-    """Trust-region reflective least squares over the ``free`` parameters."""
+def _solve(problem: Problem, theta: FloatArray, free: list[int], max_iter: int
+           ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Bounded Levenberg–Marquardt over the ``free`` parameters
+    (:func:`trimd.identify.solve.levenberg_marquardt`): θ, the residuals and Jacobian at
+    the optimum, and the simulations run."""
     names = [problem.names[i] for i in free]
     lower, upper = np.array([_bounds(n, problem.h) for n in names]).T
-    x0 = np.clip(theta[free], lower, upper)
 
     def full(x: FloatArray) -> FloatArray:
         t = theta.copy()
@@ -518,64 +529,17 @@ def _solve(problem: Problem, theta: FloatArray, free: list[int], max_nfev: int
     def fun(x: FloatArray) -> FloatArray:
         return problem.residuals(full(x))
 
-    def jac(x: FloatArray) -> FloatArray:
+    def fun_jac(x: FloatArray) -> tuple[FloatArray, FloatArray]:
         t = full(x)
         steps = np.array([_step(n, t[i], problem) for n, i in zip(names, free, strict=True)])
         return problem.jacobian(t, free, steps)
 
+    x0 = np.clip(theta[free], lower, upper)
     if not np.all(np.isfinite(fun(x0))):
         raise EstimationError("the simulation diverges from the starting point: the data "
                               "do not determine a stable model (too little excitation?)")
-    res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf",
-                        x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10)
-    out = full(res.x)
-    return out, np.asarray(res.jac), int(res.nfev + res.njev)
-
-
-def _covariance(problem: Problem, theta: FloatArray, J: FloatArray
-                ) -> tuple[FloatArray, FloatArray, float]:
-    """:func:`jacobian_covariance` at ``theta``, and the RMS residual."""
-    r = problem.residuals(theta)
-    std, corr = jacobian_covariance(J, r)
-    return std, corr, float(np.sqrt(np.mean(r * r)))
-
-
-def jacobian_covariance(J: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Standard deviations (units of the parameters) and correlation matrix of the
-    parameters of a least-squares fit with Jacobian ``J`` (n × p) and residuals ``r``
-    (n,): cov = s²·(JᵀJ)⁻¹, s² = ‖r‖²/(n − p).
-
-    The inverse is taken of the column-scaled Jacobian J·D⁻¹ (D the column norms) through
-    its singular values. The columns span many orders of magnitude (a gyro bias in rad/s
-    beside a quadratic damping in N·m·s²/rad²): a pseudo-inverse of the unscaled JᵀJ cuts
-    the weakly determined directions off as rank deficiency and so reports them as exact.
-    A parameter that does not change the residuals at all gets an infinite standard
-    deviation (and NaN correlations).
-
-    Examples
-    --------
-    Two parameters 10¹⁰ apart in effect (s²·pinv(JᵀJ) gives 5e-15 for the second):
-
-    >>> J = np.array([[1e4, 0.0], [0.0, 1e-6], [1e4, 1e-6]])
-    >>> std, _ = jacobian_covariance(J, np.array([1.0, -1.0, 0.5]))
-    >>> [f"{v:.3g}" for v in std]
-    ['0.000122', '1.22e+06']
-    """
-    n, p = J.shape
-    s2 = float(r @ r) / max(n - p, 1)
-    norms = np.linalg.norm(J, axis=0)
-    live = np.flatnonzero(norms > 0)
-    std = np.full(p, np.inf)
-    corr = np.full((p, p), np.nan)
-    np.fill_diagonal(corr, 1.0)
-    if live.size:
-        _, sv, vt = np.linalg.svd(J[:, live] / norms[live], full_matrices=False)
-        sv = np.maximum(sv, sv[0] * np.finfo(float).eps)
-        cov = (vt.T / sv ** 2) @ vt                      # of the scaled parameters
-        d = np.sqrt(np.diag(cov))
-        std[live] = np.sqrt(s2) * d / norms[live]
-        corr[np.ix_(live, live)] = cov / np.outer(d, d)
-    return std, corr
+    sol = levenberg_marquardt(fun_jac, fun, x0, lower, upper, max_iter=max_iter)
+    return full(sol.x), sol.r, sol.J, sol.nfev
 
 
 def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
