@@ -24,10 +24,11 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.experiment import Excite
-from trimd.identify.fit import FitOptions, StageFit, fit_stage, validate
+from trimd.identify.fit import FitOptions, StageFit, fit_stage
 from trimd.identify.model import STAGES, prior_values, restoring_vector
 from trimd.identify.problem import Problem
 from trimd.identify.signals import design_signal
+from trimd.identify.validation import validate
 
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0

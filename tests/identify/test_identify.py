@@ -23,7 +23,7 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import experiments_from_samples
 from trimd.identify.experiment import Excite
-from trimd.identify.fit import FitOptions, StageFit, Validation, fit_stage, nrmse, validate
+from trimd.identify.fit import FitOptions, StageFit, fit_stage
 from trimd.identify.model import (
     HYDRO_NAMES,
     STAGES,
@@ -32,6 +32,7 @@ from trimd.identify.model import (
 )
 from trimd.identify.report import profile_fragment
 from trimd.identify.signals import design_signal
+from trimd.identify.validation import Validation, nrmse, validate
 
 
 def record(truth: Profile, design_profile: Profile, stage: str, duration: float, seed: int,
@@ -289,7 +290,7 @@ def test_excitation_is_the_spread_of_tau_against_the_authority(sabertooth: Profi
     """A constant trim force is no excitation; a doublet train of 5 % of the authority
     is; the threshold is a share of what the thrusters give on that axis."""
     from trimd.identify.data import Experiment
-    from trimd.identify.fit import excitation_of
+    from trimd.identify.excitation import excitation_of
     from trimd.identify.signals import axis_authority
 
     n = 1000
