@@ -148,7 +148,8 @@ def recorded_stage(path: str) -> str | None:
             continue
         chunk = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
         key = int(getattr(msg, "id", 0) or 0)
-        texts[key] = (texts.get(key, "") + chunk) if key else chunk
+        more = key and int(getattr(msg, "chunk_seq", 0) or 0) > 0
+        texts[key] = texts.get(key, "") + chunk if more else chunk
         stage = stage_of_notice(texts[key])
         if stage is not None:
             return stage
