@@ -47,6 +47,7 @@ from trimd.identify.excitation import (
     not_excited_message,
 )
 from trimd.identify.model import (
+    DVL_DOFS,
     HYDRO_NAMES,
     LAG,
     LEAD,
@@ -54,19 +55,24 @@ from trimd.identify.model import (
     STATE_NAMES,
     Stage,
     Statics,
+    observed,
     prior_values,
     statics_of_profile,
 )
+from trimd.identify.nodvl import with_estimated_velocity
 from trimd.identify.problem import Problem
 from trimd.identify.solve import jacobian_covariance, levenberg_marquardt
 from trimd.identify.start import LAG_GRID, equation_error_start
 
-__all__ = ["NOT_DETERMINED", "FitOptions", "ParameterEstimate", "StageFit", "fit_stage"]
+__all__ = ["NEEDS_DVL", "NOT_DETERMINED", "FitOptions", "ParameterEstimate", "StageFit",
+           "fit_stage"]
 
 FloatArray = NDArray[np.float64]
 #: A parameter whose standard deviation moves less than this share of its DOF's force or
 #: moment counts as determined (negligible) even when its relative uncertainty is large.
 MIN_SHARE = 0.02
+#: Note of a parameter of surge or sway fitted from logs without body velocity.
+NEEDS_DVL = "needs a DVL: profile's value"
 #: Note of a parameter the data did not determine (:attr:`ParameterEstimate.determined`).
 NOT_DETERMINED = "not determined by the data"
 
@@ -210,14 +216,6 @@ def _weights(experiments: Sequence[Experiment], stage: Stage,
     return np.array(out)
 
 
-def _reduced(stage: Stage, dofs: tuple[int, ...]) -> Stage:
-    """``stage`` restricted to ``dofs``: the other velocities and angles are taken from the
-    measurements (roll angle with roll, pitch angle with pitch)."""
-    angles = tuple(a for a, dof in ((6, 3), (7, 4)) if dof in dofs and a in stage.states)
-    return Stage(stage.name, dofs, tuple(s for s in stage.states if s in dofs) + angles,
-                 stage.axes)
-
-
 def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
               options: FitOptions | None = None, *, statics: Statics | None = None
               ) -> StageFit:
@@ -251,20 +249,36 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if not experiments:
         raise DataError("no experiment to fit")
     fixed_by = statics or statics_of_profile(profile)
+    experiments = with_estimated_velocity(
+        experiments, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
+        fixed_by.mass_kg, fixed_by.q_rest)
     excitation = excitation_of(experiments, profile, STAGES[stage], opts.min_excitation)
     missing = tuple(d for d in excitation if not d.excited)
     if len(missing) == len(excitation):
         raise EstimationError(f"{stage}: nothing to identify: "
                               + not_excited_message(stage, missing))
-    st = _reduced(STAGES[stage], tuple(d.dof for d in excitation if d.excited))
+    dvl = all(e.dvl for e in experiments)
+    blind = () if dvl else tuple(d for d in STAGES[stage].dofs if d in DVL_DOFS)
+    st = observed(STAGES[stage], dvl).restricted(tuple(d.dof for d in excitation
+                                                       if d.excited))
+    if not st.dofs:
+        raise EstimationError(f"{stage}: nothing to identify: without a DVL the stage's "
+                              "excited degrees of freedom are not observed")
     problem, theta, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
     theta, std_of, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, share,
                                                                    opts, stage)
     if missing:
         warnings.insert(0, f"{stage}: " + not_excited_message(stage, missing))
-        for n in STAGES[stage].free_names:
-            if n not in st.free_names and n not in opts.fixed:
+        for n in STAGES[stage].restricted(tuple(d.dof for d in missing)).free_names:
+            if n not in opts.fixed:
                 notes[n] = "not excited: profile's value"
+    if blind:
+        needs = STAGES[stage].restricted(blind).free_names
+        warnings.insert(0, f"{stage}: no body velocity (DVL) in these logs: "
+                        f"{', '.join(needs)} need a DVL and keep the profile's values")
+        for n in needs:
+            if n not in opts.fixed:
+                notes[n] = NEEDS_DVL
     params = tuple(ParameterEstimate(n, float(theta[k]), std_of.get(n, float("nan")),
                                      prior.get(n, 0.0), n in std_of, notes.get(n, ""))
                    for k, n in enumerate(problem.names))

@@ -38,6 +38,7 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import Profile
 
 __all__ = [
+    "DVL_DOFS",
     "HYDRO_NAMES",
     "LAG",
     "LEAD",
@@ -46,6 +47,7 @@ __all__ = [
     "Stage",
     "Statics",
     "lagged_thrust",
+    "observed",
     "prior_values",
     "restoring_vector",
     "simulate",
@@ -98,12 +100,32 @@ class Stage:
         return tuple(n for group in (_MASS, _LIN, _QUAD) for i, n in enumerate(group)
                      if i in self.dofs)
 
+    def restricted(self, dofs: tuple[int, ...]) -> Stage:
+        """This stage with only the DOFs of ``dofs`` fitted and simulated; the other
+        velocities and angles are taken from the measurements (roll angle with roll, pitch
+        angle with pitch)."""
+        kept = tuple(d for d in self.dofs if d in dofs)
+        angles = tuple(a for a, dof in ((6, 3), (7, 4)) if dof in kept and a in self.states)
+        return Stage(self.name, kept, tuple(s for s in self.states if s in kept) + angles,
+                     self.axes)
+
+
+#: The DOFs only a DVL observes (surge, sway); without one, the gyro and attitude observe
+#: roll, pitch and yaw and the depth sensor heave.
+DVL_DOFS = (0, 1)
 
 STAGES = {
     "uvr": Stage("uvr", (0, 1, 5), (0, 1, 5), (0, 1, 5)),
     "uwq": Stage("uwq", (0, 2, 4), (0, 2, 4, 7), (0, 2, 4)),
     "uvwpqr": Stage("uvwpqr", (0, 1, 2, 3, 4, 5), tuple(range(8)), tuple(range(6))),
 }
+
+
+def observed(stage: Stage, dvl: bool) -> Stage:
+    """``stage`` restricted to what the sensors observe: everything with a DVL, without one
+    all but :data:`DVL_DOFS`."""
+    return stage if dvl else stage.restricted(tuple(d for d in stage.dofs
+                                                    if d not in DVL_DOFS))
 
 
 def prior_values(profile: Profile) -> dict[str, float]:

@@ -20,9 +20,11 @@ from trimd.identify.model import (
     STAGES,
     STATE_NAMES,
     Statics,
+    observed,
     prior_values,
     statics_of_profile,
 )
+from trimd.identify.nodvl import with_estimated_velocity
 from trimd.identify.problem import Problem
 
 __all__ = ["MIN_OUTPUT_SPREAD", "Validation", "nrmse", "validate"]
@@ -90,14 +92,16 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
              ) -> list[Validation]:
     """Free-run simulation of each experiment with the parameter ``values`` (bias
     parameters are not carried over: another session has another gyro bias) from its
-    measured initial state; NRMSE per output of ``stage``, and which outputs the
-    experiment excited. ``statics``: the mass and restoring terms (default: the profile's
+    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe
+    (without a DVL not u and v: :func:`trimd.identify.model.observed`), and which outputs
+    the experiment excited. ``statics``: the mass and restoring terms (default: the profile's
     nominal vehicle)."""
-    st = STAGES[stage]
     fixed_by = statics or statics_of_profile(profile)
     prior = prior_values(profile) | {LAG: 0.0, LEAD: 0.5 * experiments[0].h_s}
     out = []
-    for e in experiments:
+    for e in with_estimated_velocity(experiments, prior | dict(values), fixed_by.mass_kg,
+                                     fixed_by.q_rest):
+        st = observed(STAGES[stage], e.dvl)
         problem = Problem([e], st, fixed_by.mass_kg, fixed_by.q_rest, None,
                           np.ones(len(st.outputs)))
         theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
