@@ -17,7 +17,7 @@ from trimd.app.experiment import run_experiment
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import parse_profile
-from trimd.core.samples import Sample
+from trimd.core.samples import Sample, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
@@ -34,11 +34,11 @@ SPEEDS = (0.15, 0.4)
 
 
 def record(truth: Profile, prior: Profile, stage: str, duration: float, seed: int,
-           recorder: Any = None) -> list[Sample]:
+           recorder: Any = None, dvl: bool = True) -> list[Sample]:
     """An excitation of ``stage`` designed from ``prior`` on a simulated ``truth`` (50 Hz
-    streams, default noise, DVL on) through Excite + Session, named as that stage."""
+    streams, default noise) through Excite + Session, named as that stage."""
     sig = design_signal(prior, stage, duration_s=duration, seed=seed, depth_excursion_m=20.0)
-    vehicle = SimVehicle(truth, SimConfig(seed=seed, dvl=True, depth_m=40.0, attitude_hz=50.0,
+    vehicle = SimVehicle(truth, SimConfig(seed=seed, dvl=dvl, depth_m=40.0, attitude_hz=50.0,
                                            thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0))
     excite = Excite(prior, sig, confirmed=True, depth_excursion_m=20.0, stage=stage)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), prior, excite,
@@ -141,3 +141,40 @@ def test_identify_runs_the_staged_procedure_from_recordings(
         held_out = experiments_from_samples(record(unseen, bluerov, stage, 40.0, 60), bluerov)
         for v in validate(prior_values(merged) | {"T_thr": lag}, held_out, merged, stage):
             assert v.worst() is not None and v.worst() >= 85.0, (stage, v.describe())
+
+
+@pytest.mark.slow
+def test_without_a_dvl_heave_roll_pitch_and_yaw_are_identified(
+        bluerov: Profile, unseen: Profile, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The simulator's default (no DVL), like most BlueROV2s: `trimd identify` on a uwq
+    recording identifies pitch from the gyro and attitude and heave from the depth sensor,
+    exits 0, and the fragment and the report say which parameters need a DVL."""
+    from trimd.cli.main import main
+    from trimd.logs.recorder import TlogRecorder
+
+    text = Path(bluerov.source).read_text(encoding="utf-8")
+    logs = []
+    for seed, duration in ((70, 180.0), (71, 40.0)):
+        path = tmp_path / f"uwq-{seed}.tlog"
+        samples = record(unseen, bluerov, "uwq", duration, seed,
+                         recorder=TlogRecorder(path, bluerov, text), dvl=False)
+        assert not any(isinstance(s, Velocity) for s in samples)
+        logs.append(str(path))
+    out = tmp_path / "out"
+    code = main(["identify", logs[0], "--profile", bluerov.source, "--validate", logs[1],
+                 "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "X_udot, X_u, X_u|u| need a DVL" in captured.out
+    stage = json.loads((out / "summary.json").read_text(encoding="utf-8"))["stages"]["uwq"]
+    truth = prior_values(unseen)
+    values = {n: p["value"] for n, p in stage["parameters"].items()}
+    assert abs(values["I_y+M_qdot"] / truth["I_y+M_qdot"] - 1) < 0.1, values
+    for dof in (2, 4):
+        for speed in SPEEDS:
+            error = damping_force(values, dof, speed) / damping_force(truth, dof, speed) - 1
+            assert abs(error) < 0.15, (dof, speed, error)
+    assert not stage["parameters"]["X_u|u|"]["free"]
+    assert [v for v in stage["validation"][0]["nrmse_pct"]] == ["w", "q", "theta"]
+    assert "need a DVL" in (out / "fragment.yaml").read_text(encoding="utf-8")

@@ -36,8 +36,8 @@ from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.excitation import DofExcitation, not_excited_message
 from trimd.identify.experiment import Excite, stage_of_notice
-from trimd.identify.fit import NOT_DETERMINED, FitOptions, StageFit
-from trimd.identify.model import STAGES
+from trimd.identify.fit import NEEDS_DVL, NOT_DETERMINED, FitOptions, StageFit
+from trimd.identify.model import HYDRO_NAMES, STAGES
 from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
 from trimd.identify.signals import KINDS, design_signal
 from trimd.identify.staged import fit_stages
@@ -209,6 +209,11 @@ def run_identify(args: argparse.Namespace) -> int:
     comments += [f"{p.name}: {NOT_DETERMINED}, the profile's value kept"
                  for f in fits for p in f.parameters
                  if p.note == NOT_DETERMINED and p.name not in best]
+    blind = sorted({p.name for f in fits for p in f.parameters
+                    if p.note == NEEDS_DVL and p.name not in best}, key=HYDRO_NAMES.index)
+    if blind:
+        comments.append(f"{', '.join(blind)}: need a DVL (no body velocity in these logs), "
+                        "the profile's values kept")
     fragment = profile_fragment(best, profile, comments)
     print("\n" + fragment)
     if args.out:
