@@ -5,7 +5,8 @@ over both profiles) whose every inertia sum, added mass and linear and quadratic
 coefficient is the profile's times a random factor in [0.5, 1.5]
 (:func:`trimd.identify.vehicles.perturbed`); for each, the three stages' excitation
 designed from the prior, ``TRIMD_BENCH_IDENT_S`` seconds each (default 600) of 50 Hz data
-with default noise and a DVL, fitted with the staged procedure from the prior
+(``TRIMD_BENCH_MC_RATES=sim``: the simulator's default stream rates) with default noise
+and a DVL, fitted with the staged procedure from the prior
 (:func:`trimd.identify.staged.fit_stages`) and validated on 2 held-out minutes per stage;
 then the same recordings without their body velocity (no DVL), judged on heave, roll,
 pitch and yaw. Printed: per parameter the distribution of the relative error, per DOF the
@@ -17,6 +18,7 @@ NRMSE of the excited outputs, and the share of vehicles that meet the issue's ta
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import os
 import time
 from collections.abc import Sequence
@@ -30,7 +32,7 @@ from trimd.core.samples import Sample, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
-from trimd.identify.data import experiments_from_samples
+from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.experiment import Excite
 from trimd.identify.model import DVL_DOFS, HYDRO_NAMES, STAGES, prior_values
 from trimd.identify.signals import design_signal
@@ -39,6 +41,9 @@ from trimd.identify.validation import validate
 from trimd.identify.vehicles import damping_force, perturbed
 
 N = int(os.environ.get("TRIMD_BENCH_MC_N", 10))
+#: "50": every stream at 50 Hz (the default); "sim": the simulator's default stream rates
+#: (attitude 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz, as `trimd excite --link sim`).
+RATES = os.environ.get("TRIMD_BENCH_MC_RATES", "50")
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0
 SPEEDS = (0.15, 0.4)
@@ -48,9 +53,11 @@ DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 def _record(truth: Profile, prior: Profile, stage: str, duration: float, seed: int
             ) -> list[Sample]:
     sig = design_signal(prior, stage, duration_s=duration, seed=seed, depth_excursion_m=50.0)
-    vehicle = SimVehicle(truth, SimConfig(seed=seed, dvl=True, depth_m=100.0,
-                                          attitude_hz=50.0, thrusters_hz=50.0,
-                                          velocity_hz=50.0, depth_hz=50.0))
+    config = SimConfig(seed=seed, dvl=True, depth_m=100.0)
+    if RATES == "50":
+        config = dataclasses.replace(config, attitude_hz=50.0, thrusters_hz=50.0,
+                                     velocity_hz=50.0, depth_hz=50.0)
+    vehicle = SimVehicle(truth, config)
     excite = Excite(prior, sig, confirmed=True, depth_excursion_m=50.0, stage=stage)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), prior, excite))
     if not result.phase.final or result.cause:
@@ -64,7 +71,7 @@ def _judge(truth: Profile, prior: Profile, recordings: dict[str, tuple[list[Samp
     """Fit and validate one vehicle: relative error per determined hydrodynamic parameter
     (the inertia sums as m + added mass for surge, sway and heave), damping force error
     per (DOF, speed), the worst excited NRMSE [%] and the fit time [s]."""
-    def exps(samples: list[Sample]) -> list:
+    def exps(samples: list[Sample]) -> list[Experiment]:
         kept = samples if dvl else [s for s in samples if not isinstance(s, Velocity)]
         return experiments_from_samples(kept, prior)
 
@@ -126,7 +133,10 @@ def main() -> None:
     for name in ("bluerov2-heavy", "sabertooth-dh2"):
         prior = load_profile(name)
         print(f"{name} as prior: {N} vehicles ×[0.5, 1.5] per hydrodynamic parameter, "
-              f"{FIT_S:g} s per stage at 50 Hz, default noise")
+              f"{FIT_S:g} s per stage, "
+              + ("every stream at 50 Hz" if RATES == "50" else "the simulator's default "
+                 "stream rates (attitude 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz)")
+              + ", default noise")
         with_dvl, without = [], []
         for k in range(N):
             truth = perturbed(prior, np.random.default_rng(1000 + k), name=f"{name}-{k}")
