@@ -221,8 +221,11 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
               ) -> StageFit:
     """Identify the parameters of ``stage`` (module docstring).
 
-    Only the DOFs the data excited (:func:`excitation_of`) are fitted; the parameters of
-    the others keep the profile's values, and :attr:`StageFit.warnings` says so.
+    Only the DOFs the data excited (:func:`excitation_of`) and the sensors observe are
+    fitted: without a DVL (an experiment whose ``dvl`` is False) not surge and sway, whose
+    parameters are noted :data:`NEEDS_DVL`, and u, v, w are estimated
+    (:func:`trimd.identify.nodvl.with_estimated_velocity`). The parameters of the others
+    keep the profile's values, and :attr:`StageFit.warnings` says so.
 
     Parameters
     ----------
