@@ -115,7 +115,8 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         (text,) = await collect(link, lambda s: True)
         assert isinstance(text, VehicleText) and (text.severity, text.text) == (
             4, "Leak sensor dry")
-        # the vehicle clock: across the uint32 wrap, 50 ms back, 99.85 s on, then a reboot
+        # the vehicle clock: across the uint32 wrap, 50 ms back, set 99.85 s on (a time
+        # sync: one usual step), then a reboot
         for t_ms in (2**32 - 300, 200, 150, 100_000, 5):
             write(frame(f"VHATT,{t_ms},1,2,3,4,5,6"))
         got = [s for _ in range(5) for s in await collect(link, lambda s: True)]
@@ -123,7 +124,7 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert len(stamps) == 5
         assert stamps[1] - stamps[0] == pytest.approx(0.5, abs=1e-9)
         assert stamps[2] - stamps[1] == pytest.approx(-0.05, abs=1e-9)
-        assert stamps[3] - stamps[2] == pytest.approx(99.85, abs=1e-9)
+        assert stamps[3] - stamps[2] == pytest.approx(0.5, abs=1e-9)
         # re-anchored on the reboot (not 99.85 s on); the bound only allows for a slow thread
         assert abs(stamps[4] - time.monotonic()) < 10.0
         # silence: the link's own TR lines come back on loop:// but are not the vehicle
@@ -593,3 +594,16 @@ def test_trimd_run_over_serial_against_trimd_sim(
     counts = links[0].parser.counts
     assert sum(relay.injected.values()) == 120
     assert {k: counts[k] for k in BAD_COUNTERS} == dict(relay.injected)
+
+
+def test_a_vehicle_clock_set_forward_does_not_skip_time() -> None:
+    """A time sync moves the vehicle clock +400 s mid-hold: the samples go on at their
+    usual spacing (a hold is not cut short by 400 s it did not live through); a reboot
+    (the clock back to 0) re-anchors on the time of receipt."""
+    from trimd.drivers.serial.link import _VehicleClock
+
+    clock = _VehicleClock()
+    stamps = [clock.stamp(t_ms, 100.0 + k * 0.1) for k, t_ms in enumerate(
+        [1000, 1100, 1200, 1300, 401_400, 401_500])]
+    assert np.allclose(np.diff(stamps), 0.1)
+    assert clock.stamp(5, 200.0) == 200.0

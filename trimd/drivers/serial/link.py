@@ -13,7 +13,7 @@ own clock (each sentence's ``t_ms``) rather than by the time of receipt: serial 
 and chunked reads then cannot bunch samples together, and a simulator served at ``--rate
 X`` keeps its own time, as the procedure's windows need. The first sentence (and any
 jump of the vehicle clock back by more than 1 s, i.e. a reboot) anchors the vehicle clock
-to ``time.monotonic()``.
+to ``time.monotonic()``; a jump forward (a time sync) counts as one ordinary step.
 
 Link loss: no valid sentence for ``timeout_s`` (default 1 s) after the handshake yields a
 disconnected :class:`Health` (the reader checks every 50 ms); a device error (a port
@@ -39,6 +39,7 @@ from collections import deque
 from collections.abc import AsyncIterator
 from typing import Any
 
+import numpy as np
 import serial
 
 from trimd.core.errors import LinkError
@@ -83,22 +84,38 @@ _READ_TIMEOUT_S = 0.05
 _WRITE_TIMEOUT_S = 1.0
 _QUEUE_MAX = 20_000
 _REBOOT_MS = -1000
+#: A forward step of the vehicle clock beyond this [s] and this many recent steps is a jump.
+_JUMP_S = 5.0
+_JUMP_FACTOR = 50.0
 
 
 class _VehicleClock:
-    """Vehicle ``t_ms`` (uint32, wrapping) → seconds on the ``time.monotonic()`` base."""
+    """Vehicle ``t_ms`` (uint32, wrapping) → seconds on the ``time.monotonic()`` base.
+
+    A step back of more than 1 s is a reboot: re-anchored to ``now``. A step forward of
+    more than :data:`_JUMP_S` and :data:`_JUMP_FACTOR` times the recent steps between
+    sentences is the vehicle's clock being set (a time sync), not time passing: it counts
+    as one ordinary step, so a hold is not cut short by a jump it did not live through.
+    """
 
     def __init__(self) -> None:
         self._ms: int | None = None
         self._t = 0.0
+        self._steps: deque[float] = deque(maxlen=32)
 
     def stamp(self, t_ms: int, now: float) -> float:
         if self._ms is not None:
-            step = (t_ms - self._ms + 2**31) % 2**32 - 2**31
-            if step >= _REBOOT_MS:
-                self._ms, self._t = t_ms, self._t + step / 1000.0
+            step = ((t_ms - self._ms + 2**31) % 2**32 - 2**31) / 1000.0
+            if step >= _REBOOT_MS / 1000.0:
+                usual = float(np.median(self._steps)) if self._steps else 0.0
+                if step > max(_JUMP_S, _JUMP_FACTOR * usual) and self._steps:
+                    step = usual
+                elif step > 0:
+                    self._steps.append(step)
+                self._ms, self._t = t_ms, self._t + step
                 return self._t
         self._ms, self._t = t_ms, now
+        self._steps.clear()
         return now
 
 
