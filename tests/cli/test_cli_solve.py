@@ -93,6 +93,11 @@ def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile, batter
     out = run_json(capsys, "solve", str(path), "--profile", "bluerov2-heavy")
     assert out["m_ext_kg"] == pytest.approx(0.4, abs=1e-6)
     np.testing.assert_allclose(out["cg_m"], r_g, atol=1e-7)
+    # noise-free, yet the curves' 5 % is in the ±: W − B is the level hold's Z row alone,
+    # so its σ is that of Σ_i T_Z,i·f_i with each f_i 5 % uncertain
+    f_level = np.linalg.lstsq(T, holds[0].tau[0], rcond=None)[0]
+    assert out["weight_std_N"] == pytest.approx(
+        0.05 * float(np.linalg.norm(T[2] * f_level)), rel=1e-3)
 
 
 def test_human_output(tmp_path: Path, thesis_holds: list[HoldSamples],

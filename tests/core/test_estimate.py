@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -10,6 +13,7 @@ from hypothesis import strategies as st
 from tests.helpers import equilibrium_holds, payload_truth
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, estimate_static, measurable_dofs
+from trimd.core.model import thrust_configuration
 from trimd.core.profile import Profile
 
 
@@ -74,6 +78,68 @@ def test_intervals_cover_the_net_quantities_under_correlated_noise(
     coverage = np.mean(np.abs(z) <= 1.96, axis=0)
     assert np.all((coverage >= 0.90) & (coverage <= 0.99)), coverage
     assert np.all(np.abs(np.sqrt(np.mean(z**2, axis=0)) - 1) <= 0.2), np.sqrt(np.mean(z**2, axis=0))
+
+
+def read_through_wrong_curves(holds: Sequence[HoldSamples], profile: Profile,
+                              gain: np.ndarray) -> list[HoldSamples]:
+    """``holds`` (true τ) as trimd reads them when each thruster's true thrust is
+    (1 + gain[i, 0]) times its curve forward and (1 + gain[i, 1]) in reverse: the thrust
+    the curve gives for the commanded PWM, and the τ it makes."""
+    T = thrust_configuration(profile.thrusters)
+    out = []
+    for h in holds:
+        true = h.tau @ np.linalg.pinv(T).T
+        read = true / (1 + np.where(true > 0, gain[:, 0], gain[:, 1]))
+        out.append(HoldSamples(h.t_s, h.phi, h.theta, read @ T.T, h.label, read))
+    return out
+
+
+def with_thrust_uncertainty(profile: Profile, pct: float) -> Profile:
+    return dataclasses.replace(profile, thrusters=tuple(
+        dataclasses.replace(t, curve=dataclasses.replace(t.curve, uncertainty_pct=pct))
+        for t in profile.thrusters))
+
+
+@pytest.mark.parametrize(("name", "m_ext", "slot", "thrust_noise"), [
+    ("bluerov", 0.4, "W-aft-ctr", 0.05), ("sabertooth", 10.0, "AftSB", 0.01)])
+def test_intervals_cover_thrust_curve_errors(request: pytest.FixtureRequest, name: str,
+                                             m_ext: float, slot: str,
+                                             thrust_noise: float) -> None:
+    """Each thruster's true thrust is off its curve by a gain drawn with the profile's
+    uncertainty_pct (5 %) as standard deviation, per direction: over 200 seeds the 95 %
+    intervals of W − B and the net moments cover 90–99 % with the curves' uncertainty in
+    the ±, RMS error/σ 0.8–1.2. Without it (uncertainty_pct 0) they cover below 50 %:
+    every hold shares the gain error, and only its noise would be in the ±."""
+    profile: Profile = request.getfixturevalue(name)
+    W, r_g = payload_truth(profile, m_ext, np.array(profile.slot(slot).position_m))
+    truth = np.r_[W - profile.buoyancy_N, W * r_g - profile.buoyancy_N * np.asarray(
+        profile.r_b_m)]
+    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    assert np.all(sigma == 0.05)
+    blind = with_thrust_uncertainty(profile, 0.0)
+    z: dict[bool, list[np.ndarray]] = {True: [], False: []}
+    for seed in range(200):
+        rng = np.random.default_rng(seed)
+        gain = sigma[:, None] * rng.standard_normal((len(sigma), 2))
+        holds = read_through_wrong_curves(equilibrium_holds(
+            profile, W, r_g, n=300, attitude_noise_deg=0.05, thrust_noise=thrust_noise,
+            rng=rng), profile, gain)
+        for aware, p in ((True, profile), (False, blind)):
+            est = estimate_static(holds, p)
+            z[aware].append((est.q - truth) / np.sqrt(np.diag(est.q_cov)))
+    coverage = {k: np.mean(np.abs(np.array(v)) <= 1.96, axis=0) for k, v in z.items()}
+    rms = np.sqrt(np.mean(np.array(z[True]) ** 2, axis=0))
+    assert np.all((coverage[True] >= 0.90) & (coverage[True] <= 0.99)), coverage
+    assert np.all(np.abs(rms - 1) <= 0.2), rms
+    assert np.all(coverage[False] < 0.5), coverage
+
+
+def test_thrust_of_the_wrong_shape_is_refused(bluerov: Profile) -> None:
+    W, r_g = payload_truth(bluerov, 0.4, np.array(bluerov.slot("W-aft-ctr").position_m))
+    holds = equilibrium_holds(bluerov, W, r_g, n=20)
+    holds[0] = dataclasses.replace(holds[0], thrust=np.zeros((20, 3)))
+    with pytest.raises(EstimationError, match=r"\(20, 8\) expected"):
+        estimate_static(holds, bluerov)
 
 
 @pytest.mark.parametrize(("m_ext", "position", "n"), [

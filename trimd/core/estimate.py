@@ -22,6 +22,17 @@ by its own variance, and the covariance of q is the sandwich H⁻¹·(Σ Aᵀ·W
 holds whatever the weights. A hold too short for its own correlation time is flagged
 (:attr:`HoldSummary.resolved`): its ± is then likely too small.
 
+The thrust curve: τ = T·f with f each thruster's thrust read from the profile's curve. A
+real thruster gives (1 + ε)·f, ε a gain error with the curve's ``uncertainty_pct`` as its
+standard deviation, independent per thruster and per direction of thrust. Every hold
+shares it, so it does not average out over time and it correlates the holds' means: the
+mean of hold k is off by T·(diag(f̄⁺_k)·ε⁺ + diag(f̄⁻_k)·ε⁻), with f̄±_k the mean positive
+and negative parts of each thruster's thrust over the hold (:attr:`HoldSamples.thrust`).
+Its covariance between holds k and l, C_kl = T·(diag(f̄⁺_k)·S²·diag(f̄⁺_l) +
+diag(f̄⁻_k)·S²·diag(f̄⁻_l))·Tᵀ (S the gain standard deviations) on the rows used, adds
+Σ_k Σ_l A_kᵀ·W_k·C_kl·W_l·A_l to the middle of the sandwich. Holds without per-thruster
+thrust (τ given directly) carry no such term.
+
 Which rows: the force rows' coefficients are the body components of the world vertical,
 so together they would recover W − B even when the vehicle holds depth but not station
 and only its vertical thrusters carry the load — if drag were the same in every
@@ -67,6 +78,10 @@ class HoldSamples:
     phi, theta : measured roll and pitch [rad].
     tau : generalised thruster force, shape (N, 6) [N, N·m], body FRD.
     label : a name for people ("hold 2", "level").
+    thrust : the thrust of each thruster along its positive direction, shape (N, n) in the
+        profile's thruster order [N], τ = T·f (:func:`trimd.core.model.thrusts_from_pwm`);
+        None when τ did not come from the profile's thrust curves (then the curves'
+        uncertainty does not enter the ±).
     """
 
     t_s: FloatArray
@@ -74,6 +89,7 @@ class HoldSamples:
     theta: FloatArray
     tau: FloatArray
     label: str = ""
+    thrust: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -206,6 +222,30 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
+def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+                         profile: Profile) -> list[tuple[FloatArray, FloatArray]]:
+    """Per hold, how its mean τ (the rows used) moves with each thruster's relative gain
+    error, forward and reverse: T_rows·diag(f̄±)·diag(σ_gain), two arrays (rows × n)
+    [N, N·m per 1σ of gain]; zero for a hold without per-thruster thrust."""
+    T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
+    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    out = []
+    for h, r in zip(holds, used, strict=True):
+        if h.thrust is None:
+            zero = np.zeros((int(r.sum()), T.shape[1]))
+            out.append((zero, zero))
+            continue
+        f = np.asarray(h.thrust, float)
+        if f.shape != (len(h.phi), T.shape[1]) or not np.all(np.isfinite(f)):
+            raise EstimationError(
+                f"hold {h.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
+                f"one row per sample and one column per thruster: ({len(h.phi)}, "
+                f"{T.shape[1]}) expected)")
+        forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
+        out.append((T[r] * (forward * sigma), T[r] * (reverse * sigma)))
+    return out
+
+
 def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
                   weights: Sequence[FloatArray]) -> FloatArray:
     """q minimising Σ_k ‖w_k·(τ̄_k − A_k·q)‖²."""
@@ -287,6 +327,13 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
     meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
                 zip(A, weights, means, strict=True)), np.zeros((4, 4)))
+    # the thrust curves' gain errors, shared by all holds: per direction of thrust,
+    # U = Σ_k A_kᵀ·W_k·T_k·diag(f̄_k·σ) and the meat gains U·Uᵀ
+    gains = _thrust_gain_factors(holds, used, profile)
+    for d in range(2):
+        U = sum(((Ak.T * w**2) @ g[d] for Ak, w, g in zip(A, weights, gains, strict=True)),
+                np.zeros((4, len(profile.thrusters))))
+        meat = meat + U @ U.T
     q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)

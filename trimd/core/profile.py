@@ -44,11 +44,17 @@ class ThrustTable:
 
 @dataclass(frozen=True, slots=True)
 class ThrustCurve:
-    """A thruster model: one or more tables, interpolated linearly on battery voltage."""
+    """A thruster model: one or more tables, interpolated linearly on battery voltage.
+
+    ``uncertainty_pct`` is the relative standard deviation [%] of a real thruster's thrust
+    about the table, separately for each thruster and each direction of thrust (a table
+    from the maker, a worn propeller, a fouled duct): a gain error every hold shares.
+    """
 
     name: str
     tables: tuple[ThrustTable, ...]
     neutral_us: float = 1500.0
+    uncertainty_pct: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -117,7 +117,7 @@ _KNOWN_KEYS = {
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "level_tol_deg",
+    "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct",
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
 }
 
@@ -153,7 +153,11 @@ def _thrust_curve(name: str, node: _Node) -> ThrustCurve:
                           key=lambda t: t.voltage_V))
     if not tables:
         raise node.fail("tables", "expected at least one table")
-    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0))
+    uncertainty = node.number("uncertainty_pct", 5.0, minimum=0.0)
+    if uncertainty >= 100:
+        raise node.fail("uncertainty_pct", "expected a relative standard deviation below "
+                                           f"100 %, got {uncertainty}")
+    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0), uncertainty)
     node.done()
     return curve
 
