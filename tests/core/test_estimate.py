@@ -134,6 +134,27 @@ def test_intervals_cover_thrust_curve_errors(request: pytest.FixtureRequest, nam
     assert np.all(coverage[False] < 0.5), coverage
 
 
+def test_quiet_rows_without_information_do_not_decide_w_minus_b(bluerov: Profile) -> None:
+    """At level the X and Y rows know W − B only through the tiny mean tilt. Noise-free,
+    they once got the largest weight, and the thrust curves' uncertainty of the
+    horizontal thrusters (here pushing against each other) divided by that tilt made a
+    ± of W − B of hundreds of newtons. Weighted by their whole variance, W − B comes from
+    the Z row, with the σ of its thrust: 5 % of each vertical thruster's share."""
+    W, r_g = payload_truth(bluerov, 0.4, np.array(bluerov.slot("W-aft-ctr").position_m))
+    holds = equilibrium_holds(bluerov, W, r_g, n=300, thrust_noise=np.array(
+        [0, 0, 0.02, 0, 0, 0]), tilts_deg=((0.01, 0.0), (20, 20)))
+    T = thrust_configuration(bluerov.thrusters)
+    opposed = np.r_[1.0, 1.0, 1.0, 1.0, 0, 0, 0, 0]  # no net force or moment (T·opposed = 0)
+    holds = [dataclasses.replace(h, thrust=h.tau @ np.linalg.pinv(T).T + opposed)
+             for h in holds]
+    est = estimate_static(holds, bluerov)
+    f = holds[0].thrust
+    assert f is not None
+    z_share = 0.05 * np.hypot(T[2] * np.maximum(f, 0).mean(axis=0),
+                              T[2] * np.minimum(f, 0).mean(axis=0))
+    assert est.weight_std_N == pytest.approx(float(np.linalg.norm(z_share)), rel=0.05)
+
+
 def test_thrust_of_the_wrong_shape_is_refused(bluerov: Profile) -> None:
     W, r_g = payload_truth(bluerov, 0.4, np.array(bluerov.slot("W-aft-ctr").position_m))
     holds = equilibrium_holds(bluerov, W, r_g, n=20)

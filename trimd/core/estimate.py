@@ -18,9 +18,10 @@ e(t) = τ(t) − G(φ(t), θ(t))·q: attitude noise, attitude wander and thruste
 enter there, with their real correlation between rows and over time. Their long-run
 covariance (:mod:`trimd.core.longrun`: Bartlett kernel, window chosen from the data) is
 the covariance of the hold's mean, seconds-long correlation included. Each row is weighted
-by its own variance, and the covariance of q is the sandwich H⁻¹·(Σ Aᵀ·W·C·W·A)·H⁻¹, which
-holds whatever the weights. A hold too short for its own correlation time is flagged
-(:attr:`HoldSummary.resolved`): its ± is then likely too small.
+by its own variance (the thrust curves' share below included), and the covariance of q is
+the sandwich H⁻¹·(Σ Aᵀ·W·C·W·A)·H⁻¹, which holds whatever the weights. A hold too short
+for its own correlation time is flagged (:attr:`HoldSummary.resolved`): its ± is then
+likely too small.
 
 The thrust curve: τ = T·f with f each thruster's thrust read from the profile's curve. A
 real thruster gives (1 + ε)·f, ε a gain error with the curve's ``uncertainty_pct`` as its
@@ -312,11 +313,15 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # spread: a single row's spread can be zero, a thruster idle in its dead band), then
     # generalised least squares over the hold means weighted by their long-run variances,
     # twice (the residuals depend on q)
+    # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
+    # whose noise is nil but whose thrust is uncertain is not exact
+    gains = _thrust_gain_factors(holds, used, profile)
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):
         means = _residual_means(holds, used, q)
-        var = [np.diag(m.cov) for m in means]
+        var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)
+               for m, g in zip(means, gains, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
@@ -329,7 +334,6 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
                 zip(A, weights, means, strict=True)), np.zeros((4, 4)))
     # the thrust curves' gain errors, shared by all holds: per direction of thrust,
     # U = Σ_k A_kᵀ·W_k·T_k·diag(f̄_k·σ) and the meat gains U·Uᵀ
-    gains = _thrust_gain_factors(holds, used, profile)
     for d in range(2):
         U = sum(((Ak.T * w**2) @ g[d] for Ak, w, g in zip(A, weights, gains, strict=True)),
                 np.zeros((4, len(profile.thrusters))))
