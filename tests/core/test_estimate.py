@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.helpers import equilibrium_holds, payload_truth
+from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, estimate_static, measurable_dofs
 from trimd.core.model import thrust_configuration
@@ -153,6 +154,27 @@ def test_quiet_rows_without_information_do_not_decide_w_minus_b(bluerov: Profile
     z_share = 0.05 * np.hypot(T[2] * np.maximum(f, 0).mean(axis=0),
                               T[2] * np.minimum(f, 0).mean(axis=0))
     assert est.weight_std_N == pytest.approx(float(np.linalg.norm(z_share)), rel=0.05)
+
+
+def test_the_munk_moment_of_the_drift_is_taken_out(bluerov: Profile) -> None:
+    """A tilted hold without station keeping carries the Munk moment of its drift on top
+    of g(η) (tests/core/test_drift.py checks it against the simulator): the estimate
+    takes it out, and its ± covers what the model could be off by; a profile that holds
+    station takes nothing out."""
+    W, r_g = payload_truth(bluerov, 0.4, np.array(bluerov.slot("W-aft-ctr").position_m))
+    truth = np.r_[W - bluerov.buoyancy_N, W * r_g - bluerov.buoyancy_N * np.asarray(
+        bluerov.r_b_m)]
+    holds = equilibrium_holds(bluerov, W, r_g, n=50)
+    tilted = holds[1]
+    munk = munk_moment(bluerov, float(tilted.phi[0]), float(tilted.theta[0]), truth[0])
+    holds[1] = dataclasses.replace(tilted, tau=tilted.tau + np.r_[0, 0, 0, munk])
+    est = estimate_static(holds, bluerov)
+    np.testing.assert_allclose(est.q, truth, atol=1e-9)
+    station = estimate_static(holds, dataclasses.replace(bluerov, holds_station=True))
+    bias = station.q[3] - truth[3]
+    assert bias < -0.2e-3 * W                       # ≈ −0.3 mm-equivalent
+    # noise-free, the ± is the model's alone: half the moment it takes out
+    assert np.sqrt(est.q_cov[3, 3]) == pytest.approx(0.5 * abs(bias), rel=0.1)
 
 
 def test_thrust_of_the_wrong_shape_is_refused(bluerov: Profile) -> None:

@@ -34,6 +34,13 @@ diag(f̄⁻_k)·S²·diag(f̄⁻_l))·Tᵀ (S the gain standard deviations) on t
 Σ_k Σ_l A_kᵀ·W_k·C_kl·W_l·A_l to the middle of the sandwich. Holds without per-thruster
 thrust (τ given directly) carry no such term.
 
+The drift: a vehicle that keeps depth but not station (the profile's ``holds_station``
+false) drifts at a tilt, and its moment rows carry the Munk moment of that drift on top
+of g(η) (:mod:`trimd.core.drift`, from the fitted W − B and the profile's damping and
+added mass). It is taken out of each hold's mean moments, and its model error
+(:data:`~trimd.core.drift.DRIFT_MODEL_ERROR` of itself, the same for every hold) goes
+into the weights and the sandwich like the thrust curves'.
+
 Which rows: the force rows' coefficients are the body components of the world vertical,
 so together they would recover W − B even when the vehicle holds depth but not station
 and only its vertical thrusters carry the load — if drag were the same in every
@@ -51,6 +58,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import restoring_matrix, thrust_configuration
@@ -247,6 +255,22 @@ def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np
     return out
 
 
+def _drift_moments(attitude: Sequence[tuple[float, float]],
+                   used: Sequence[NDArray[np.bool_]], profile: Profile,
+                   net_weight_N: float) -> list[FloatArray]:
+    """Per hold, the Munk moment of its drift on the rows used [N·m; 0 on force rows];
+    all zero when the vehicle holds station. An axis without damping has no steady drift
+    to model: no correction there."""
+    out = []
+    for (phi, theta), r in zip(attitude, used, strict=True):
+        row = np.zeros(6)
+        if not profile.holds_station:
+            m = munk_moment(profile, phi, theta, net_weight_N)
+            row[3:] = np.where(np.isfinite(m), m, 0.0)
+        out.append(row[r])
+    return out
+
+
 def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
                   weights: Sequence[FloatArray]) -> FloatArray:
     """q minimising Σ_k ‖w_k·(τ̄_k − A_k·q)‖²."""
@@ -319,14 +343,15 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):
+        drift = _drift_moments(attitude, used, profile, float(q[0]))
         means = _residual_means(holds, used, q)
         var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)
-               for m, g in zip(means, gains, strict=True)]
+               + (DRIFT_MODEL_ERROR * d)**2 for m, g, d in zip(means, gains, drift, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
         weights = [np.sqrt(floor / np.maximum(v, floor)) for v in var]
-        q = _weighted_fit(A, tau, weights)
+        q = _weighted_fit(A, [t - d for t, d in zip(tau, drift, strict=True)], weights)
     means = _residual_means(holds, used, q)
     # sandwich covariance: the weights need not be exact for it to hold
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
@@ -338,6 +363,10 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         U = sum(((Ak.T * w**2) @ g[d] for Ak, w, g in zip(A, weights, gains, strict=True)),
                 np.zeros((4, len(profile.thrusters))))
         meat = meat + U @ U.T
+    # the drift model's error, one for all holds
+    U_drift = sum(((Ak.T * w**2) @ (DRIFT_MODEL_ERROR * d) for Ak, w, d in
+                   zip(A, weights, drift, strict=True)), np.zeros(4))
+    meat = meat + np.outer(U_drift, U_drift)
     q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)

@@ -122,7 +122,10 @@ class ProcedureLimits:
 
 @dataclass(frozen=True, slots=True)
 class Profile:
-    """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED."""
+    """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED.
+
+    ``holds_station``: the vehicle holds horizontal position during a hold (a position
+    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`)."""
 
     name: str
     source: str
@@ -144,6 +147,7 @@ class Profile:
     holds: tuple[HoldSetpoint, ...]
     procedure: ProcedureLimits
     frame_config: int | None = None
+    holds_station: bool = False
 
     @property
     def weight_N(self) -> float:
