@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import REPO, equilibrium_holds, payload_truth
+from tests.helpers import PROFILES, REPO, equilibrium_holds, payload_truth
 from trimd.cli.main import main
 from trimd.core.estimate import HoldSamples
 from trimd.core.model import pwm_from_thrust, thrust_configuration
@@ -90,7 +90,10 @@ def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile, batter
                 *([volts] if battery else []))))
     path = tmp_path / "pwm.csv"
     path.write_text("\n".join(lines) + "\n")
-    out = run_json(capsys, "solve", str(path), "--profile", "bluerov2-heavy")
+    # the holds balance g(η) exactly: a vehicle that holds station (no drift to correct)
+    profile = tmp_path / "heavy.yaml"
+    profile.write_text((PROFILES / "bluerov2-heavy.yaml").read_text() + "holds_station: true\n")
+    out = run_json(capsys, "solve", str(path), "--profile", str(profile))
     assert out["m_ext_kg"] == pytest.approx(0.4, abs=1e-6)
     np.testing.assert_allclose(out["cg_m"], r_g, atol=1e-7)
     # noise-free, yet the curves' 5 % is in the ±: W − B is the level hold's Z row alone,

@@ -111,7 +111,8 @@ def test_intervals_cover_thrust_curve_errors(request: pytest.FixtureRequest, nam
     intervals of W − B and the net moments cover 90–99 % with the curves' uncertainty in
     the ±, RMS error/σ 0.8–1.2. Without it (uncertainty_pct 0) they cover below 50 %:
     every hold shares the gain error, and only its noise would be in the ±."""
-    profile: Profile = request.getfixturevalue(name)
+    # equilibrium holds balance g(η) exactly: a vehicle that holds station, no drift
+    profile = dataclasses.replace(request.getfixturevalue(name), holds_station=True)
     W, r_g = payload_truth(profile, m_ext, np.array(profile.slot(slot).position_m))
     truth = np.r_[W - profile.buoyancy_N, W * r_g - profile.buoyancy_N * np.asarray(
         profile.r_b_m)]
@@ -294,6 +295,7 @@ def test_a_vehicle_without_pitch_actuation_measures_no_pitch_row(bluerov: Profil
     rows = measurable_dofs(six)
     assert rows[4] is False
     W, r_g = payload_truth(bluerov, 0.2, np.array([0.1, 0.0, 0.175]))
-    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov, dofs=rows)
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g),
+                          replace(bluerov, holds_station=True), dofs=rows)
     assert "M" not in est.dofs_used
     np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6)
