@@ -124,6 +124,8 @@ class StaticEstimate:
 
     ``q``/``q_cov`` are the net quantities [W − B, W·r_g − B·r_b] and their covariance;
     ``cov`` is the covariance of [W, x_g, y_g, z_g] (N, m). Standard deviations are 1σ.
+    ``q_cov_noise`` is the part of ``q_cov`` that collecting longer reduces (noise and
+    wander); the rest is systematic (thrust curves, drift model). None: all of it.
     """
 
     q: FloatArray
@@ -140,6 +142,7 @@ class StaticEstimate:
     residual_rms: FloatArray = field(repr=False)
     success: bool = True
     message: str = "ok"
+    q_cov_noise: FloatArray | None = field(default=None, repr=False)
 
     @property
     def weight_std_N(self) -> float:
@@ -357,6 +360,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
     meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
                 zip(A, weights, means, strict=True)), np.zeros((4, 4)))
+    q_cov_noise = H_inv @ meat @ H_inv
     # the thrust curves' gain errors, shared by all holds: per direction of thrust,
     # U = Σ_k A_kᵀ·W_k·T_k·diag(f̄_k·σ) and the meat gains U·Uᵀ
     for d in range(2):
@@ -390,4 +394,4 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
         gravity_m_s2=profile.gravity_m_s2, holds=summaries,
         dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
-        residual_rms=residual_rms)
+        residual_rms=residual_rms, q_cov_noise=q_cov_noise)
