@@ -12,6 +12,7 @@ import pytest
 from tests.helpers import FakeVehicle, payload_truth
 from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
 from trimd.core.guards import ENVELOPE_MARGIN_DEG, STREAM_MISSED_PERIODS
+from trimd.core.model import thrust_configuration
 from trimd.core.procedure import MIN_RATES_HZ, Procedure
 from trimd.core.profile import Profile
 from trimd.core.samples import HoldAttitude, PilotInput, Release
@@ -62,6 +63,20 @@ def test_full_procedure_estimates_the_payload(sabertooth: Profile,
     assert isinstance(thesis_vehicle.commands[-1][1], Release)
     assert [n.kind for _, n in log if isinstance(n, Notice)][-1] == "result"
     assert len(est.holds) == 2 and all(h.samples > 100 for h in est.holds)
+
+
+def test_holds_carry_each_thrusters_thrust(sabertooth: Profile,
+                                           thesis_vehicle: FakeVehicle) -> None:
+    """The estimate's ± needs each thruster's thrust per sample (the thrust curves'
+    uncertainty); it is the thrust that makes the hold's τ."""
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 1000.0)
+    holds = proc._hold_samples()
+    T = thrust_configuration(sabertooth.thrusters)
+    assert len(holds) == 2
+    for h in holds:
+        assert h.thrust is not None and h.thrust.shape == (len(h.t_s), len(sabertooth.thrusters))
+        np.testing.assert_allclose(h.thrust @ T.T, h.tau, atol=1e-9)
 
 
 def test_no_command_before_confirmation(sabertooth: Profile,

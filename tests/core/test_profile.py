@@ -32,6 +32,15 @@ def test_shipped_profiles_load(sabertooth: Profile, bluerov: Profile) -> None:
     assert bluerov.buoyancy_N == pytest.approx(1025 * 9.81 * 0.0134)
 
 
+def test_thrust_curve_uncertainty_and_station_keeping_defaults(sabertooth: Profile) -> None:
+    data = raw()
+    del data["thrust_curves"]["sabertooth"]["uncertainty_pct"]
+    assert parse_profile(data).thrusters[0].curve.uncertainty_pct == 5.0
+    assert sabertooth.thrusters[0].curve.uncertainty_pct == 5.0
+    assert not sabertooth.holds_station and parse_profile(data | {"holds_station": True}
+                                                          ).holds_station
+
+
 def test_load_by_name_finds_shipped_profile() -> None:
     assert load_profile("bluerov2-heavy").name == "bluerov2-heavy"
 
@@ -72,7 +81,12 @@ def test_bluerov_directions_follow_ardusub_factor_table(bluerov: Profile) -> Non
     (lambda d: d["thrust_curves"]["sabertooth"]["tables"][0].update(
         pwm_us=[1100, 1300, 1490, 1510, 1900, 1700]), r"strictly increasing"),
     (lambda d: d["procedure"].update(max_tilt_deg=80), r"max_tilt_deg: expected less than 60"),
+    (lambda d: d["thrust_curves"]["sabertooth"].update(uncertainty_pct=-1),
+     r"thrust_curves\.sabertooth\.uncertainty_pct: expected a number >= 0"),
+    (lambda d: d["thrust_curves"]["sabertooth"].update(uncertainty_pct=100),
+     r"thrust_curves\.sabertooth\.uncertainty_pct: expected a relative standard deviation"),
     (lambda d: d.update(frame_config="heavy"), r"frame_config: expected"),
+    (lambda d: d.update(holds_station="yes"), r"holds_station: expected true or false"),
     (lambda d: d["ballast"]["slots"][0].update(max_wieght_kg=d["ballast"]["slots"][0].pop(
         "max_weight_kg")), r"max_weight_kg: missing \(required\); is 'max_wieght_kg' a typo"),
     (lambda d: d["thrust_curves"]["sabertooth"]["tables"][0].update(

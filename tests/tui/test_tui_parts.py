@@ -145,7 +145,9 @@ async def test_a_many_slot_proposal_keeps_the_top_view_at_80x24(bluerov: Profile
     from textual.app import App, ComposeResult
 
     W, r_g = payload_truth(bluerov, 0.5, np.array(bluerov.slot("W-aft-stbd").position_m))
-    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov, station_keeping=True)
+    # equilibrium holds balance g(η) exactly: a vehicle that holds station, no drift
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g),
+                          dataclasses.replace(bluerov, holds_station=True))
     proposal = propose_ballast(est, bluerov, method="milp", level_tol_deg=0.25)
     loaded = [s for s in proposal.slots if s.mass_kg or s.buoyancy_N]
     assert len(loaded) >= 5  # enough to push the top view out at full length

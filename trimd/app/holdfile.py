@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from trimd.core.errors import DataError
 from trimd.core.estimate import HoldSamples
 from trimd.core.holdfinder import find_holds
-from trimd.core.model import tau_from_pwm
+from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude
 
@@ -74,14 +74,17 @@ def _read_table(path: Path) -> HoldFile:
     return HoldFile(str(path), {h: data[:, j] for j, h in enumerate(header)})
 
 
-def _tau(table: HoldFile, profile: Profile) -> NDArray[np.float64]:
+def _tau(table: HoldFile, profile: Profile
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """τ of every row, and each thruster's thrust when τ comes from the PWM columns."""
     cols = table.columns
     if all(c in cols for c in TAU_COLUMNS):
-        return np.column_stack([cols[c] for c in TAU_COLUMNS])
+        return np.column_stack([cols[c] for c in TAU_COLUMNS]), None
     pwm_cols = [f"pwm_{t.channel}" for t in profile.thrusters]
     if profile.thrusters and all(c in cols for c in pwm_cols):
         pwm = np.column_stack([cols[c] for c in pwm_cols])
-        return tau_from_pwm(profile, pwm, cols.get("battery_V"))
+        thrust = thrusts_from_pwm(profile, pwm, cols.get("battery_V"))
+        return thrust @ thrust_configuration(profile.thrusters).T, thrust
     missing = [c for c in TAU_COLUMNS if c not in cols]
     missing_pwm = [c for c in pwm_cols if c not in cols]
     raise DataError(f"{table.path}: missing columns: give {', '.join(missing)} "
@@ -101,10 +104,11 @@ def holds_from_table(table: HoldFile, profile: Profile) -> list[HoldSamples]:
         raise DataError(f"{table.path}: time_s goes backwards at line "
                         f"{int(np.argmax(np.diff(t) < 0)) + 3}")
     phi, theta = np.radians(cols["roll_deg"]), np.radians(cols["pitch_deg"])
-    tau = _tau(table, profile)
+    tau, thrust = _tau(table, profile)
 
     def hold(idx: NDArray[np.intp], label: str) -> HoldSamples:
-        return HoldSamples(t[idx], phi[idx], theta[idx], tau[idx], label)
+        return HoldSamples(t[idx], phi[idx], theta[idx], tau[idx], label,
+                           None if thrust is None else thrust[idx])
 
     if "hold" in cols:
         ids = cols["hold"]
@@ -115,7 +119,7 @@ def holds_from_table(table: HoldFile, profile: Profile) -> list[HoldSamples]:
     # every row is a sample of each stream; body rates are not in the table
     attitude = [Attitude(float(ti), float(p), float(q), 0.0, 0.0, 0.0, 0.0)
                 for ti, p, q in zip(t, phi, theta, strict=True)]
-    holds = find_holds(attitude, t, tau, profile)
+    holds = find_holds(attitude, t, tau, profile, thrust)
     if not holds:
         proc = profile.procedure
         raise DataError(f"{table.path}: no steady hold found (no stretch of at least "

@@ -28,12 +28,13 @@ from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import bounded
 from trimd.cli.inspect import format_report, inspect_log
 from trimd.cli.run import wants_tui
-from trimd.core.effort import tau_at
+from trimd.core.effort import thrust_at
 from trimd.core.errors import DataError, EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
 from trimd.core.events import Phase
 from trimd.core.holdfinder import find_holds
 from trimd.core.link import Link
+from trimd.core.model import thrust_configuration
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.core.samples import Attitude, Battery, Sample, Thrusters
@@ -111,14 +112,16 @@ def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> Tri
 
 
 def _holds(samples: list[Sample], profile: Profile, name: str) -> list[HoldSamples]:
-    """The steady holds of a log, found as the live procedure finds them."""
+    """The steady holds of a log, found as the live procedure finds them; each thruster's
+    thrust rides along (the thrust curves' share of the ±)."""
     att = [s for s in samples if isinstance(s, Attitude)]
     thr = [s for s in samples if isinstance(s, Thrusters)]
     if not att or not thr:
         raise DataError(f"{name}: no attitude or no thruster outputs to estimate from")
     t = np.array([s.t_s for s in thr])
-    tau, ok = tau_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
-    return find_holds(att, t[ok], tau[ok], profile)
+    thrust, ok = thrust_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
+    tau = thrust[ok] @ thrust_configuration(profile.thrusters).T
+    return find_holds(att, t[ok], tau, profile, thrust[ok])
 
 
 def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:

@@ -112,14 +112,19 @@ class StopRule:
         return mean.resolved and bool(np.all(sigma <= self.row_limits()[rows]))
 
     def estimate_decided(self, est: StaticEstimate) -> bool:
-        """Are the proposal's level, its net buoyancy and the stiffness known well enough?"""
-        sigma = np.sqrt(np.diag(est.q_cov))
+        """Are the proposal's level, its net buoyancy and the stiffness known well enough?
+        Judged on the part of the ± that collecting reduces (noise, wander): each must be
+        within its limit, or already below the systematic part (thrust curves, drift
+        model), which stays whatever the hold's length — collecting on would then shrink
+        the reported ± by less than a factor √2."""
+        total = np.diag(est.q_cov)
+        noise = total if est.q_cov_noise is None else np.diag(est.q_cov_noise)
         k = float(est.q[3])
         if k <= 0 or not all(h.resolved for h in est.holds):
             return False
         limits = np.r_[self.buoyancy_half_window_N, self.level_tol_rad * k,
                        self.level_tol_rad * k, STIFFNESS_TOLERANCE * k] / self.z
-        return bool(np.all(sigma <= limits))
+        return bool(np.all((np.sqrt(noise) <= limits) | (noise <= total - noise)))
 
     def effort_floor(self, attitude_tol_rad: float, phi: float, theta: float) -> FloatArray:
         """Effort drift [N, N·m per row of τ] too small to matter while settling at

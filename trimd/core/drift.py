@@ -1,17 +1,21 @@
-"""The moment of the drift at a tilted hold of a vehicle that holds depth but not station.
+"""The steady drift of a hold that keeps depth but not station, and the Munk moment of it.
 
-In ALT_HOLD without a position sensor the horizontal thrusters get no demand: at a tilt
-the vertical thrusters, which carry W − B along the tilted body z axis, also push
-sideways, and the vehicle drifts until drag balances that push. A steady oblique drift ν
-turns unequal added masses into a moment, the Munk moment of Fossen's C_A(ν)·ν
-(docs/method.md §2): with A = diag(X_u̇, Y_v̇, Z_ẇ) (positive magnitudes) and ν = (u, v, w),
+Without a position fix (ArduSub's ALT_HOLD without a DVL) a hold keeps attitude and depth
+but gives the horizontal thrusters no demand: body X and Y thrust are zero. At a tilt the
+body-horizontal part of the net weight W − B then pushes the vehicle until drag balances
+it (Fossen (2011) eq. 6.2 at rest in rotation, ν₂ = 0):
 
-    K = (Z_ẇ − Y_v̇)·v·w,   M = (X_u̇ − Z_ẇ)·u·w,   N = (Y_v̇ − X_u̇)·u·v   [N·m],
+    d_u(u)·u = −g_X(η) = −sin θ·(W − B),    d_v(v)·v = −g_Y(η) = cos θ·sin φ·(W − B),
 
-which the thrusters carry on top of g(η). On a BlueROV2 Heavy at roll = pitch = 20° it is
-≈ 0.1 mm-equivalent, 5–15 σ of a good estimate; on a stiff vehicle it is negligible.
-The drift speed comes from the profile's damping (linear and quadratic, along the drift
-direction), so the result is only as good as those priors.
+with d(x) = −X_u − X_u|u|·|x| > 0 from the profile's (negative) damping derivatives, and
+the heave w such that the depth does not change:
+−sin θ·u + cos θ·sin φ·v + cos θ·cos φ·w = 0. Unequal added masses turn that oblique
+drift into a moment, the moment part of C_A(ν)·ν at ν₂ = 0 (the Munk moment):
+
+    ν₁ × (M_A·ν₁) = [(a_w − a_v)·v·w, (a_u − a_w)·u·w, (a_v − a_u)·u·v]   [N·m]
+
+(a_u, a_v, a_w the added-mass magnitudes). The thrusters carry it on top of g(η), so a
+drifting hold's moment rows read g(η) plus this. Units: N, m/s, N·m; body FRD.
 """
 
 from __future__ import annotations
@@ -23,43 +27,43 @@ from numpy.typing import NDArray
 
 from trimd.core.profile import Profile
 
-__all__ = ["drift_velocity", "munk_moment"]
+__all__ = ["DRIFT_MODEL_ERROR", "drift_velocity", "munk_moment"]
 
-FloatArray = NDArray[np.float64]
+#: The relative 1σ error of the modelled Munk moment: profile damping and added mass are
+#: rough (±30–50 % is usual), and a tether or a current changes the drift.
+DRIFT_MODEL_ERROR = 0.5
 
 
-def drift_velocity(profile: Profile, net_force_N: float, phi: float, theta: float
-                   ) -> FloatArray:
-    """Steady body velocity (u, v, w) [m/s] at roll ``phi`` and pitch ``theta`` [rad] of
-    a vehicle with net weight W − B = ``net_force_N`` [N] that holds depth, not station."""
-    # body z in the world (yaw 0) and its horizontal part
-    z_world = np.array([math.sin(theta) * math.cos(phi), -math.sin(phi),
-                        math.cos(theta) * math.cos(phi)])
-    horizontal = z_world - z_world[2] * np.array([0.0, 0.0, 1.0])
-    push = abs(net_force_N) / max(z_world[2], 1e-6) * float(np.linalg.norm(horizontal))
-    if push == 0.0:
-        return np.zeros(3)
-    # the vertical thrusters push up (−z body) for a heavy vehicle, down for a light one
-    sign = -1.0 if net_force_N > 0 else 1.0
-    direction_world = sign * horizontal / np.linalg.norm(horizontal)
-    c, s = math.cos, math.sin
-    R = np.array([[c(theta), s(theta) * s(phi), s(theta) * c(phi)],
-                  [0.0, c(phi), -s(phi)],
-                  [-s(theta), c(theta) * s(phi), c(theta) * c(phi)]])
-    u_hat = R.T @ direction_world
-    lin = -np.asarray(profile.linear_damping[:3], float) @ u_hat**2
-    quad = -np.asarray(profile.quadratic_damping[:3], float) @ (np.abs(u_hat) * u_hat**2)
+def _speed(force_N: float, linear: float, quadratic: float) -> float:
+    """x [m/s] with (−linear − quadratic·|x|)·x = force_N (damping derivatives ≤ 0)."""
+    lin, quad = -linear, -quadratic
+    if force_N == 0:
+        return 0.0
     if quad > 0:
-        speed = (-lin + math.sqrt(lin * lin + 4 * quad * push)) / (2 * quad)
+        x = (-lin + math.sqrt(lin * lin + 4 * quad * abs(force_N))) / (2 * quad)
+    elif lin > 0:
+        x = abs(force_N) / lin
     else:
-        speed = push / max(lin, 1e-9)
-    velocity: FloatArray = speed * u_hat
-    return velocity
+        return math.inf  # no damping: no steady drift
+    return math.copysign(x, force_N)
 
 
-def munk_moment(profile: Profile, net_force_N: float, phi: float, theta: float
-                ) -> FloatArray:
-    """(K, M, N) [N·m] the thrusters carry against the drift's Munk moment."""
-    u, v, w = drift_velocity(profile, net_force_N, phi, theta)
+def drift_velocity(profile: Profile, phi: float, theta: float, net_weight_N: float
+                   ) -> NDArray[np.float64]:
+    """Body velocity (u, v, w) [m/s] of the steady drift at roll ``phi``, pitch ``theta``
+    [rad] for the net weight W − B ``net_weight_N`` [N], depth held, station not; inf
+    where the profile has no damping on that axis."""
+    lin, quad = profile.linear_damping, profile.quadratic_damping
+    u = _speed(-math.sin(theta) * net_weight_N, lin[0], quad[0])
+    v = _speed(math.cos(theta) * math.sin(phi) * net_weight_N, lin[1], quad[1])
+    w = (math.sin(theta) * u - math.cos(theta) * math.sin(phi) * v) / (
+        math.cos(theta) * math.cos(phi))
+    return np.array([u, v, w])
+
+
+def munk_moment(profile: Profile, phi: float, theta: float, net_weight_N: float
+                ) -> NDArray[np.float64]:
+    """The Munk moment [N·m] (K, M, N) of the steady drift of :func:`drift_velocity`."""
+    u, v, w = drift_velocity(profile, phi, theta, net_weight_N)
     a_u, a_v, a_w = profile.added_mass[:3]
     return np.array([(a_w - a_v) * v * w, (a_u - a_w) * u * w, (a_v - a_u) * u * v])

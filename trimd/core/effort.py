@@ -15,27 +15,53 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.errors import DataError
-from trimd.core.model import tau_from_pwm
+from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.resample import zoh_align
 from trimd.core.samples import Battery, Thrusters
 
-__all__ = ["MAX_THRUSTER_AGE_S", "tau_at"]
+__all__ = ["MAX_THRUSTER_AGE_S", "tau_at", "thrust_at"]
 
 #: Thruster outputs older than this [s] are not held onto a later time: a gap, not a value.
 #: ArduSub streams SERVO_OUTPUT_RAW at 2–10 Hz; a ground station may leave 1 Hz.
 MAX_THRUSTER_AGE_S = 1.0
 
 
-def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
-           batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
-           ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """τ [N, N·m] (body FRD, about CG0) at the times ``t_s`` [s], and where it is valid.
+def thrust_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
+              batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
+              ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Each thruster's thrust [N] (along its positive direction, the profile's thruster
+    order) at the times ``t_s`` [s], and where it is valid.
 
     Rows without thruster outputs at most ``max_age_s`` old are NaN and not valid. The
     battery voltage is held the same way (no age limit); without it, or where it is not a
     positive number, the profile's nominal voltage is used. DataError when a thruster
     sample does not have one output per thruster of the profile.
+    """
+    t = np.asarray(t_s, float)
+    n_thr = len(profile.thrusters)
+    bad = {len(s.pwm_us) for s in thrusters} - {n_thr}
+    if bad:
+        raise DataError(f"thruster samples with {sorted(bad)} outputs for a profile with "
+                        f"{n_thr} thrusters")
+    thrust = np.full((len(t), n_thr), np.nan)
+    if not thrusters:
+        return thrust, np.zeros(len(t), bool)
+    pwm = zoh_align(t, [s.t_s for s in thrusters], [s.pwm_us for s in thrusters],
+                    max_age_s=max_age_s)
+    volts = (zoh_align(t, [b.t_s for b in batteries], [b.voltage_V for b in batteries]).values
+             if batteries else np.full(len(t), np.nan))
+    volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
+    ok = pwm.valid
+    thrust[ok] = thrusts_from_pwm(profile, pwm.values[ok], volts[ok])
+    return thrust, ok
+
+
+def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
+           batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
+           ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """τ [N, N·m] (body FRD, about CG0) at the times ``t_s`` [s], and where it is valid:
+    :func:`thrust_at` through the thrust configuration.
 
     Examples
     --------
@@ -46,20 +72,10 @@ def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
     >>> valid.tolist(), tau[0].tolist() == [0.0] * 6
     ([True, False], True)
     """
-    t = np.asarray(t_s, float)
-    n_thr = len(profile.thrusters)
-    bad = {len(s.pwm_us) for s in thrusters} - {n_thr}
-    if bad:
-        raise DataError(f"thruster samples with {sorted(bad)} outputs for a profile with "
-                        f"{n_thr} thrusters")
-    tau = np.full((len(t), 6), np.nan)
-    if not thrusters:
-        return tau, np.zeros(len(t), bool)
-    pwm = zoh_align(t, [s.t_s for s in thrusters], [s.pwm_us for s in thrusters],
-                    max_age_s=max_age_s)
-    volts = (zoh_align(t, [b.t_s for b in batteries], [b.voltage_V for b in batteries]).values
-             if batteries else np.full(len(t), np.nan))
-    volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
-    ok = pwm.valid
-    tau[ok] = tau_from_pwm(profile, pwm.values[ok], volts[ok])
+    thrust, ok = thrust_at(profile, t_s, thrusters, batteries, max_age_s=max_age_s)
+    tau = np.full((len(ok), 6), np.nan)
+    if profile.thrusters:
+        tau[ok] = thrust[ok] @ thrust_configuration(profile.thrusters).T
+    else:
+        tau[ok] = 0.0
     return tau, ok

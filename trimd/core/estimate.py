@@ -18,9 +18,28 @@ e(t) = τ(t) − G(φ(t), θ(t))·q: attitude noise, attitude wander and thruste
 enter there, with their real correlation between rows and over time. Their long-run
 covariance (:mod:`trimd.core.longrun`: Bartlett kernel, window chosen from the data) is
 the covariance of the hold's mean, seconds-long correlation included. Each row is weighted
-by its own variance, and the covariance of q is the sandwich H⁻¹·(Σ Aᵀ·W·C·W·A)·H⁻¹, which
-holds whatever the weights. A hold too short for its own correlation time is flagged
-(:attr:`HoldSummary.resolved`): its ± is then likely too small.
+by its own variance (the thrust curves' share below included), and the covariance of q is
+the sandwich H⁻¹·(Σ Aᵀ·W·C·W·A)·H⁻¹, which holds whatever the weights. A hold too short
+for its own correlation time is flagged (:attr:`HoldSummary.resolved`): its ± is then
+likely too small.
+
+The thrust curve: τ = T·f with f each thruster's thrust read from the profile's curve. A
+real thruster gives (1 + ε)·f, ε a gain error with the curve's ``uncertainty_pct`` as its
+standard deviation, independent per thruster and per direction of thrust. Every hold
+shares it, so it does not average out over time and it correlates the holds' means: the
+mean of hold k is off by T·(diag(f̄⁺_k)·ε⁺ + diag(f̄⁻_k)·ε⁻), with f̄±_k the mean positive
+and negative parts of each thruster's thrust over the hold (:attr:`HoldSamples.thrust`).
+Its covariance between holds k and l, C_kl = T·(diag(f̄⁺_k)·S²·diag(f̄⁺_l) +
+diag(f̄⁻_k)·S²·diag(f̄⁻_l))·Tᵀ (S the gain standard deviations) on the rows used, adds
+Σ_k Σ_l A_kᵀ·W_k·C_kl·W_l·A_l to the middle of the sandwich. Holds without per-thruster
+thrust (τ given directly) carry no such term.
+
+The drift: a vehicle that keeps depth but not station (the profile's ``holds_station``
+false) drifts at a tilt, and its moment rows carry the Munk moment of that drift on top
+of g(η) (:mod:`trimd.core.drift`, from the fitted W − B and the profile's damping and
+added mass). It is taken out of each hold's mean moments, and its model error
+(:data:`~trimd.core.drift.DRIFT_MODEL_ERROR` of itself, the same for every hold) goes
+into the weights and the sandwich like the thrust curves'.
 
 Which rows: the force rows' coefficients are the body components of the world vertical,
 so together they would recover W − B even when the vehicle holds depth but not station
@@ -39,7 +58,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from trimd.core.drift import munk_moment
+from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import restoring_matrix, thrust_configuration
@@ -68,6 +87,10 @@ class HoldSamples:
     phi, theta : measured roll and pitch [rad].
     tau : generalised thruster force, shape (N, 6) [N, N·m], body FRD.
     label : a name for people ("hold 2", "level").
+    thrust : the thrust of each thruster along its positive direction, shape (N, n) in the
+        profile's thruster order [N], τ = T·f (:func:`trimd.core.model.thrusts_from_pwm`);
+        None when τ did not come from the profile's thrust curves (then the curves'
+        uncertainty does not enter the ±).
     """
 
     t_s: FloatArray
@@ -75,6 +98,7 @@ class HoldSamples:
     theta: FloatArray
     tau: FloatArray
     label: str = ""
+    thrust: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -100,6 +124,8 @@ class StaticEstimate:
 
     ``q``/``q_cov`` are the net quantities [W − B, W·r_g − B·r_b] and their covariance;
     ``cov`` is the covariance of [W, x_g, y_g, z_g] (N, m). Standard deviations are 1σ.
+    ``q_cov_noise`` is the part of ``q_cov`` that collecting longer reduces (noise and
+    wander); the rest is systematic (thrust curves, drift model). None: all of it.
     """
 
     q: FloatArray
@@ -116,6 +142,7 @@ class StaticEstimate:
     residual_rms: FloatArray = field(repr=False)
     success: bool = True
     message: str = "ok"
+    q_cov_noise: FloatArray | None = field(default=None, repr=False)
 
     @property
     def weight_std_N(self) -> float:
@@ -207,19 +234,43 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
-def _drift_moments(profile: Profile, net_force_N: float,
-                   attitude: Sequence[tuple[float, float]], used: Sequence[NDArray[np.bool_]],
-                   drifting: Sequence[bool]) -> list[FloatArray]:
-    """Per hold, the used rows of the drift's Munk moment (:mod:`trimd.core.drift`) [N·m]
-    at a hold that drifts, zero elsewhere. It is subtracted from the hold's mean effort,
-    and, as its drift speed and added masses are priors, its full size is added to the
-    hold's variance (a systematic error shared by every sample)."""
+def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+                         profile: Profile) -> list[tuple[FloatArray, FloatArray]]:
+    """Per hold, how its mean τ (the rows used) moves with each thruster's relative gain
+    error, forward and reverse: T_rows·diag(f̄±)·diag(σ_gain), two arrays (rows × n)
+    [N, N·m per 1σ of gain]; zero for a hold without per-thruster thrust."""
+    T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
+    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
     out = []
-    for (phi, theta), r, d in zip(attitude, used, drifting, strict=True):
-        m = np.zeros(6)
-        if d:
-            m[3:] = munk_moment(profile, net_force_N, phi, theta)
-        out.append(m[r])
+    for h, r in zip(holds, used, strict=True):
+        if h.thrust is None:
+            zero = np.zeros((int(r.sum()), T.shape[1]))
+            out.append((zero, zero))
+            continue
+        f = np.asarray(h.thrust, float)
+        if f.shape != (len(h.phi), T.shape[1]) or not np.all(np.isfinite(f)):
+            raise EstimationError(
+                f"hold {h.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
+                f"one row per sample and one column per thruster: ({len(h.phi)}, "
+                f"{T.shape[1]}) expected)")
+        forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
+        out.append((T[r] * (forward * sigma), T[r] * (reverse * sigma)))
+    return out
+
+
+def _drift_moments(attitude: Sequence[tuple[float, float]],
+                   used: Sequence[NDArray[np.bool_]], profile: Profile,
+                   net_weight_N: float) -> list[FloatArray]:
+    """Per hold, the Munk moment of its drift on the rows used [N·m; 0 on force rows];
+    all zero when the vehicle holds station. An axis without damping has no steady drift
+    to model: no correction there."""
+    out = []
+    for (phi, theta), r in zip(attitude, used, strict=True):
+        row = np.zeros(6)
+        if not profile.holds_station:
+            m = munk_moment(profile, phi, theta, net_weight_N)
+            row[3:] = np.where(np.isfinite(m), m, 0.0)
+        out.append(row[r])
     return out
 
 
@@ -233,8 +284,7 @@ def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
 
 
 def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
-                    dofs: Sequence[bool] | None = None,
-                    station_keeping: bool = False) -> StaticEstimate:
+                    dofs: Sequence[bool] | None = None) -> StaticEstimate:
     """Weighted least squares for the weight and centre of gravity over steady holds.
 
     Parameters
@@ -243,12 +293,6 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     profile : gives the nominal mass m, g, the buoyancy B and its centre r_b.
     dofs : which of the six rows of g(η) = τ were measured; default
         :func:`measurable_dofs` of the profile.
-    station_keeping : the vehicle held its position at every hold (a DVL or the
-        synthetic holds of a test). Without it (the default: ArduSub's ALT_HOLD holds
-        depth, not station) a tilted hold drifts: the drag of the drift (much larger in
-        heave than in sway) biases its force rows, so only level holds, which do not
-        drift, contribute force rows; and its moment rows carry the drift's Munk moment
-        (:mod:`trimd.core.drift`), which is subtracted with its full size as uncertainty.
 
     Raises
     ------
@@ -280,7 +324,9 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
                 and np.all(np.isfinite(h.tau))):
             raise EstimationError(f"hold {h.label!r} contains NaN or infinite values")
     level = [_is_level(h) for h in holds]
-    use_force = [lv or station_keeping or not any(level) for lv in level]
+    # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
+    # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift
+    use_force = [lv or profile.holds_station or not any(level) for lv in level]
     used = [rows & (_MOMENT_ROWS | f) for f in use_force]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
     G = [restoring_matrix(*a) for a in attitude]
@@ -291,26 +337,37 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # spread: a single row's spread can be zero, a thruster idle in its dead band), then
     # generalised least squares over the hold means weighted by their long-run variances,
     # twice (the residuals depend on q)
+    # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
+    # whose noise is nil but whose thrust is uncertain is not exact
+    gains = _thrust_gain_factors(holds, used, profile)
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
-    drifting = [not (station_keeping or lv) for lv in level]
     for _ in range(2):
-        drift = _drift_moments(profile, float(q[0]), attitude, used, drifting)
-        cov = [m.cov + np.diag(d**2) for m, d in
-               zip(_residual_means(holds, used, q), drift, strict=True)]
-        var = [np.diag(c) for c in cov]
+        drift = _drift_moments(attitude, used, profile, float(q[0]))
+        means = _residual_means(holds, used, q)
+        var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)
+               + (DRIFT_MODEL_ERROR * d)**2 for m, g, d in zip(means, gains, drift, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
         weights = [np.sqrt(floor / np.maximum(v, floor)) for v in var]
         q = _weighted_fit(A, [t - d for t, d in zip(tau, drift, strict=True)], weights)
     means = _residual_means(holds, used, q)
-    drift = _drift_moments(profile, float(q[0]), attitude, used, drifting)
-    cov = [m.cov + np.diag(d**2) for m, d in zip(means, drift, strict=True)]
     # sandwich covariance: the weights need not be exact for it to hold
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
-    meat = sum(((Ak.T * w**2) @ c @ (Ak * w[:, None]**2) for Ak, w, c in
-                zip(A, weights, cov, strict=True)), np.zeros((4, 4)))
+    meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
+                zip(A, weights, means, strict=True)), np.zeros((4, 4)))
+    q_cov_noise = H_inv @ meat @ H_inv
+    # the thrust curves' gain errors, shared by all holds: per direction of thrust,
+    # U = Σ_k A_kᵀ·W_k·T_k·diag(f̄_k·σ) and the meat gains U·Uᵀ
+    for d in range(2):
+        U = sum(((Ak.T * w**2) @ g[d] for Ak, w, g in zip(A, weights, gains, strict=True)),
+                np.zeros((4, len(profile.thrusters))))
+        meat = meat + U @ U.T
+    # the drift model's error, one for all holds
+    U_drift = sum(((Ak.T * w**2) @ (DRIFT_MODEL_ERROR * d) for Ak, w, d in
+                   zip(A, weights, drift, strict=True)), np.zeros(4))
+    meat = meat + np.outer(U_drift, U_drift)
     q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)
@@ -334,4 +391,4 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
         gravity_m_s2=profile.gravity_m_s2, holds=summaries,
         dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
-        residual_rms=residual_rms)
+        residual_rms=residual_rms, q_cov_noise=q_cov_noise)

@@ -54,9 +54,9 @@ def _plateaus(attitude: Sequence[Attitude], tol_rad: float, min_s: float
 
 def _collect(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
              phi: float, theta: float, profile: Profile, rule: StopRule
-             ) -> list[tuple[Attitude, FloatArray]]:
+             ) -> list[tuple[Attitude, int]]:
     """Run the live settling test at set-point (phi, theta) over the samples in time
-    order; return the attitude samples it collects with their held τ."""
+    order; return the attitude samples it collects with the index of their held effort."""
     proc = profile.procedure
     settling = HoldSettling(proc, phi, theta, rule.effort_floor(
         math.radians(proc.attitude_tol_deg), phi, theta))
@@ -69,23 +69,25 @@ def _collect(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: Flo
             latest, k = k, k + 1
         fresh = latest >= 0 and a.t_s - t_effort[latest] <= MAX_THRUSTER_AGE_S
         if settling.attitude(a, fresh) and a.t_s - settling.steady_since >= proc.min_steady_s:
-            collected.append((a, tau_effort[latest]))
+            collected.append((a, latest))
     # the live test notices a departure only after its grace time: leave out the last
     # moments before the attitude left this plateau (live, trimd ends the hold itself)
     end = attitude[-1].t_s - UNSTEADY_GRACE_S
-    return [(a, tau) for a, tau in collected if a.t_s <= end]
+    return [(a, k) for a, k in collected if a.t_s <= end]
 
 
 def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
-               profile: Profile) -> list[HoldSamples]:
+               profile: Profile, thrust: FloatArray | None = None) -> list[HoldSamples]:
     """The steady holds in time-ordered ``attitude`` samples and thruster effort
     ``tau_effort`` (n, 6) [N, N·m] at its own times ``t_effort`` [s], labelled
     ``hold 1``, ``hold 2``, … in the order of their first sample; plateaus at the same
-    attitude (within ``attitude_tol_deg``) are one hold."""
+    attitude (within ``attitude_tol_deg``) are one hold. ``thrust`` (n, n_thrusters) [N],
+    each thruster's thrust behind each effort sample, rides along into
+    :attr:`HoldSamples.thrust` (the thrust curves' share of the ±)."""
     proc = profile.procedure
     tol = math.radians(proc.attitude_tol_deg)
     rule = StopRule.for_profile(profile)
-    groups: list[tuple[float, float, list[tuple[Attitude, FloatArray]]]] = []
+    groups: list[tuple[float, float, list[tuple[Attitude, int]]]] = []
     for i, j, phi, theta in _plateaus(attitude, tol, proc.min_steady_s):
         got = _collect(attitude[i:j], t_effort, tau_effort, phi, theta, profile, rule)
         if len(got) < 2:
@@ -96,6 +98,12 @@ def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: F
                 break
         else:
             groups.append((phi, theta, got))
-    return [HoldSamples(np.array([a.t_s for a, _ in got]), np.array([a.phi for a, _ in got]),
-                        np.array([a.theta for a, _ in got]), np.array([tau for _, tau in got]),
-                        f"hold {k + 1}") for k, (_, _, got) in enumerate(groups)]
+    holds = []
+    for k, (_, _, got) in enumerate(groups):
+        idx = np.array([i for _, i in got])
+        holds.append(HoldSamples(np.array([a.t_s for a, _ in got]),
+                                 np.array([a.phi for a, _ in got]),
+                                 np.array([a.theta for a, _ in got]), tau_effort[idx],
+                                 f"hold {k + 1}",
+                                 thrust=None if thrust is None else thrust[idx]))
+    return holds

@@ -22,6 +22,7 @@ __all__ = [
     "tau_from_pwm",
     "thrust_configuration",
     "thrust_from_pwm",
+    "thrusts_from_pwm",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -273,12 +274,26 @@ def tau_from_pwm(profile: Profile, pwm_us: ArrayLike, voltage_V: ArrayLike | Non
     broadcastable against ``pwm_us[..., 0]`` (one voltage per row of commands); it
     defaults to the profile's nominal voltage.
     """
-    v = profile.nominal_voltage_V if voltage_V is None else voltage_V
-    pwm = np.asarray(pwm_us, float)
-    f = np.stack([thrust_from_pwm(t.curve, pwm[..., i], v)
-                  for i, t in enumerate(profile.thrusters)], axis=-1)
+    f = thrusts_from_pwm(profile, pwm_us, voltage_V)
     result: FloatArray = f @ thrust_configuration(profile.thrusters).T
     return result
+
+
+def thrusts_from_pwm(profile: Profile, pwm_us: ArrayLike, voltage_V: ArrayLike | None = None
+                     ) -> FloatArray:
+    """Thrust f [N] of each thruster along its positive direction, from PWM commands [µs]:
+    τ = T·f with T the :func:`thrust_configuration`.
+
+    ``pwm_us`` has shape ``(..., n_thrusters)`` in the profile's thruster order, and so
+    has the result; ``voltage_V`` [V] as in :func:`tau_from_pwm`.
+    """
+    v = profile.nominal_voltage_V if voltage_V is None else voltage_V
+    pwm = np.asarray(pwm_us, float)
+    if not profile.thrusters:
+        return np.zeros(pwm.shape)
+    f: FloatArray = np.stack([thrust_from_pwm(t.curve, pwm[..., i], v)
+                              for i, t in enumerate(profile.thrusters)], axis=-1)
+    return f
 
 
 def quaternion_from_euler(phi: float, theta: float, psi: float

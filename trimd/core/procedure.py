@@ -35,7 +35,7 @@ from trimd.core.events import (
     TrimResult,
 )
 from trimd.core.guards import Guard
-from trimd.core.model import tau_from_pwm
+from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
@@ -70,11 +70,13 @@ class _Hold:
     t: list[float] = field(default_factory=list)
     att: list[tuple[float, float]] = field(default_factory=list)
     tau: list[np.ndarray] = field(default_factory=list)
+    thrust: list[np.ndarray] = field(default_factory=list)  # per thruster [N]
 
     def samples(self, label: str) -> HoldSamples:
         a = np.array(self.att, dtype=float).reshape(-1, 2)
         return HoldSamples(np.array(self.t), a[:, 0], a[:, 1],
-                           np.array(self.tau).reshape(-1, 6), label)
+                           np.array(self.tau).reshape(-1, 6), label,
+                           np.array(self.thrust).reshape(len(self.t), -1))
 
 
 class Procedure:
@@ -107,6 +109,7 @@ class Procedure:
         self._t_phase = math.nan
         self._health: Health | None = None
         self._pwm: Thrusters | None = None
+        self._T = thrust_configuration(profile.thrusters)
         self._voltage = profile.nominal_voltage_V
         self._depth: Depth | None = None
         self._attitude: Attitude | None = None
@@ -198,9 +201,10 @@ class Procedure:
             return []
         if self.phase is Phase.COLLECT and self._time_left() < 0:
             return self._end_hold(self._decided())
-        tau = self._tau(a.t_s)
-        if not self._settling.attitude(a, tau is not None) or tau is None:
+        thrust = self._thrust(a.t_s)
+        if not self._settling.attitude(a, thrust is not None) or thrust is None:
             return []
+        tau = self._T @ thrust
         if self.phase is Phase.SETTLE:
             if a.t_s - self._settling.steady_since >= self.proc.min_steady_s:
                 return self._enter(Phase.COLLECT, f"hold {len(self._holds)} steady: collecting")
@@ -209,6 +213,7 @@ class Procedure:
         hold.t.append(a.t_s)
         hold.att.append((a.phi, a.theta))
         hold.tau.append(tau)
+        hold.thrust.append(thrust)
         return self._maybe_next_hold()
 
     # ---------------------------------------------------------------- phases
@@ -341,14 +346,19 @@ class Procedure:
 
     def _tau(self, t_s: float) -> np.ndarray | None:
         """τ from the latest thruster outputs held onto ``t_s`` (zero-order hold)."""
+        thrust = self._thrust(t_s)
+        return None if thrust is None else self._T @ thrust
+
+    def _thrust(self, t_s: float) -> np.ndarray | None:
+        """Each thruster's thrust [N] from the latest outputs held onto ``t_s`` (ZOH)."""
         p = self._pwm
         if p is None or not 0 <= t_s - p.t_s <= MAX_THRUSTER_AGE_S:
             return None
         if len(p.pwm_us) != len(self.profile.thrusters):
             raise ValueError(f"{len(p.pwm_us)} thruster outputs for "
                              f"{len(self.profile.thrusters)} thrusters in the profile")
-        tau: np.ndarray = tau_from_pwm(self.profile, p.pwm_us, self._voltage)
-        return tau
+        thrust: np.ndarray = thrusts_from_pwm(self.profile, p.pwm_us, self._voltage)
+        return thrust
 
     def _check_time(self) -> list[Output]:
         if self.phase.final:

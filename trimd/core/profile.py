@@ -44,11 +44,17 @@ class ThrustTable:
 
 @dataclass(frozen=True, slots=True)
 class ThrustCurve:
-    """A thruster model: one or more tables, interpolated linearly on battery voltage."""
+    """A thruster model: one or more tables, interpolated linearly on battery voltage.
+
+    ``uncertainty_pct`` is the relative standard deviation [%] of a real thruster's thrust
+    about the table, separately for each thruster and each direction of thrust (a table
+    from the maker, a worn propeller, a fouled duct): a gain error every hold shares.
+    """
 
     name: str
     tables: tuple[ThrustTable, ...]
     neutral_us: float = 1500.0
+    uncertainty_pct: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,7 +122,10 @@ class ProcedureLimits:
 
 @dataclass(frozen=True, slots=True)
 class Profile:
-    """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED."""
+    """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED.
+
+    ``holds_station``: the vehicle holds horizontal position during a hold (a position
+    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`)."""
 
     name: str
     source: str
@@ -138,6 +147,7 @@ class Profile:
     holds: tuple[HoldSetpoint, ...]
     procedure: ProcedureLimits
     frame_config: int | None = None
+    holds_station: bool = False
 
     @property
     def weight_N(self) -> float:

@@ -117,12 +117,14 @@ _KNOWN_KEYS = {
     "name", "description", "mass_kg", "gravity_m_s2", "water_density_kg_m3", "buoyancy",
     "force_N", "volume_m3", "centre_m", "inertia_kg_m2", "added_mass", "damping", "linear",
     "quadratic", "nominal_voltage_V", "thrust_curves", "thrusters", "ballast", "slots",
-    "inventory", "holds", "procedure", "frame_config", "channel", "position_m", "direction",
+    "inventory", "holds", "procedure", "frame_config", "holds_station", "channel", "position_m",
+    "direction",
     "curve", "reversed", "tables", "voltage_V", "deadband_us", "pwm_us", "thrust_N",
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "level_tol_deg", *RETIRED_PROCEDURE_KEYS,
+    "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct",
+    *RETIRED_PROCEDURE_KEYS,
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
 }
 
@@ -158,7 +160,11 @@ def _thrust_curve(name: str, node: _Node) -> ThrustCurve:
                           key=lambda t: t.voltage_V))
     if not tables:
         raise node.fail("tables", "expected at least one table")
-    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0))
+    uncertainty = node.number("uncertainty_pct", 5.0, minimum=0.0)
+    if uncertainty >= 100:
+        raise node.fail("uncertainty_pct", "expected a relative standard deviation below "
+                                           f"100 %, got {uncertainty}")
+    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0), uncertainty)
     node.done()
     return curve
 
@@ -316,6 +322,9 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
     frame = top.raw("frame_config", None)
     if frame is not None and (not isinstance(frame, int) or isinstance(frame, bool)):
         raise top.fail("frame_config", f"expected an ArduSub FRAME_CONFIG number, got {frame!r}")
+    holds_station = top.raw("holds_station", False)
+    if not isinstance(holds_station, bool):
+        raise top.fail("holds_station", f"expected true or false, got {holds_station!r}")
     top.raw("description", "")
     profile = Profile(
         name=top.text("name"), source=source,
@@ -327,7 +336,7 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
         thrusters=thrusters, slots=tuple(slots), inventory=inventory,
         net_buoyancy_pct=(window[0], window[1]), level_tol_deg=level_tol_deg,
         holds=tuple(holds), procedure=procedure,
-        frame_config=frame,
+        frame_config=frame, holds_station=holds_station,
     )
     top.done()
     return profile
