@@ -8,7 +8,6 @@ from trimd.core.steady import (
     RatioTest,
     SteadyCriteria,
     detect_steady,
-    merge_similar,
     ratio_statistic,
     steady_segments,
     window_drift,
@@ -74,17 +73,6 @@ def test_detects_the_settled_part_of_a_step_response() -> None:
     true_drift = 20 / 15.0 * np.exp(-t[first.start] / 15.0) * 5.0  # slope × window
     assert 0.05 < true_drift < 0.2 * 1.5  # steady once the drift falls to its tolerance
     assert not mask[t < 30].any()  # nothing during the transient
-
-
-def test_merge_groups_by_attitude() -> None:
-    t = np.arange(600) * 0.1
-    att = np.zeros((600, 2))
-    att[400:] = 0.35
-    mask = np.ones(600, bool)
-    mask[[100, 200, 400]] = False
-    segs = steady_segments(t, mask, 1.0)
-    groups = merge_similar(segs, att, 0.02)
-    assert [len(g) for g in groups] == [3, 1]
 
 
 def test_resolution_floor_keeps_a_quantised_still_signal_steady() -> None:

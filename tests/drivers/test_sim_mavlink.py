@@ -172,6 +172,14 @@ def test_ground_station_sees_ardusub_and_holds_an_attitude(
     assert not beats[-1][1].base_mode & 128
     assert any(msg.get_type() == "STATUSTEXT" and "Failsafe" in msg.text for _, msg in tail)
 
+    # FS_PILOT_INPUT = 0 (PARAM_SET, confirmed by PARAM_VALUE) switches the failsafe off
+    c.param_set_send(1, 1, b"FS_PILOT_INPUT", 0, m.MAV_PARAM_TYPE_INT8)
+    assert next(msg.param_value for msg in gcs.messages() if msg.get_type() == "PARAM_VALUE"
+                and msg.param_id == "FS_PILOT_INPUT") == 0
+    assert gcs.command(m.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == m.MAV_RESULT_ACCEPTED
+    quiet = gcs.run_until(gcs.t + 5.0)
+    assert all(msg.base_mode & 128 for _, msg in quiet if msg.get_type() == "HEARTBEAT")
+
 
 def test_refuses_a_device_pymavlink_would_take_for_a_serial_port(bluerov: Profile) -> None:
     with pytest.raises(LinkError, match="udpout"):
@@ -190,4 +198,4 @@ def test_parameters_follow_the_channels_whatever_the_thruster_order(bluerov: Pro
             33, 34, 35, 36, 37, 38, 39, 40, 0]
         assert [params[f"MOT_{n}_DIRECTION"] for n in range(1, 9)] == [1] * 7 + [-1]
     finally:
-        server.conn.close()
+        server.close()

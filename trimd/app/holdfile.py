@@ -8,7 +8,8 @@ Columns (header required, order free, surrounding spaces ignored):
   through the profile's thrust curves (at ``battery_V`` when that column is present,
   else at the profile's nominal voltage);
 * ``hold`` (optional integer): which hold a sample belongs to. Without it, holds are
-  found by the steady-state detector and grouped by attitude.
+  found by the live procedure's settling test and grouped by attitude
+  (:func:`trimd.core.holdfinder.find_holds`).
 """
 
 from __future__ import annotations
@@ -23,9 +24,10 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import DataError
 from trimd.core.estimate import HoldSamples
+from trimd.core.holdfinder import find_holds
 from trimd.core.model import tau_from_pwm
 from trimd.core.profile import Profile
-from trimd.core.steady import SteadyCriteria, detect_steady, merge_similar
+from trimd.core.samples import Attitude
 
 __all__ = ["TAU_COLUMNS", "HoldFile", "holds_from_table", "read_hold_csv"]
 
@@ -110,20 +112,16 @@ def holds_from_table(table: HoldFile, profile: Profile) -> list[HoldSamples]:
             raise DataError(f"{table.path}: column hold must hold whole numbers")
         return [hold(np.flatnonzero(ids == k), f"hold {int(k)}") for k in np.unique(ids)]
 
-    proc = profile.procedure
-    signals = np.column_stack([phi, theta, tau])
-    scale = np.max(np.abs(tau), axis=0)
-    tol_att = math.radians(proc.attitude_tol_deg)
-    criteria = SteadyCriteria(min_duration_s=proc.min_steady_s, drift_tol=(
-        tol_att, tol_att, *np.maximum(0.05 * scale, 1e-9)))
-    _, segments = detect_steady(t, signals, criteria)
-    if not segments:
+    # every row is a sample of each stream; body rates are not in the table
+    attitude = [Attitude(float(ti), float(p), float(q), 0.0, 0.0, 0.0, 0.0)
+                for ti, p, q in zip(t, phi, theta, strict=True)]
+    holds = find_holds(attitude, t, tau, profile)
+    if not holds:
+        proc = profile.procedure
         raise DataError(f"{table.path}: no steady hold found (no stretch of at least "
-                        f"{proc.min_steady_s:g} s with settled attitude and thrust); add a "
-                        "'hold' column or record longer holds")
-    groups = merge_similar(segments, np.column_stack([phi, theta]), tol_att)
-    return [hold(np.concatenate([np.arange(s.start, s.stop) for s in g]), f"hold {k + 1}")
-            for k, g in enumerate(groups)]
+                        f"{proc.min_steady_s:g} s with settled attitude and thrust, then "
+                        "samples to collect); add a 'hold' column or record longer holds")
+    return holds
 
 
 def read_hold_csv(path: str | Path, profile: Profile) -> list[HoldSamples]:

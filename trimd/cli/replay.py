@@ -22,7 +22,6 @@ import numpy as np
 import yaml
 
 from trimd.app.headless import HeadlessPresenter
-from trimd.app.holdfile import TAU_COLUMNS, HoldFile, holds_from_table
 from trimd.app.report import format_estimate, format_proposal, format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
@@ -31,8 +30,9 @@ from trimd.cli.inspect import format_report, inspect_log
 from trimd.cli.run import wants_tui
 from trimd.core.effort import tau_at
 from trimd.core.errors import DataError, EstimationError
-from trimd.core.estimate import StaticEstimate, estimate_static
+from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
 from trimd.core.events import Phase
+from trimd.core.holdfinder import find_holds
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
@@ -110,30 +110,27 @@ def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> Tri
                     link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
-def _table(samples: list[Sample], profile: Profile, name: str) -> HoldFile:
-    """Attitude with τ from the zero-order-held thruster outputs, as a hold table."""
+def _holds(samples: list[Sample], profile: Profile, name: str) -> list[HoldSamples]:
+    """The steady holds of a log, found as the live procedure finds them."""
     att = [s for s in samples if isinstance(s, Attitude)]
     thr = [s for s in samples if isinstance(s, Thrusters)]
     if not att or not thr:
         raise DataError(f"{name}: no attitude or no thruster outputs to estimate from")
-    t = np.array([a.t_s for a in att])
+    t = np.array([s.t_s for s in thr])
     tau, ok = tau_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
-    columns = {"time_s": t[ok], "roll_deg": np.degrees([a.phi for a in att])[ok],
-               "pitch_deg": np.degrees([a.theta for a in att])[ok]}
-    columns |= {c: tau[ok, k] for k, c in enumerate(TAU_COLUMNS)}
-    return HoldFile(name, columns)
+    return find_holds(att, t[ok], tau[ok], profile)
 
 
 def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:
-    report = inspect_log(path, profile)
-    print(format_report(report))
-    if not report["holds"]:
-        return 1
-    link = ReplayLink(path, profile)
-    samples = list(link.read_samples())
+    print(format_report(inspect_log(path, profile)))
+    samples = list(ReplayLink(path, profile).read_samples())
     try:
-        est = estimate_static(holds_from_table(_table(samples, profile, path), profile),
-                              profile)
+        holds = _holds(samples, profile, path)
+        if not holds:
+            raise DataError("no steady attitude hold with thruster outputs found (each needs "
+                            f"{profile.procedure.min_steady_s:g} s settled, then samples to "
+                            "collect)")
+        est = estimate_static(holds, profile)
     except (EstimationError, DataError) as exc:
         print(f"trimd: cannot estimate from this log: {exc}", file=sys.stderr)
         return 1

@@ -2,7 +2,9 @@
 or the serial line protocol on a pseudo-terminal: ``--serve serial:pty``).
 
 Example: ``trimd sim --profile bluerov2-heavy --payload 0.4@W-aft-ctr --serve
-mavlink:udpout:127.0.0.1:14550 --rate 10``. The vehicle boots like ArduSub: disarmed, in
+mavlink:udpout:127.0.0.1:14550 --rate 10``. ``--serve`` again adds endpoints, as BlueOS's
+MAVLink router does (e.g. trimd on one, a pilot's ground station on another): each sees
+the vehicle and the other's packets. The vehicle boots like ArduSub: disarmed, in
 MANUAL, at the start depth. Exit codes: 0 after ``--duration`` or Ctrl-C, 2 for a usage or
 profile error, 3 when the transport cannot be opened.
 """
@@ -18,7 +20,9 @@ from trimd.app.connect import parse_link_url
 from trimd.core.errors import LinkError, ProfileError
 from trimd.core.profile_yaml import load_profile
 
-__all__ = ["register", "run"]
+__all__ = ["DEFAULT_SERVE", "register", "run"]
+
+DEFAULT_SERVE = "mavlink:udpout:127.0.0.1:14550"
 
 
 def register(sub: Any) -> None:
@@ -30,10 +34,11 @@ def register(sub: Any) -> None:
     p.add_argument("--payload", action="append", default=[], metavar="KG@WHERE",
                    help="hidden payload: 10@AftSB, 3.5@0.2,-0.1,0.05 (kg at slot or body "
                    "position in m), negative kg for a float; repeatable")
-    p.add_argument("--serve", default="mavlink:udpout:127.0.0.1:14550",
+    p.add_argument("--serve", action="append", default=[],
                    help="mavlink:udpout:HOST:PORT | mavlink:udpin:HOST:PORT | "
                    "mavlink:tcpin:HOST:PORT | serial:pty (a pseudo-terminal speaking "
-                   "docs/serial-protocol.md; its path is printed) (default %(default)s)")
+                   "docs/serial-protocol.md; its path is printed); repeat for more MAVLink "
+                   f"endpoints behind one router (default {DEFAULT_SERVE})")
     p.add_argument("--rate", type=float, default=1.0,
                    help="simulated seconds per wall second (default 1: real time)")
     p.add_argument("--seed", type=int, default=0, help="seed of noise, bias and current")
@@ -52,9 +57,15 @@ def run(args: argparse.Namespace) -> int:
     from trimd.drivers.sim.vehicle import SimVehicle
 
     profile = load_profile(args.profile)
-    scheme, device = parse_link_url(args.serve)
-    if (scheme, device) != ("serial", "pty") and scheme != "mavlink":
-        raise LinkError(f"trimd sim serves mavlink:… or serial:pty, not '{args.serve}'")
+    urls = args.serve or [DEFAULT_SERVE]
+    devices = []
+    for url in urls:
+        scheme, device = parse_link_url(url)
+        if scheme != "mavlink" and ((scheme, device) != ("serial", "pty") or len(urls) > 1):
+            raise LinkError("trimd sim serves mavlink:… (one or more endpoints) or one "
+                            f"serial:pty, not '{url}'")
+        devices.append(device)
+    device = ", ".join(devices)
     base = SimConfig(armed=False, mode="MANUAL", seed=args.seed,
                      payload="+".join(args.payload))
     config = parse_sim_options(args.options, base)
@@ -70,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
             server = SerialServer(vehicle, rate=args.rate)
             device, speaks = server.path, "the trimd serial protocol"
         else:
-            server, speaks = MavlinkServer(vehicle, device, rate=args.rate), "ArduSub"
+            server = MavlinkServer(vehicle, devices, rate=args.rate)
+            speaks = "ArduSub"
     except OSError as exc:
         raise LinkError(f"cannot open {device}: {exc}") from None
     print(f"trimd sim: {profile.name} ({config.payload or 'no payload'}, seed {config.seed}) "

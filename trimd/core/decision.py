@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from trimd.core.estimate import StaticEstimate
-from trimd.core.longrun import MeanCovariance
+from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.longrun import mean_covariance
 from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
 
@@ -94,9 +94,18 @@ class StopRule:
         return np.r_[np.full(3, self.buoyancy_half_window_N),
                      np.full(3, self.level_tol_rad * k)] / self.z
 
-    def hold_decided(self, mean: MeanCovariance, rows: NDArray[np.bool_]) -> bool:
-        """Is one hold's mean τ (the ``rows`` that carry information at its attitude)
-        known well enough? Used before the last hold, when no estimate exists yet."""
+    def hold_decided(self, hold: HoldSamples, phi: float, theta: float) -> bool:
+        """Is one hold's mean effort known well enough, on the rows that carry information
+        at its set-point (``phi``, ``theta``) [rad]? Used before the last hold, when no
+        estimate exists yet: the residual τ − G(φ, θ)·q is taken with the profile's
+        stiffness and the hold's own W − B, so attitude noise counts as it will in the
+        estimate."""
+        rows = informative_rows(phi, theta)
+        if len(hold.t_s) < 3:
+            return False
+        q = np.r_[-float(np.mean(hold.tau[:, 2])), 0.0, 0.0, self.stiffness_prior_Nm]
+        e = hold.tau - np.einsum("nij,j->ni", restoring_matrix(hold.phi, hold.theta), q)
+        mean = mean_covariance(e[:, rows])
         sigma = np.sqrt(np.diag(mean.cov))
         return mean.resolved and bool(np.all(sigma <= self.row_limits()[rows]))
 

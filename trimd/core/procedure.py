@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from trimd.core.decision import StopRule, informative_rows
+from trimd.core.decision import StopRule
 from trimd.core.effort import MAX_THRUSTER_AGE_S
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
@@ -35,7 +35,6 @@ from trimd.core.events import (
     TrimResult,
 )
 from trimd.core.guards import Guard
-from trimd.core.longrun import mean_covariance
 from trimd.core.model import tau_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.samples import (
@@ -318,9 +317,7 @@ class Procedure:
         attitude (at level: Z, K and M); at the last: the estimate."""
         if len(self._holds) < len(self.profile.holds):
             hold = self._holds[-1]
-            rows = informative_rows(hold.phi, hold.theta)
-            tau = np.array(hold.tau).reshape(-1, 6)[:, rows]
-            return len(tau) >= 3 and self.rule.hold_decided(mean_covariance(tau), rows)
+            return self.rule.hold_decided(hold.samples(""), hold.phi, hold.theta)
         try:
             est = estimate_static(self._hold_samples(), self.profile)
         except EstimationError:

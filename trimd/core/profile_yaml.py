@@ -108,6 +108,11 @@ class _Node:
                 raise self.fail(str(key), f"unknown key{hint}")
 
 
+#: Procedure keys of older profiles, accepted and ignored: collecting now stops on
+#: ``ballast.level_tol_deg`` and the buoyancy window (``trimd.core.decision``).
+RETIRED_PROCEDURE_KEYS = ("target_cg_std_m", "target_m_ext_std_kg")
+
+
 _KNOWN_KEYS = {
     "name", "description", "mass_kg", "gravity_m_s2", "water_density_kg_m3", "buoyancy",
     "force_N", "volume_m3", "centre_m", "inertia_kg_m2", "added_mass", "damping", "linear",
@@ -117,7 +122,7 @@ _KNOWN_KEYS = {
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "level_tol_deg",
+    "connect_timeout_s", "link_timeout_s", "level_tol_deg", *RETIRED_PROCEDURE_KEYS,
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
 }
 
@@ -221,6 +226,8 @@ def _procedure(node: _Node) -> ProcedureLimits:
     )
     if p.max_tilt_deg >= 60:
         raise node.fail("max_tilt_deg", f"expected less than 60 degrees, got {p.max_tilt_deg}")
+    for retired in RETIRED_PROCEDURE_KEYS:  # read, so that older recordings still replay
+        node.number(retired, 1.0, positive=True)
     node.done()
     return p
 

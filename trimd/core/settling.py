@@ -48,7 +48,7 @@ UNSTEADY_GRACE_S = 1.0
 #: Trailing window [s] of the drift tests.
 WINDOW_S = 5.0
 #: Samples each ratio test needs before it can call a stream settled.
-MIN_RATIO_SAMPLES = 30
+MIN_RATIO_SAMPLES = 12
 #: The Cao–Rhinehart ratio below which a stream is steady.
 R_CRIT = 2.5
 #: The attitude may drift by this share of the attitude tolerance per window.

@@ -16,7 +16,6 @@ small. Steady samples that last at least ``min_duration_s`` form segments.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +27,6 @@ __all__ = [
     "Segment",
     "SteadyCriteria",
     "detect_steady",
-    "merge_similar",
     "ratio_statistic",
     "steady_segments",
     "window_drift",
@@ -234,18 +232,3 @@ def detect_steady(t: ArrayLike, signals: ArrayLike, criteria: SteadyCriteria, *,
 
 def _offset(segments: list[Segment], start: int) -> list[Segment]:
     return [Segment(s.start + start, s.stop + start, s.t_start_s, s.t_end_s) for s in segments]
-
-
-def merge_similar(segments: Sequence[Segment], attitude: FloatArray, tol_rad: float
-                  ) -> list[list[Segment]]:
-    """Group consecutive segments whose mean attitude (N, m) agrees within ``tol_rad``."""
-    groups: list[list[Segment]] = []
-    means: list[FloatArray] = []
-    for seg in segments:
-        mean = np.mean(attitude[seg.start:seg.stop], axis=0)
-        if groups and np.all(np.abs(mean - means[-1]) <= tol_rad):
-            groups[-1].append(seg)
-        else:
-            groups.append([seg])
-            means.append(mean)
-    return groups

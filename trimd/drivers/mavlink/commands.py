@@ -7,17 +7,29 @@ nothing of sockets:
 * a GCS HEARTBEAT (type 6) at 1 Hz, always;
 * when the vehicle appears (again): MAV_CMD_SET_MESSAGE_INTERVAL for each message in
   :data:`STREAMS`, one at a time; a refusal or no answer falls back to REQUEST_DATA_STREAM
-  for that message's stream, with a warning; PARAM_REQUEST_READ for FRAME_CONFIG,
+  for that message's stream, with a warning; then, for the whole session, whenever
+  ATTITUDE, SERVO_OUTPUT_RAW or the depth message arrives at less than 70 % of the rate
+  asked (:mod:`~trimd.drivers.mavlink.rates`: another ground station's request won), the
+  same request again, with one warning the first time; PARAM_REQUEST_READ for FRAME_CONFIG,
   SERVOn_FUNCTION and MOT_n_DIRECTION, and a warning for each disagreement with the profile;
 * HoldAttitude: ALT_HOLD (MAV_CMD_DO_SET_MODE), then SET_ATTITUDE_TARGET with the body-rate
-  and throttle-ignore bits (type_mask 71) at 4 Hz, with neutral MANUAL_CONTROL at 10 Hz;
-* OpenLoop: MANUAL, then MANUAL_CONTROL with those axes at 10 Hz;
+  and throttle-ignore bits (type_mask 71) at 4 Hz, with neutral MANUAL_CONTROL at 10 Hz
+  only while trimd is the only ground station (:mod:`~trimd.drivers.mavlink.stations`):
+  beside a pilot's station, that station keeps the sticks and ArduSub's pilot-input
+  failsafe, and trimd sends no MANUAL_CONTROL at all;
+* OpenLoop: MANUAL, then MANUAL_CONTROL with those axes at 10 Hz (refused beside another
+  ground station);
 * Release: one last SET_ATTITUDE_TARGET at level (roll = pitch = 0, the hold's heading),
   then stop both and restore the mode the operator had before trimd's first command.
   ArduSub keeps honouring the last target for 5 s in ALT_HOLD, so merely falling silent
   would leave the vehicle tilted for up to 5 s; the level target brings it back at once;
 * Arm: MAV_CMD_COMPONENT_ARM_DISARM;
-* link lost: stop commanding at once (a command must come again after a loss).
+* link lost: stop commanding at once (a command must come again after a loss);
+* someone else takes over while trimd commands (the vehicle leaves the mode trimd set
+  without trimd asking, or another station's sticks leave neutral): stop commanding at
+  once, without restoring any mode (the pilot chose it); :meth:`Commander.on_message`
+  and :meth:`Commander.yield_control` return the words for a
+  :class:`~trimd.core.samples.PilotInput`.
 
 A command's future completes when the vehicle confirms (COMMAND_ACK accepted, or a
 HEARTBEAT in the wanted mode) and fails with a LinkError on refusal or after 3 s.
@@ -25,6 +37,7 @@ HEARTBEAT in the wanted mode) and fails with a LinkError on refusal or after 3 s
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from collections.abc import Callable
@@ -40,9 +53,13 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release
 from trimd.drivers.mavlink.ardusub import mode_number
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.drivers.mavlink.rates import RateWatch
+from trimd.drivers.mavlink.stations import Stations
 from trimd.drivers.mavlink.url import MavlinkOptions
 
 __all__ = ["HOLD_PERIOD_S", "PILOT_PERIOD_S", "STREAMS", "Commander", "pilot_axes"]
+
+log = logging.getLogger("trimd.drivers.mavlink.link")
 
 #: message → (message id, rate [Hz], legacy REQUEST_DATA_STREAM stream id)
 STREAMS: dict[str, tuple[int, float, int]] = {
@@ -111,22 +128,30 @@ class Commander:
     """ArduSub command policy over one pymavlink ``MAVLink`` object (module docstring).
 
     ``warn`` receives each warning once (stream fallbacks, parameter disagreements,
-    unanswered mode restores).
+    unanswered mode restores, which pilot-input case applies); ``stations`` are the other
+    ground stations the link has seen.
     """
 
     def __init__(self, mav: Any, profile: Profile, decoder: MavlinkDecoder,
-                 options: MavlinkOptions, warn: Callable[[str], None]) -> None:
+                 options: MavlinkOptions, warn: Callable[[str], None],
+                 stations: Stations) -> None:
         self.mav = mav
         self.profile = profile
         self.decoder = decoder
         self.options = options
         self.warn = warn
+        self.stations = stations
         self.target: tuple[float, float, float] | None = None
         self.pilot: tuple[int, ...] | None = None
+        self._mode: str | None = None       # the mode the present command flies in
+        self._mode_reached = False          # a heartbeat has shown it since
         self._restore: str | None = None
         self._requests: dict[int, _Request] = {}
         self._mode_wanted: tuple[str, Future[None] | None] | None = None
         self._streams: deque[str] = deque()
+        self.rates = RateWatch()
+        self._watched: set[str] = set()
+        self._rates_warned = False
         self._params_wanted: set[str] = set()
         self._params_seen: set[str] = set()
         self._params_due = math.inf
@@ -139,6 +164,7 @@ class Commander:
         depth = _DEPTH_MESSAGE[self.options.depth]
         self._streams = deque(n for n in STREAMS if n in (
             "ATTITUDE", "SERVO_OUTPUT_RAW", "SYS_STATUS", depth))
+        self.rates, self._watched = RateWatch(), {"ATTITUDE", "SERVO_OUTPUT_RAW", depth}
         names = ["FRAME_CONFIG", *(f"SERVO{n}_FUNCTION" for n in range(1, 17)),
                  *(f"MOT_{t.channel}_DIRECTION" for t in self.profile.thrusters
                    if t.channel <= 12)]
@@ -153,30 +179,59 @@ class Commander:
         """The vehicle's heartbeat stopped: stop commanding, fail what waits for it."""
         self.target = None
         self.pilot = None
+        self._mode = None
         for request in self._requests.values():
             _fail(request.done, "link lost before the vehicle answered")
         self._requests.clear()
         self._mode_wanted = None
         self._params_due = math.inf
 
-    def on_message(self, msg: Any) -> None:
-        """A message from the vehicle (after the decoder has seen it)."""
+    def on_message(self, msg: Any, now: float) -> str | None:
+        """A message from the vehicle (after the decoder has seen it); words for a
+        :class:`~trimd.core.samples.PilotInput` when it shows that someone else changed
+        the mode while trimd commanded (trimd has stopped commanding then)."""
         kind = msg.get_type()
+        self.rates.note(msg)
         if kind == "COMMAND_ACK":
             request = self._requests.get(int(msg.command))
-            if request is not None and int(msg.result) != _IN_PROGRESS:
+            target = int(getattr(msg, "target_system", 0) or 0)  # MAVLink 2 extension
+            if (request is not None and int(msg.result) != _IN_PROGRESS
+                    and target in (0, self.options.gcs_sysid)):
                 del self._requests[int(msg.command)]
                 request.answered(int(msg.result))
-        elif kind == "HEARTBEAT" and self._mode_wanted is not None:
-            mode, done = self._mode_wanted
-            if self.decoder.mode == mode:
+        elif kind == "HEARTBEAT":
+            mode = self.decoder.mode
+            if self._mode_wanted is not None and mode == self._mode_wanted[0]:
+                done = self._mode_wanted[1]
                 self._mode_wanted = None
                 self._requests.pop(mavlink2.MAV_CMD_DO_SET_MODE, None)
                 _succeed(done)
+            if self._mode is not None and mode == self._mode:
+                self._mode_reached = True
+            elif self.commanding and self._mode_reached and self._mode_wanted is None:
+                return self.yield_control(now, f"mode changed to {mode} by another station",
+                                          level=False)
         elif kind == "PARAM_VALUE":
             self._params_seen.add(str(msg.param_id))
             if self._params_wanted <= self._params_seen and self._params_due < math.inf:
                 self._params_due = -math.inf  # all answered: judge them at the next tick
+        return None
+
+    @property
+    def commanding(self) -> bool:
+        """trimd holds an attitude or sends open-loop input (until released or lost)."""
+        return self._mode is not None
+
+    def yield_control(self, now: float, why: str, *, level: bool = True) -> str:
+        """Someone else flies: stop commanding at once and restore no mode; ``level``
+        sends one level attitude target first (ArduSub would hold the last tilted one for
+        5 s in ALT_HOLD). Returns ``why``, for the PilotInput sample."""
+        if not level:
+            self.target = None
+        self._restore = None
+        self.release(now)
+        self.pilot = None
+        return why
 
     @property
     def idle(self) -> bool:
@@ -186,6 +241,7 @@ class Commander:
     # ---------------------------------------------------------------- commands
     def apply(self, command: Command, now: float, done: Future[None]) -> None:
         """Carry out ``command``; ``done`` completes when the vehicle confirms it."""
+        others = self.stations.present(now)
         if self.decoder.vehicle is None:
             _fail(done, "no vehicle heartbeat yet")
         elif isinstance(command, HoldAttitude):
@@ -193,6 +249,9 @@ class Commander:
             self.pilot = _NEUTRAL
             self._due["target"] = self._due["pilot"] = now
             self._change_mode("ALT_HOLD", now, done)
+        elif isinstance(command, OpenLoop) and others:
+            _fail(done, f"open-loop input needs trimd to be the only ground station; "
+                        f"{self.stations.describe(others[0])} is connected and has the sticks")
         elif isinstance(command, OpenLoop):
             self.target = None
             self.pilot = pilot_axes(command.axes)
@@ -215,6 +274,7 @@ class Commander:
             self._send_target((0.0, 0.0, self.target[2]), now)
         self.target = None
         self.pilot = _NEUTRAL if self.options.pilot == "always" else None
+        self._mode = None
         if self._mode_wanted is not None:
             _fail(self._mode_wanted[1], "released before the mode changed")
             self._mode_wanted = None
@@ -223,6 +283,8 @@ class Commander:
             self._change_mode(restore, now, None)
 
     def _change_mode(self, mode: str, now: float, done: Future[None] | None) -> None:
+        if done is not None:  # a command (not a restore): trimd flies in this mode now
+            self._mode, self._mode_reached = mode, False
         if self.decoder.mode == mode:
             _succeed(done)
             return
@@ -270,10 +332,11 @@ class Commander:
             self._send_target(self.target, now)
             due["target"] = now + HOLD_PERIOD_S
         if self.pilot is not None and now >= due["pilot"]:
-            x, y, z, r, s, t, ext = self.pilot
-            mav.manual_control_send(sysid, x, y, z, r, 0, 0, ext, s, t)
+            self._send_pilot(sysid, now)
             due["pilot"] = now + PILOT_PERIOD_S
         self._tick_requests(now, sysid, compid)
+        if not self._streams:
+            self._check_rates()
         if now >= self._params_due:
             self._params_answered(now)
         waits = [due["heartbeat"], self._params_due,
@@ -284,6 +347,18 @@ class Commander:
         if self.pilot is not None:
             waits.append(due["pilot"])
         return min(waits)
+
+    def _send_pilot(self, sysid: int, now: float) -> None:
+        """MANUAL_CONTROL, only while no other ground station is present."""
+        if self.pilot is None or self.stations.present(now):
+            return
+        if self.pilot == _NEUTRAL:
+            self.warn("no other ground station seen: trimd sends neutral MANUAL_CONTROL "
+                      "(ArduSub's pilot-input failsafe) " + (
+                          "from the first heartbeat on (pilot=always)"
+                          if self.options.pilot == "always" else "while it commands"))
+        x, y, z, r, s, t, ext = self.pilot
+        self.mav.manual_control_send(sysid, x, y, z, r, 0, 0, ext, s, t)
 
     def _send_target(self, target: tuple[float, float, float], now: float) -> None:
         """SET_ATTITUDE_TARGET for (roll, pitch, yaw) [rad], throttle and rates ignored."""
@@ -307,10 +382,27 @@ class Commander:
                 request.tries += 1
                 request.next_send = now + _RETRY_S
 
+    def _check_rates(self) -> None:
+        """Ask again for each watched message that arrives too slowly."""
+        for name, got in self.rates.low():
+            asked = self.rates.asked[name]
+            self.rates.forget(name)
+            self._streams.append(name)
+            text = (f"the vehicle sent {name} at {got:.1f} Hz, not the {asked:g} Hz trimd "
+                    "asked for (another ground station's rate request?): asked again, and "
+                    "will whenever it happens again")
+            if not self._rates_warned:
+                self._rates_warned = True
+                self.warn(text)
+            else:
+                log.info("%s", text)
+
     def _request_stream(self, name: str, now: float) -> None:
         msg_id, hz, stream = STREAMS[name]
 
         def answered(result: int | None) -> None:
+            if name in self._watched and result is not None:
+                self.rates.asked_for(name, hz)
             if result == _ACCEPTED:
                 return
             sysid, compid = self.decoder.vehicle or (0, 0)

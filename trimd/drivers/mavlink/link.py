@@ -12,12 +12,18 @@ are dropped and counted when the consumer falls behind).
 The protocol is pinned: MAVLink 2 and pymavlink's generated ``v20.ardupilotmega`` dialect
 from the first byte, whatever ``MAVLINK20`` says. The vehicle is the one the URL's
 ``sysid`` names, else the first autopilot heartbeat that is not a GCS; mode and armed state
-come from that component only; other systems are ignored (counted by the decoder).
+come from that component only; other systems are ignored (counted by the decoder),
+except other ground stations' HEARTBEAT and MANUAL_CONTROL
+(:mod:`~trimd.drivers.mavlink.stations`): beside another station trimd sends no
+MANUAL_CONTROL, and while trimd commands, that station's sticks beyond neutral or a mode
+change trimd did not ask for make trimd stop commanding at once and yield a
+:class:`~trimd.core.samples.PilotInput` sample (the procedure then ends, exit 1).
 
 Health samples: every vehicle HEARTBEAT yields ``Health(connected=True, …)`` whose
 ``bad_frames`` is this link's count and whose ``detail`` lists the warnings so far
-(stream-request fallbacks, parameters that disagree with the profile; each is also logged
-once on the ``trimd.drivers.mavlink.link`` logger). No heartbeat for the URL's ``timeout``
+(stream-request fallbacks, parameters that disagree with the profile, other ground stations
+and whether trimd sends pilot input; each is also logged once on the
+``trimd.drivers.mavlink.link`` logger). No heartbeat for the URL's ``timeout``
 yields one ``Health(connected=False, detail=…)`` (the link may come back: the next heartbeat yields
 ``connected=True`` again, and commanding has to be asked for again). A transport that
 fails (serial device gone, TCP closed by the peer) yields the same, and then the sample
@@ -51,10 +57,11 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, Release, Sample
+from trimd.core.samples import Command, Health, PilotInput, Release, Sample
 from trimd.drivers.limits import check_command
 from trimd.drivers.mavlink.commands import Commander
 from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams
+from trimd.drivers.mavlink.stations import STATION_TIMEOUT_S, Stations
 from trimd.drivers.mavlink.url import MavlinkOptions, load_signing_key, parse_mavlink_url
 
 __all__ = ["LinkStats", "MavlinkLink", "open_mavlink_link"]
@@ -152,7 +159,9 @@ class MavlinkLink:
         self._conn = _open(options)
         self._decoder = MavlinkDecoder.for_profile(profile, sysid=options.sysid,
                                                    depth_source=options.depth)
-        self._commander = Commander(self._conn.mav, profile, self._decoder, options, self._warn)
+        self._stations = Stations((options.gcs_sysid, TRIMD_COMPONENT))
+        self._commander = Commander(self._conn.mav, profile, self._decoder, options, self._warn,
+                                    self._stations)
         self._items: deque[_Item] = deque()
         self._commands: queue.SimpleQueue[tuple[Command, Future[None]]] = queue.SimpleQueue()
         self._seq: dict[tuple[int, int], int] = {}
@@ -282,7 +291,12 @@ class MavlinkLink:
                 if not self._connected:
                     self._connected = True
                     self._commander.on_vehicle(now)
-            self._commander.on_message(msg)
+            took = self._commander.on_message(msg, now)
+        else:
+            self._stations.heard(source, now)
+            took = self._from_other(msg, kind, now)
+        if took is not None:
+            samples.append(PilotInput(now, took))
         if self.warnings:
             detail = "; ".join(self.warnings)
             samples = [dataclasses.replace(s, detail=detail) if isinstance(s, Health) else s
@@ -290,7 +304,29 @@ class MavlinkLink:
         if samples or self.on_raw is not None:
             self._push((now, bytes(msg.get_msgbuf()), samples))
 
+    def _from_other(self, msg: Any, kind: str, now: float) -> str | None:
+        """Another system's message: a ground station's heartbeat or stick input; words
+        for a PilotInput when it takes the vehicle from trimd."""
+        commander, vehicle = self._commander, self._decoder.vehicle
+        if kind == "HEARTBEAT":
+            new = self._stations.heartbeat(msg, now)
+            if new is None:
+                return None
+            name = self._stations.describe(new)
+            self._warn(f"{name} is connected: trimd sends no MANUAL_CONTROL beside it (that "
+                       "station has the sticks and feeds ArduSub's pilot-input failsafe)")
+            if commander.commanding and commander.target is None:  # open-loop input
+                return commander.yield_control(now, f"{name} connected during open-loop input")
+        elif kind == "MANUAL_CONTROL" and vehicle is not None and commander.commanding:
+            text = self._stations.stick_input(msg, vehicle[0])
+            if text is not None:
+                return commander.yield_control(now, text)
+        return None
+
     def _watchdog(self, now: float) -> None:
+        for gone in self._stations.gone(now):
+            self._warn(f"{self._stations.describe(gone)} silent for {STATION_TIMEOUT_S:g} s: "
+                       "gone")
         if self._connected and now - self._t_heartbeat > self.options.timeout_s:
             vehicle = self._decoder.vehicle or (0, 0)
             self._lost(now, f"no heartbeat from the vehicle (system {vehicle[0]}, component "

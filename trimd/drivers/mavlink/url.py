@@ -20,6 +20,7 @@ Syntax (``docs/mavlink.md``)::
                  ground station supplies pilot input otherwise)
     pilot=always neutral MANUAL_CONTROL from the first heartbeat on: trimd is the only
                  ground station and must keep ArduSub's pilot-input failsafe quiet
+                 (either way: never while another ground station's heartbeat is seen)
     depth=SOURCE vfr_hud (default), global_position or pressure (SCALED_PRESSURE2, Bar30)
 
 Everything else is refused with a :class:`~trimd.core.errors.LinkError` that says what would

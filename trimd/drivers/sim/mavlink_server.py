@@ -5,15 +5,24 @@ from an ArduPilot autopilot (sysid 1, compid 1) with the ArduSub mode number and
 bit; ATTITUDE (stream EXTRA1, 10 Hz), VFR_HUD (EXTRA2, 10 Hz), SERVO_OUTPUT_RAW (RC_CHAN,
 2 Hz), SCALED_PRESSURE2 (RAW_SENS, 2 Hz; the external depth sensor), GLOBAL_POSITION_INT
 (POSITION, 3 Hz; relative_alt = −depth) and SYS_STATUS (EXT_STAT, 2 Hz; battery voltage),
-re-rated by MAV_CMD_SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM.
+re-rated by MAV_CMD_SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM: the last request wins,
+whoever sent it (ArduPilot behind BlueOS's router: one channel for every ground station).
+
+Several endpoints (``devices``) make it ArduSub behind BlueOS's MAVLink router: the
+vehicle's messages go to every endpoint, and each packet received on one endpoint is
+passed on to the others (so ground stations see each other's heartbeats and stick input)
+before the vehicle acts on it; COMMAND_ACK names the sender it answers (target_system,
+target_component).
 
 What it obeys: MAV_CMD_COMPONENT_ARM_DISARM; MAV_CMD_DO_SET_MODE and SET_MODE for MANUAL,
 STABILIZE and ALT_HOLD (other modes are denied: GUIDED needs a position estimate); in
 ALT_HOLD, SET_ATTITUDE_TARGET with the throttle-ignore bit (64) holds that attitude (roll,
 pitch, absolute yaw) until 5 s after the last such message; MANUAL_CONTROL (z = 500
-neutral) only from the GCS system id (SYSID_MYGCS = 255); without pilot input for 3 s an
-armed vehicle disarms (FS_PILOT_INPUT = 2); PARAM_REQUEST_READ / PARAM_REQUEST_LIST for
-FRAME_CONFIG, SERVOn_FUNCTION, MOT_n_DIRECTION and the failsafe parameters.
+neutral) from the GCS system id (SYSID_MYGCS = 255) on any endpoint, whichever station
+sent it (the last one wins, as in ArduSub); without pilot input for FS_PILOT_TIMEOUT
+(3 s) an armed vehicle disarms (FS_PILOT_INPUT = 2; 0 turns the failsafe off);
+PARAM_REQUEST_READ / PARAM_REQUEST_LIST for FRAME_CONFIG, SERVOn_FUNCTION,
+MOT_n_DIRECTION and the failsafe parameters, and PARAM_SET for the failsafe parameters.
 
 Every time (stream schedules, the 5 s and 3 s timeouts, ``time_boot_ms``) is simulated
 time; only :meth:`MavlinkServer.run` paces simulated time against the wall clock (real
@@ -25,6 +34,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Sequence
 from typing import Any
 
 from pymavlink import mavutil
@@ -51,6 +61,8 @@ DEFAULT_STREAM_HZ = {1: 2.0, 2: 2.0, 3: 2.0, 6: 3.0, 10: 10.0, 11: 10.0}
 
 _ATTITUDE_TARGET_TIMEOUT_S = 5.0
 _PILOT_TIMEOUT_S = 3.0
+_SETTABLE = ("FS_PILOT_INPUT", "FS_PILOT_TIMEOUT")  # PARAM_SET takes these
+_POLL_S = 0.25          # longest simulated time between two looks at the endpoints
 _GCS_SYSID = 255
 _THROTTLE_IGNORE = 64
 _TRANSPORTS = ("udpin:", "udpout:", "tcpin:", "tcp:")
@@ -75,22 +87,42 @@ def open_mavlink2(device: str, sysid: int, compid: int) -> Any:
     return conn
 
 
+class _Fanout:
+    """The vehicle's output: every packet to every endpoint (pymavlink's ``file``)."""
+
+    def __init__(self, conns: list[Any]) -> None:
+        self.conns = conns
+
+    def write(self, buf: bytes) -> None:
+        for conn in self.conns:
+            conn.write(buf)
+
+
 class MavlinkServer:
-    """Serve ``vehicle`` on ``device`` (a pymavlink network device string).
+    """Serve ``vehicle`` on ``devices`` (pymavlink network device strings; several:
+    behind a router, module docstring).
 
     Parameters
     ----------
     vehicle : the simulated vehicle (ArduSub boots disarmed in MANUAL: configure it so).
-    device : ``udpout:127.0.0.1:14550``, ``udpin:0.0.0.0:14550``, ``tcpin:0.0.0.0:5760``…
+    devices : ``udpout:127.0.0.1:14550``, ``udpin:0.0.0.0:14550``, ``tcpin:0.0.0.0:5760``…
     rate : simulated seconds per wall second in :meth:`run`.
     """
 
-    def __init__(self, vehicle: SimVehicle, device: str, *, rate: float = 1.0) -> None:
+    def __init__(self, vehicle: SimVehicle, devices: str | Sequence[str], *,
+                 rate: float = 1.0) -> None:
         if not rate > 0:
             raise ValueError(f"rate must be positive, got {rate}")
         self.vehicle = vehicle
         self.rate = rate
-        self.conn = open_mavlink2(device, 1, 1)
+        self.conns: list[Any] = []
+        try:
+            for device in [devices] if isinstance(devices, str) else devices:
+                self.conns.append(open_mavlink2(device, 1, 1))
+        except BaseException:
+            self.close()
+            raise
+        self.mav = mavlink2.MAVLink(_Fanout(self.conns), srcSystem=1, srcComponent=1)
         self.intervals: dict[str, float] = {"HEARTBEAT": 1.0}
         for stream, hz in DEFAULT_STREAM_HZ.items():
             self._set_stream(stream, hz)
@@ -102,24 +134,39 @@ class MavlinkServer:
     # ------------------------------------------------------------------ running
     def run(self, stop: threading.Event | None = None, duration_s: float = math.inf) -> None:
         """Serve until ``stop`` is set or ``duration_s`` of simulated time has passed."""
-        run_paced(self.vehicle, self.advance_to, self.conn.fd, rate=self.rate, stop=stop,
-                  duration_s=duration_s)
-        self.conn.close()
+        run_paced(self.vehicle, self.advance_to, [c.fd for c in self.conns], rate=self.rate,
+                  stop=stop, duration_s=duration_s)
+        self.close()
+
+    def close(self) -> None:
+        """Close every endpoint."""
+        for conn in self.conns:
+            conn.close()
 
     def advance_to(self, t_s: float) -> None:
         """Handle what arrived, then step the vehicle to simulated time ``t_s`` [s],
         applying the timeouts and sending each message when it is due."""
         self.poll()
         v = self.vehicle
+        t_polled = v.t_s
         while v.t_s + 0.5 * v.dt_s < t_s:
+            if v.t_s - t_polled >= _POLL_S:  # catching up after a stall: what arrived
+                self.poll()                   # meanwhile counts before any timeout
+                t_polled = v.t_s
             v.step()
             self._timeouts()
             self._send_due()
 
     def poll(self) -> None:
-        """Handle every message waiting on the connection."""
-        while (msg := self.conn.recv_msg()) is not None:
-            if msg.get_type() != "BAD_DATA":
+        """Handle every message waiting on the endpoints, after passing it on to the
+        other endpoints."""
+        for conn in self.conns:
+            while (msg := conn.recv_msg()) is not None:
+                if msg.get_type() == "BAD_DATA":
+                    continue
+                for other in self.conns:
+                    if other is not conn:
+                        other.write(msg.get_msgbuf())
                 self.handle(msg)
 
     def _timeouts(self) -> None:
@@ -127,7 +174,9 @@ class MavlinkServer:
         if t - self._attitude_target_t > _ATTITUDE_TARGET_TIMEOUT_S:
             self._attitude_target_t = math.nan
             v.level()
-        if v.armed and t - self._pilot_t > _PILOT_TIMEOUT_S:
+        failsafe, timeout = self._params["FS_PILOT_INPUT"][0], self._params[
+            "FS_PILOT_TIMEOUT"][0]
+        if v.armed and failsafe and t - self._pilot_t > timeout:
             v.arm(False)
             self._statustext("Failsafe: pilot input lost, disarming")
 
@@ -166,6 +215,10 @@ class MavlinkServer:
                 names[msg.param_index] if msg.param_index < len(names) else "")
             if name in self._params:
                 self._param_value(name)
+        elif kind == "PARAM_SET" and msg.param_id in _SETTABLE:
+            _, kind_id = self._params[msg.param_id]
+            self._params[msg.param_id] = (float(msg.param_value), kind_id)
+            self._param_value(msg.param_id)
         elif kind == "PARAM_REQUEST_LIST":
             for name in self._params:
                 self._param_value(name)
@@ -184,7 +237,8 @@ class MavlinkServer:
             result = self._set_interval(int(msg.param1), msg.param2)
         else:
             result = c.MAV_RESULT_UNSUPPORTED
-        self.conn.mav.command_ack_send(msg.command, result)
+        self.mav.command_ack_send(msg.command, result, 0, 0, msg.get_srcSystem(),
+                                  msg.get_srcComponent())
 
     def _set_mode(self, number: int) -> int:
         name = mode_name(number)
@@ -245,12 +299,12 @@ class MavlinkServer:
     def _param_value(self, name: str) -> None:
         value, kind = self._params[name]
         names = list(self._params)
-        self.conn.mav.param_value_send(name.encode(), value, kind, len(names),
+        self.mav.param_value_send(name.encode(), value, kind, len(names),
                                        names.index(name))
 
     # ------------------------------------------------------------------ outgoing
     def _statustext(self, text: str) -> None:
-        self.conn.mav.statustext_send(mavlink2.MAV_SEVERITY_CRITICAL, text.encode()[:50])
+        self.mav.statustext_send(mavlink2.MAV_SEVERITY_CRITICAL, text.encode()[:50])
 
     def _ms(self) -> int:
         return round(self.vehicle.t_s * 1000)
@@ -260,7 +314,7 @@ class MavlinkServer:
         base = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (
             mavlink2.MAV_MODE_FLAG_SAFETY_ARMED if v.armed else 0)
         status = mavlink2.MAV_STATE_ACTIVE if v.armed else mavlink2.MAV_STATE_STANDBY
-        self.conn.mav.heartbeat_send(mavlink2.MAV_TYPE_SUBMARINE,
+        self.mav.heartbeat_send(mavlink2.MAV_TYPE_SUBMARINE,
                                      mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
                                      mode_number(v.mode), status)
 
@@ -276,31 +330,31 @@ class MavlinkServer:
 
     def _send_attitude(self) -> None:
         a = self._attitude()
-        self.conn.mav.attitude_send(self._ms(), a.phi, a.theta, a.psi, a.p, a.q, a.r)
+        self.mav.attitude_send(self._ms(), a.phi, a.theta, a.psi, a.p, a.q, a.r)
 
     def _send_servo_output_raw(self) -> None:
         raw = [0] * 16
         for t, pwm in zip(self.vehicle.profile.thrusters, self.vehicle.pwm_us, strict=True):
             if t.channel <= 16:
                 raw[t.channel - 1] = pwm
-        self.conn.mav.servo_output_raw_send(self._ms() * 1000, 0, *raw)
+        self.mav.servo_output_raw_send(self._ms() * 1000, 0, *raw)
 
     def _send_scaled_pressure2(self) -> None:
         p = self.vehicle.profile
         press_pa = 101325.0 + p.water_density_kg_m3 * p.gravity_m_s2 * self._depth()
-        self.conn.mav.scaled_pressure2_send(self._ms(), press_pa / 100.0, 0.0, 1500)
+        self.mav.scaled_pressure2_send(self._ms(), press_pa / 100.0, 0.0, 1500)
 
     def _send_global_position_int(self) -> None:
         depth_mm = round(self._depth() * 1000)
         heading = round(math.degrees(self._attitude().psi) * 100) % 36000
-        self.conn.mav.global_position_int_send(self._ms(), 0, 0, -depth_mm, -depth_mm, 0, 0, 0,
+        self.mav.global_position_int_send(self._ms(), 0, 0, -depth_mm, -depth_mm, 0, 0, 0,
                                                heading)
 
     def _send_vfr_hud(self) -> None:
         heading = round(math.degrees(self._attitude().psi)) % 360
         climb = -self.vehicle.reading.depth_rate_m_s
-        self.conn.mav.vfr_hud_send(0.0, 0.0, heading, 0, -self._depth(), climb)
+        self.mav.vfr_hud_send(0.0, 0.0, heading, 0, -self._depth(), climb)
 
     def _send_sys_status(self) -> None:
         mv = round(self.vehicle.voltage_V * 1000)
-        self.conn.mav.sys_status_send(0, 0, 0, 0, mv, -1, -1, 0, 0, 0, 0, 0, 0)
+        self.mav.sys_status_send(0, 0, 0, 0, mv, -1, -1, 0, 0, 0, 0, 0, 0)

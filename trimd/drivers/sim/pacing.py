@@ -1,7 +1,7 @@
 """Pacing a served simulator against the wall clock (real time, or ``rate`` times faster).
 
 A server hands :func:`run_paced` its ``advance_to`` (handle input, step the vehicle to a
-simulated time, send what is due) and the descriptor its input arrives on; between steps
+simulated time, send what is due) and the descriptors its input arrives on; between steps
 the loop sleeps in ``select`` so that input wakes it at once.
 """
 
@@ -11,7 +11,7 @@ import math
 import select
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from trimd.drivers.sim.vehicle import SimVehicle
 
@@ -21,7 +21,8 @@ __all__ = ["run_paced"]
 MAX_SLEEP_S = 0.1
 
 
-def run_paced(vehicle: SimVehicle, advance_to: Callable[[float], None], fd: int, *,
+def run_paced(vehicle: SimVehicle, advance_to: Callable[[float], None],
+              fd: int | Sequence[int], *,
               rate: float, stop: threading.Event | None = None,
               duration_s: float = math.inf) -> None:
     """Advance ``vehicle`` through ``advance_to`` at ``rate`` simulated seconds per wall
@@ -33,4 +34,4 @@ def run_paced(vehicle: SimVehicle, advance_to: Callable[[float], None], fd: int,
         advance_to(t_sim0 + (time.monotonic() - t_wall0) * rate)
         wait = t_wall0 + (vehicle.t_s + vehicle.dt_s - t_sim0) / rate - time.monotonic()
         if wait > 0:
-            select.select([fd], [], [], min(wait, MAX_SLEEP_S))
+            select.select([fd] if isinstance(fd, int) else fd, [], [], min(wait, MAX_SLEEP_S))

@@ -1,0 +1,101 @@
+"""Find the steady attitude holds in a recording with the live procedure's own test.
+
+A log of a trim written by any tool (trimd, a ground station's tlog at the rates it asked
+for, a DataFlash log), or of ordinary steady flying, holds no set-points. Its attitude
+plateaus stand in for them: runs of attitude samples that stay within the attitude
+tolerance of their own running mean for at least ``min_steady_s``. At each plateau the
+live settling test (:class:`trimd.core.settling.HoldSettling`) runs over the samples in
+their time order, each stream on its own samples (thruster effort is never tested on
+values repeated onto the faster attitude stream), and collects what the live procedure
+would: after ``min_steady_s`` of settled samples, every settled attitude sample with the
+effort zero-order held onto it. Plateaus at the same attitude form one hold. So a replay
+and a live run use one detector and find the same holds. Times [s] are the samples' own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from trimd.core.decision import StopRule
+from trimd.core.effort import MAX_THRUSTER_AGE_S
+from trimd.core.estimate import HoldSamples
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude
+from trimd.core.settling import UNSTEADY_GRACE_S, HoldSettling
+
+__all__ = ["find_holds"]
+
+FloatArray = NDArray[np.float64]
+
+
+def _plateaus(attitude: Sequence[Attitude], tol_rad: float, min_s: float
+              ) -> list[tuple[int, int, float, float]]:
+    """Runs [start, stop) of attitude samples within ``tol_rad`` of their running mean
+    for at least ``min_s`` [s], with that mean (φ, θ) [rad]."""
+    out = []
+    start, sum_phi, sum_theta = 0, 0.0, 0.0
+    for i, a in enumerate(attitude):
+        n = i - start
+        if n and (abs(a.phi - sum_phi / n) > tol_rad or abs(a.theta - sum_theta / n) > tol_rad):
+            if attitude[i - 1].t_s - attitude[start].t_s >= min_s:
+                out.append((start, i, sum_phi / n, sum_theta / n))
+            start, sum_phi, sum_theta = i, 0.0, 0.0
+        sum_phi += a.phi
+        sum_theta += a.theta
+    n = len(attitude) - start
+    if n and attitude[-1].t_s - attitude[start].t_s >= min_s:
+        out.append((start, len(attitude), sum_phi / n, sum_theta / n))
+    return out
+
+
+def _collect(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
+             phi: float, theta: float, profile: Profile, rule: StopRule
+             ) -> list[tuple[Attitude, FloatArray]]:
+    """Run the live settling test at set-point (phi, theta) over the samples in time
+    order; return the attitude samples it collects with their held τ."""
+    proc = profile.procedure
+    settling = HoldSettling(proc, phi, theta, rule.effort_floor(
+        math.radians(proc.attitude_tol_deg), phi, theta))
+    k = int(np.searchsorted(t_effort, attitude[0].t_s - MAX_THRUSTER_AGE_S))
+    latest = -1
+    collected = []
+    for a in attitude:
+        while k < len(t_effort) and t_effort[k] <= a.t_s:
+            settling.effort(float(t_effort[k]), tau_effort[k])
+            latest, k = k, k + 1
+        fresh = latest >= 0 and a.t_s - t_effort[latest] <= MAX_THRUSTER_AGE_S
+        if settling.attitude(a, fresh) and a.t_s - settling.steady_since >= proc.min_steady_s:
+            collected.append((a, tau_effort[latest]))
+    # the live test notices a departure only after its grace time: leave out the last
+    # moments before the attitude left this plateau (live, trimd ends the hold itself)
+    end = attitude[-1].t_s - UNSTEADY_GRACE_S
+    return [(a, tau) for a, tau in collected if a.t_s <= end]
+
+
+def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
+               profile: Profile) -> list[HoldSamples]:
+    """The steady holds in time-ordered ``attitude`` samples and thruster effort
+    ``tau_effort`` (n, 6) [N, N·m] at its own times ``t_effort`` [s], labelled
+    ``hold 1``, ``hold 2``, … in the order of their first sample; plateaus at the same
+    attitude (within ``attitude_tol_deg``) are one hold."""
+    proc = profile.procedure
+    tol = math.radians(proc.attitude_tol_deg)
+    rule = StopRule.for_profile(profile)
+    groups: list[tuple[float, float, list[tuple[Attitude, FloatArray]]]] = []
+    for i, j, phi, theta in _plateaus(attitude, tol, proc.min_steady_s):
+        got = _collect(attitude[i:j], t_effort, tau_effort, phi, theta, profile, rule)
+        if len(got) < 2:
+            continue
+        for g in groups:
+            if abs(g[0] - phi) <= tol and abs(g[1] - theta) <= tol:
+                g[2].extend(got)
+                break
+        else:
+            groups.append((phi, theta, got))
+    return [HoldSamples(np.array([a.t_s for a, _ in got]), np.array([a.phi for a, _ in got]),
+                        np.array([a.theta for a, _ in got]), np.array([tau for _, tau in got]),
+                        f"hold {k + 1}") for k, (_, _, got) in enumerate(groups)]
