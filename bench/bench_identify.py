@@ -24,10 +24,11 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.experiment import Excite
-from trimd.identify.fit import FitOptions, StageFit, fit_stage, validate
+from trimd.identify.fit import FitOptions, StageFit, fit_stage
 from trimd.identify.model import STAGES, prior_values, restoring_vector
 from trimd.identify.problem import Problem
 from trimd.identify.signals import design_signal
+from trimd.identify.validation import validate
 
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0
@@ -74,8 +75,9 @@ def _forward_time(fit: StageFit, experiments: list[Experiment], profile: Profile
     return time.perf_counter() - t0
 
 
-def _stage(profile: Profile, stage: str) -> bool:
-    """Fit, report and judge one stage; True when the issue's criteria hold."""
+def _stage(profile: Profile, stage: str) -> tuple[bool, float, float]:
+    """Fit, report and judge one stage: whether the issue's criteria hold, the fit time
+    and the time of one forward simulation of the same data [s]."""
     fit_data = _record(profile, stage, FIT_S, 11)
     val_data = _record(profile, stage, VALIDATE_S, 12)
     t0 = time.perf_counter()
@@ -116,21 +118,25 @@ def _stage(profile: Profile, stage: str) -> bool:
         print(f"    validation NRMSE %: {fits}   (thesis: {THESIS_NRMSE[stage]})")
     print(f"    criteria (10 %, or share ≤ 10 % for a negligible one; NRMSE ≥ 90 %): "
           f"{'met' if ok else 'NOT met'}")
-    return ok
+    return ok, t_fit, t_sim
 
 
 def main() -> None:
     for name in ("sabertooth-dh2", "bluerov2-heavy"):
         profile = load_profile(name)
         print(f"{name}: {FIT_S:g} s of 50 Hz data per stage, default noise, DVL on")
-        met = []
+        met, t_fit, t_sim = [], 0.0, 0.0
         for stage in STAGES:
             try:
-                met.append(_stage(profile, stage))
+                ok, fit_s, sim_s = _stage(profile, stage)
             except RuntimeError as exc:   # an experiment the envelope stopped
                 print(f"  {stage}: {exc}")
-                met.append(False)
-        print(f"  {name}: criteria met in {sum(met)} of {len(met)} stages")
+                ok, fit_s, sim_s = False, float("nan"), float("nan")
+            met.append(ok)
+            t_fit, t_sim = t_fit + fit_s, t_sim + sim_s
+        print(f"  {name}: criteria met in {sum(met)} of {len(met)} stages; the three stages "
+              f"fitted in {t_fit:.1f} s (target < 30 s), one forward simulation of the "
+              f"same data {t_sim:.2f} s")
 
 
 if __name__ == "__main__":

@@ -104,6 +104,7 @@ class FakeVehicle:
     target: tuple[float, float] | None = None
     depth: float = 10.0
     commands: list[tuple[float, Command]] = field(default_factory=list)
+    last_sent: dict[str, float] = field(default_factory=dict)  # stream → time of its last sample
 
     def __post_init__(self) -> None:
         self.rng = np.random.default_rng(self.seed)
@@ -131,7 +132,10 @@ class FakeVehicle:
             if stream in self.muted:
                 return False
             period = 1.0 / self.rates_hz[stream]
-            return math.floor(t / period) != math.floor((t - dt) / period)
+            if math.floor(t / period) == math.floor((t - dt) / period):
+                return False
+            self.last_sent[stream] = t
+            return True
 
         if due("health"):
             out.append(Health(t, True, self.mode, self.armed))

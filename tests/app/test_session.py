@@ -15,7 +15,7 @@ from trimd.app.headless import HeadlessPresenter
 from trimd.app.session import Session
 from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, HoldAttitude, Release, Sample
+from trimd.core.samples import Command, HoldAttitude, PilotInput, Release, Sample
 
 
 class ListRecorder:
@@ -131,12 +131,45 @@ def test_abort_is_not_held_up_by_a_command_awaiting_confirmation(
     assert [type(c) for c in slow.sent] == [HoldAttitude, Release]
 
 
-def test_link_that_goes_quiet_is_lost_and_released(sabertooth: Profile, link: FakeLink) -> None:
+def test_link_that_goes_quiet_mid_hold_is_released_within_a_second_of_its_last_sample(
+        sabertooth: Profile, link: FakeLink) -> None:
+    """The release's stamp is session time (the samples' clock, advanced by the wall
+    clock while the link is quiet), as the recorder keeps it."""
     link.hang_at = 40.0
-    session = Session(link, sabertooth, recorder=None, presenters=[], confirmed=True)
+    recorder = ListRecorder()
+    session = Session(link, sabertooth, recorder=recorder, presenters=[], confirmed=True)
     result = run(session)
-    assert result.phase is Phase.FAILED and "link lost" in result.reason
+    assert result.phase is Phase.FAILED and "link lost: no telemetry" in result.reason
+    assert result.cause == "link"
     assert isinstance(link.sent[-1], Release) and link.closed
+    last = recorder.samples[-1].t_s
+    [t_release] = [t for t, c in recorder.commands if isinstance(c, Release)]
+    assert last + sabertooth.procedure.link_timeout_s < t_release <= last + 1.0
+
+
+class RawFakeLink(FakeLink):
+    """A link that records its packets itself (as MAVLink does), and concludes that
+    someone else took over mid-hold."""
+
+    on_raw = None
+
+    async def samples(self) -> Any:
+        async for s in super().samples():
+            yield s
+            if self.t >= 30.0 and not getattr(self, "said", False):
+                self.said = True
+                yield PilotInput(self.t, "mode changed to MANUAL by another station")
+
+
+def test_a_raw_link_s_pilot_input_is_recorded_though_its_packets_stand_for_the_rest(
+        sabertooth: Profile, link: FakeLink) -> None:
+    raw = RawFakeLink(link.vehicle)
+    recorder = ListRecorder()
+    result = run(Session(raw, sabertooth, recorder=recorder, presenters=[], confirmed=True))
+    assert result.phase is Phase.FAILED and result.cause == "pilot"
+    assert recorder.samples == [PilotInput(recorder.samples[0].t_s,
+                                           "mode changed to MANUAL by another station")]
+    assert isinstance(raw.sent[-1], Release)
 
 
 def test_link_that_ends_fails_the_session(sabertooth: Profile, link: FakeLink) -> None:
@@ -159,6 +192,38 @@ def test_waits_for_confirmation_then_commands(sabertooth: Profile, link: FakeLin
         return await task
     result = asyncio.run(main())
     assert result.phase is Phase.DONE
+
+
+def test_a_vehicle_that_talks_but_never_connects_fails_after_the_connect_timeout(
+        sabertooth: Profile) -> None:
+    """Telemetry keeps coming, but the link never connects (no handshake): the connect
+    timeout still runs, and the failure says what the link said."""
+    from dataclasses import replace
+
+    from trimd.core.samples import Attitude, Health
+
+    class Unanswering:
+        description = "unanswering"
+        sent: ClassVar[list[Command]] = []
+
+        async def samples(self) -> Any:
+            while True:
+                await asyncio.sleep(0.01)
+                yield Attitude(0.0, 0, 0, 0, 0, 0, 0)
+                yield Health(0.0, False, "MANUAL", True, detail="no handshake yet")
+
+        async def send(self, command: Command) -> None:
+            self.sent.append(command)
+
+        async def close(self) -> None:
+            return None
+
+    quick = replace(sabertooth, procedure=replace(sabertooth.procedure, connect_timeout_s=0.5))
+    result = run(Session(Unanswering(), quick, recorder=None, presenters=[], confirmed=True))
+    assert result.phase is Phase.FAILED and result.cause == "link"
+    assert result.reason == ("link lost: the vehicle did not connect within 0.5 s: "
+                             "no handshake yet")
+    assert Unanswering.sent == []
 
 
 def test_no_vehicle_fails_after_the_connect_timeout(sabertooth: Profile) -> None:

@@ -124,7 +124,7 @@ def test_rows_the_fit_drops_do_not_count_towards_identifiability(sabertooth: Pro
     with pytest.raises(EstimationError, match=r"W − B is not identifiable .*force rows count "
                                               r"at level holds only"):
         estimate_static(holds, sabertooth, dofs=no_z)
-    est = estimate_static(holds, sabertooth, dofs=no_z, level_forces_only=False)
+    est = estimate_static(holds, sabertooth, dofs=no_z, station_keeping=True)
     assert abs(est.m_ext_kg - 10.0) < 4 * est.m_ext_std_kg
 
 
@@ -185,6 +185,7 @@ def test_a_vehicle_without_pitch_actuation_measures_no_pitch_row(bluerov: Profil
     rows = measurable_dofs(six)
     assert rows[4] is False
     W, r_g = payload_truth(bluerov, 0.2, np.array([0.1, 0.0, 0.175]))
-    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov, dofs=rows)
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov, dofs=rows,
+                          station_keeping=True)
     assert "M" not in est.dofs_used
     np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 
 import numpy as np
@@ -10,9 +11,10 @@ import pytest
 
 from tests.helpers import FakeVehicle, payload_truth
 from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
-from trimd.core.procedure import Procedure
+from trimd.core.guards import ENVELOPE_MARGIN_DEG, STREAM_MISSED_PERIODS
+from trimd.core.procedure import MIN_RATES_HZ, Procedure
 from trimd.core.profile import Profile
-from trimd.core.samples import HoldAttitude, Release
+from trimd.core.samples import HoldAttitude, PilotInput, Release
 
 DT = 0.01
 
@@ -77,13 +79,20 @@ def released_within(vehicle: FakeVehicle, t_cause: float, limit_s: float) -> boo
     return len(releases) == 1 and t_cause <= releases[0] <= t_cause + limit_s
 
 
-def test_link_loss_mid_hold_releases_within_a_second(sabertooth: Profile,
-                                                     thesis_vehicle: FakeVehicle) -> None:
+def release_times(vehicle: FakeVehicle) -> list[float]:
+    return [t for t, c in vehicle.commands if isinstance(c, Release)]
+
+
+def test_link_silence_mid_hold_sends_the_release_within_a_second_of_the_last_telemetry(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
     proc = Procedure(sabertooth, confirmed=True)
     run(proc, thesis_vehicle, 1000.0, silent_after=40.0)
-    assert proc.phase is Phase.FAILED and "link lost" in proc.reason
-    timeout = sabertooth.procedure.link_timeout_s
-    assert released_within(thesis_vehicle, 40.0 + timeout, 1.0)
+    assert proc.phase is Phase.FAILED and "link lost: no telemetry" in proc.reason
+    assert proc.cause == "link"
+    last = max(thesis_vehicle.last_sent.values())
+    [t_release] = release_times(thesis_vehicle)
+    # not before link_timeout_s of silence, and within a second of the last sample
+    assert last + sabertooth.procedure.link_timeout_s < t_release <= last + 1.0
 
 
 def test_hold_that_never_settles_times_out(sabertooth: Profile,
@@ -169,13 +178,17 @@ def test_disarm_mid_hold_fails_and_releases(sabertooth: Profile,
     run(proc, thesis_vehicle, 40.0, t_start=20.0)
     assert proc.phase is Phase.FAILED and "disarmed while trimd commanded it" in proc.reason
     assert proc.cause == "vehicle"
-    assert isinstance(thesis_vehicle.commands[-1][1], Release)
+    # the next heartbeat (1 Hz) says so: released at once, nothing used
+    assert released_within(thesis_vehicle, 20.0, 1.0 / thesis_vehicle.rates_hz["health"])
+    assert isinstance(thesis_vehicle.commands[-1][1], Release) and proc.estimate is None
 
 
 @pytest.mark.parametrize("stream", ["attitude", "thrusters", "depth"])
-def test_a_stream_that_stops_mid_hold_releases(sabertooth: Profile,
-                                               thesis_vehicle: FakeVehicle, stream: str) -> None:
-    """Heartbeats go on, but trimd must not keep commanding without seeing the vehicle."""
+def test_a_stream_that_stops_mid_hold_releases_after_its_missed_periods(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle, stream: str) -> None:
+    """Heartbeats go on, but trimd must not keep commanding without seeing the vehicle; a
+    stream is lost after link_timeout_s or STREAM_MISSED_PERIODS of its slowest allowed
+    rate, whichever is longer (a 1 Hz depth stream is not lost after 0.8 s)."""
     proc = Procedure(sabertooth, confirmed=True)
     run(proc, thesis_vehicle, 35.0)
     assert proc.phase in (Phase.SETTLE, Phase.COLLECT)
@@ -183,8 +196,82 @@ def test_a_stream_that_stops_mid_hold_releases(sabertooth: Profile,
     run(proc, thesis_vehicle, 2000.0, t_start=35.0)
     assert proc.phase is Phase.FAILED and f"no {stream} for" in proc.reason
     assert proc.cause == "link"
-    # the last sample of a stream came up to one period before the mute
-    assert released_within(thesis_vehicle, 35.0 + sabertooth.procedure.link_timeout_s - 1, 1.5)
+    limit = max(sabertooth.procedure.link_timeout_s,
+                STREAM_MISSED_PERIODS / MIN_RATES_HZ[stream])
+    [t_release] = release_times(thesis_vehicle)
+    assert limit < t_release - thesis_vehicle.last_sent[stream] <= limit + DT + 1e-9
+
+
+def test_attitude_beyond_the_tilt_envelope_mid_hold_releases(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
+    limit_deg = sabertooth.procedure.max_tilt_deg + ENVELOPE_MARGIN_DEG
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 30.0)
+    thesis_vehicle.phi = math.radians(limit_deg - 1.0)   # a gust, still inside
+    run(proc, thesis_vehicle, 31.0, t_start=30.0)
+    assert proc.phase in (Phase.SETTLE, Phase.COLLECT) and release_times(thesis_vehicle) == []
+    thesis_vehicle.phi = math.radians(limit_deg + 2.0)   # beyond it
+    run(proc, thesis_vehicle, 40.0, t_start=31.0)
+    assert proc.phase is Phase.FAILED and proc.cause == "envelope"
+    said = re.fullmatch(r"attitude out of envelope: roll ([\d.]+)°, pitch \S+° \(limit (\d+)°\)",
+                        proc.reason)
+    assert said is not None, proc.reason
+    assert float(said[1]) > limit_deg and float(said[2]) == limit_deg
+    # the next attitude sample (20 Hz) shows it: released at once
+    assert released_within(thesis_vehicle, 31.0, 1.0 / thesis_vehicle.rates_hz["attitude"])
+    assert proc.estimate is None
+
+
+def _run_to_collect_of_last_hold(proc: Procedure, vehicle: FakeVehicle) -> float:
+    t = 0.0
+    while not (proc.phase is Phase.COLLECT and proc.progress.hold == proc.progress.holds - 1):
+        assert not proc.phase.final and t < 1000.0, proc.reason
+        run(proc, vehicle, t + 1.0, t_start=t)
+        t += 1.0
+    return t
+
+
+@pytest.mark.parametrize("when", ["settling the first hold", "collecting the last hold"])
+def test_pilot_taking_over_mid_hold_releases_at_once_and_no_estimate_is_made(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle, when: str) -> None:
+    proc = Procedure(sabertooth, confirmed=True, propose=lambda est: "proposal")
+    if when.startswith("settling"):
+        t = 20.0
+        run(proc, thesis_vehicle, t)
+        assert proc.phase is Phase.SETTLE and proc.progress.hold == 0
+    else:
+        t = _run_to_collect_of_last_hold(proc, thesis_vehicle)
+    takeover = PilotInput(t + 0.5, "mode changed to MANUAL by another station")
+    log = run(proc, thesis_vehicle, 1000.0, t_start=t, at={t + 0.5: lambda: takeover})
+    assert proc.phase is Phase.FAILED and proc.cause == "pilot"
+    assert proc.reason == ("the pilot took over (mode changed to MANUAL by another "
+                           "station): trimd released control")
+    assert released_within(thesis_vehicle, t + 0.5, DT)
+    assert isinstance(thesis_vehicle.commands[-1][1], Release)   # nothing after it
+    assert proc.estimate is None and proc.proposal is None
+    assert "result" not in [n.kind for _, n in log if isinstance(n, Notice)]
+
+
+def test_pilot_input_before_commanding_is_no_reason_to_stop(
+        sabertooth: Profile, thesis_vehicle: FakeVehicle) -> None:
+    """Before trimd commands, the pilot flies: that is no takeover."""
+    proc = Procedure(sabertooth)
+    run(proc, thesis_vehicle, 20.0, at={3.0: lambda: PilotInput(3.0, "sticks")})
+    assert proc.phase is Phase.CONFIRM and thesis_vehicle.commands == []
+
+
+def test_each_hold_uses_only_its_own_steady_samples(sabertooth: Profile,
+                                                   thesis_vehicle: FakeVehicle) -> None:
+    """Nothing from before a hold was commanded and had settled for min_steady_s, and
+    nothing from after the next command, enters the estimate."""
+    proc = Procedure(sabertooth, confirmed=True)
+    run(proc, thesis_vehicle, 1000.0)
+    assert proc.phase is Phase.DONE and proc.estimate is not None
+    t_cmd = [t for t, c in thesis_vehicle.commands if isinstance(c, HoldAttitude)]
+    ends = [*t_cmd[1:], release_times(thesis_vehicle)[0]]
+    for hold, start, end in zip(proc.estimate.holds, t_cmd, ends, strict=True):
+        assert start + sabertooth.procedure.min_steady_s <= hold.t_start_s
+        assert hold.t_end_s <= end
 
 
 @pytest.mark.parametrize(("change", "expected"), [

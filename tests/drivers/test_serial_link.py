@@ -21,6 +21,7 @@ import time
 import tty
 from collections import Counter
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,8 +32,16 @@ from trimd.app.connect import open_link
 from trimd.cli.main import main
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Health, HoldAttitude, Release, Sample, VehicleText
-from trimd.drivers.serial.link import SerialLink, open_serial_link
+from trimd.core.samples import (
+    Attitude,
+    Health,
+    HoldAttitude,
+    PilotInput,
+    Release,
+    Sample,
+    VehicleText,
+)
+from trimd.drivers.serial.link import NOT_TAKEN_AFTER, SerialLink, open_serial_link
 from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
@@ -106,7 +115,8 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         (text,) = await collect(link, lambda s: True)
         assert isinstance(text, VehicleText) and (text.severity, text.text) == (
             4, "Leak sensor dry")
-        # the vehicle clock: across the uint32 wrap, 50 ms back, 99.85 s on, then a reboot
+        # the vehicle clock: across the uint32 wrap, 50 ms back, set 99.85 s on (a time
+        # sync: one usual step), then a reboot
         for t_ms in (2**32 - 300, 200, 150, 100_000, 5):
             write(frame(f"VHATT,{t_ms},1,2,3,4,5,6"))
         got = [s for _ in range(5) for s in await collect(link, lambda s: True)]
@@ -114,7 +124,7 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert len(stamps) == 5
         assert stamps[1] - stamps[0] == pytest.approx(0.5, abs=1e-9)
         assert stamps[2] - stamps[1] == pytest.approx(-0.05, abs=1e-9)
-        assert stamps[3] - stamps[2] == pytest.approx(99.85, abs=1e-9)
+        assert stamps[3] - stamps[2] == pytest.approx(0.5, abs=1e-9)
         # re-anchored on the reboot (not 99.85 s on); the bound only allows for a slow thread
         assert abs(stamps[4] - time.monotonic()) < 10.0
         # silence: the link's own TR lines come back on loop:// but are not the vehicle
@@ -125,7 +135,11 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 9
         assert lost.bad_frames == link.parser.bad_lines
         write(frame("VHVER,2,future"))
-        await asyncio.wait_for(until(lambda: link.vehicle is None), WALL_LIMIT_S)
+        # another version ends the link: a disconnected Health, then the reason
+        with pytest.raises(LinkError, match=r"^the vehicle \(future\) speaks serial protocol "
+                           r"version 2, trimd speaks 1$"):
+            await collect(link, lambda s: False)
+        assert link.vehicle is None
         with pytest.raises(LinkError, match="speaks serial protocol version 2"):
             await link.send(HoldAttitude(0.0, 0.0, 0.0))
         await link.close()
@@ -222,6 +236,7 @@ def test_served_vehicle_rates_hold_release_and_link_lost(
         held = await collect(link, lambda s: s.t_s > t0 + 60.0)
         assert server.control == "HOLD"
         assert [h.detail for h in held if isinstance(h, Health)][-1] == "control HOLD"
+        assert not any(isinstance(s, PilotInput) for s in held)   # trimd flies it
         att = [s for s in held if isinstance(s, Attitude)][-40:]
         for got, want in zip(np.mean([(a.phi, a.theta, a.psi) for a in att], axis=0), target,
                              strict=True):
@@ -303,6 +318,188 @@ def test_the_served_vehicle_says_why_it_released(sabertooth: Profile) -> None:
     finally:
         os.close(trimd)
         server.close()
+
+
+def test_the_pilot_taking_over_mid_hold_is_a_pilot_input_and_holds_no_longer_take_it(
+        served: tuple[SerialServer, threading.Event], sabertooth: Profile) -> None:
+    server, _ = served
+
+    async def go() -> None:
+        link = await open_link(f"serial:{server.path}", sabertooth)
+        assert isinstance(link, SerialLink)
+        await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        await link.send(HoldAttitude(5 * DEG, 0.0, 0.3))
+        await collect(link, lambda s: isinstance(s, Health) and s.detail == "control HOLD")
+        server.pilot_takes_over("MANUAL")
+        got = await collect(link, lambda s: isinstance(s, PilotInput))
+        assert got[-1].source == "the vehicle reports control PILOT, mode MANUAL"
+        hold_sentences = server.heard["HLD"]
+        # trimd's link still repeats the hold (until the procedure releases): the vehicle
+        # ignores it, the pilot keeps the vehicle
+        await asyncio.wait_for(until(lambda: server.heard["HLD"] >= hold_sentences + 2),
+                               WALL_LIMIT_S)
+        assert server.control == "PILOT" and server.vehicle.mode == "MANUAL"
+        assert server.pilot_latched
+        await link.send(Release())
+        await asyncio.wait_for(until(lambda: not server.pilot_latched), WALL_LIMIT_S)
+        assert server.heard["REL"] == 1
+        later = await collect(link, lambda s: isinstance(s, Health))
+        assert not any(isinstance(s, PilotInput) for s in later)  # said once
+        await link.close()
+    asyncio.run(go())
+
+
+def test_the_simulated_pilot_takes_over_only_in_a_mode_the_simulator_flies(
+        sabertooth: Profile) -> None:
+    server = SerialServer(SimVehicle(sabertooth, SimConfig(seed=5)))
+    try:
+        with pytest.raises(ValueError, match="not SURFACE"):
+            server.pilot_takes_over("SURFACE")
+    finally:
+        server.close()
+
+
+class PtyVehicle:
+    """A vehicle of our own on a pseudo-terminal: streams attitude (and, with ``status``,
+    VHSTA) every 50 ms of its clock and answers trimd's TRVER with ``VHVER,<answer>`` (or
+    never: None)."""
+
+    def __init__(self, answer: str | None, *, status: bool = True) -> None:
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        self.path = os.ttyname(self._slave)
+        self.answer = answer
+        self.status = status
+        self.heard = b""
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        t_ms = 0
+        try:
+            while not self.stop.is_set():
+                if select.select([self.master], [], [], 0.05)[0]:
+                    data = os.read(self.master, 4096)
+                    self.heard += data
+                    if b"$TRVER" in data and self.answer is not None:
+                        os.write(self.master, frame(f"VHVER,{self.answer}"))
+                t_ms += 50
+                os.write(self.master, frame(f"VHATT,{t_ms},0,0,0,0,0,0") + (
+                    frame(f"VHSTA,{t_ms},ALT_HOLD,1,PILOT") if self.status else b""))
+        except OSError:
+            pass   # trimd closed its side
+        finally:
+            os.close(self.master)
+            os.close(self._slave)
+
+
+def test_a_vehicle_that_never_takes_trimd_s_hold_is_flown_by_its_pilot(
+        sabertooth: Profile) -> None:
+    vehicle = PtyVehicle("1,bench")   # its status always says control PILOT
+    thread = threading.Thread(target=vehicle.run, daemon=True)
+    thread.start()
+
+    async def go() -> None:
+        link = open_serial_link(vehicle.path, sabertooth)
+        await collect(link, lambda s: isinstance(s, Health) and s.connected)
+        await link.send(HoldAttitude(5 * DEG, 0.0, 0.0))
+        got = await collect(link, lambda s: isinstance(s, PilotInput))
+        assert got[-1].source == (f"the vehicle did not take trimd's command: control PILOT "
+                                  f"in {NOT_TAKEN_AFTER} status sentences, mode ALT_HOLD")
+        statuses = [s for s in got if isinstance(s, Health)]
+        assert len(statuses) >= NOT_TAKEN_AFTER        # not before that many said so
+        more = await collect(link, lambda s: isinstance(s, Health) and s.t_s > got[-1].t_s
+                             + 0.5)
+        assert not any(isinstance(s, PilotInput) for s in more)   # said once
+        await link.close()
+    try:
+        asyncio.run(go())
+    finally:
+        vehicle.stop.set()
+        thread.join(timeout=5)
+
+
+MUTE = ("the vehicle did not connect within 2 s: the vehicle sends telemetry but has not "
+        "answered trimd's version sentence (TRVER) with VHVER")
+
+
+@pytest.mark.parametrize(("answer", "status", "reason"), [
+    ("2,old", True, "the vehicle (old) speaks serial protocol version 2, trimd speaks 1"),
+    (None, True, MUTE),
+    (None, False, MUTE),      # no VHSTA either: its attitude says it is there
+])
+def test_trimd_run_against_a_vehicle_of_another_version_or_one_that_never_answers_exits_3(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], answer: str | None,
+        status: bool, reason: str) -> None:
+    """Through a real pseudo-terminal: a version-2 vehicle fails at once, a mute one
+    after connect_timeout_s (2 s here); either way with the reason, exit 3, nothing
+    commanded."""
+    profile = tmp_path / "quick.yaml"
+    text = (REPO / "trimd" / "profiles" / "sabertooth-dh2.yaml").read_text(encoding="utf-8")
+    assert "connect_timeout_s: 30.0" in text
+    profile.write_text(text.replace("connect_timeout_s: 30.0", "connect_timeout_s: 2.0"),
+                       encoding="utf-8")
+    vehicle = PtyVehicle(answer, status=status)
+    thread = threading.Thread(target=vehicle.run, daemon=True)
+    thread.start()
+    start = time.monotonic()
+    try:
+        code = main(["run", "--link", f"serial:{vehicle.path}", "--profile", str(profile),
+                     "--headless", "--yes", "--no-record"])
+    finally:
+        vehicle.stop.set()
+        thread.join(timeout=5)
+    took = time.monotonic() - start
+    err = capsys.readouterr().err
+    with capsys.disabled():
+        print(f"failed after {took:.2f} s of wall time (connect_timeout_s 2)")
+    assert code == 3, err
+    assert f"trimd: failed: link lost: {reason}" in err
+    assert b"$TRVER,1,trimd" in vehicle.heard
+    assert not re.search(rb"\$TR(HLD|OPN|ARM)", vehicle.heard)   # nothing commanded
+    if answer is None:
+        assert took >= 2.0        # not before the timeout (a lower bound, not a timing)
+
+
+@pytest.mark.slow
+def test_trimd_run_ends_with_exit_1_when_the_pilot_takes_over_mid_hold(
+        served: tuple[SerialServer, threading.Event], capsys: pytest.CaptureFixture[str],
+        tmp_path: Path) -> None:
+    """The pilot switches the vehicle to MANUAL during the first hold: trimd releases
+    at once, exits 1 with the reason and makes no estimate; the replay of its log ends
+    the same way."""
+    server, _ = served
+    done = threading.Event()
+
+    def pilot() -> None:
+        while server.control != "HOLD" and not done.wait(0.01):
+            pass
+        t_hold = server.vehicle.t_s
+        while server.vehicle.t_s < t_hold + 5.0 and not done.wait(0.01):
+            pass
+        server.pilot_takes_over("MANUAL")
+    watcher = threading.Thread(target=pilot, daemon=True)
+    watcher.start()
+    try:
+        code = main(["run", "--link", f"serial:{server.path}", "--profile", "sabertooth-dh2",
+                     "--headless", "--yes", "--record", str(tmp_path / "s.tlog"), "--json"])
+    finally:
+        done.set()
+        watcher.join(timeout=5)
+    captured = capsys.readouterr()
+    assert code == 1, captured.err
+    said = ("the pilot took over (the vehicle reports control PILOT, mode MANUAL): trimd "
+            "released control")
+    assert f"trimd: failed: {said}" in captured.err
+    lines = [json.loads(x) for x in captured.out.splitlines()]
+    assert "result" not in {x["type"] for x in lines}
+    commands = [x for x in lines if x["type"] == "command"]
+    assert commands[-1]["command"].startswith("release")
+    assert server.heard["REL"] >= 1 and not server.pilot_latched
+    assert server.control == "PILOT" and server.vehicle.mode == "MANUAL"
+    assert main(["replay", str(tmp_path / "s.tlog"), "--json"]) == 1
+    replayed = capsys.readouterr()
+    assert said in replayed.err
+    assert "result" not in {json.loads(x)["type"] for x in replayed.out.splitlines()}
 
 
 # ---------------------------------------------------------------------- trimd run
@@ -397,3 +594,16 @@ def test_trimd_run_over_serial_against_trimd_sim(
     counts = links[0].parser.counts
     assert sum(relay.injected.values()) == 120
     assert {k: counts[k] for k in BAD_COUNTERS} == dict(relay.injected)
+
+
+def test_a_vehicle_clock_set_forward_does_not_skip_time() -> None:
+    """A time sync moves the vehicle clock +400 s mid-hold: the samples go on at their
+    usual spacing (a hold is not cut short by 400 s it did not live through); a reboot
+    (the clock back to 0) re-anchors on the time of receipt."""
+    from trimd.drivers.serial.link import _VehicleClock
+
+    clock = _VehicleClock()
+    stamps = [clock.stamp(t_ms, 100.0 + k * 0.1) for k, t_ms in enumerate(
+        [1000, 1100, 1200, 1300, 401_400, 401_500])]
+    assert np.allclose(np.diff(stamps), 0.1)
+    assert clock.stamp(5, 200.0) == 200.0

@@ -23,6 +23,7 @@ from trimd.core.samples import (
     Health,
     HoldAttitude,
     OpenLoop,
+    PilotInput,
     Release,
     Sample,
     Thrusters,
@@ -182,6 +183,57 @@ def test_commands_the_protocol_cannot_carry_are_refused(command: OpenLoop | Hold
                                                         ) -> None:
     with pytest.raises(ValueError, match=r"cannot hold|open-loop"):
         encode_command(command)
+
+
+def test_a_pilot_taking_over_has_no_sentence_of_its_own() -> None:
+    with pytest.raises(ValueError, match="STA with control PILOT"):
+        encode_sample(PilotInput(0.0, "sticks"), 0)
+
+
+# ---------------------------------------------------------------------- the number grammar
+#: Every form docs/serial-protocol.md allows for a number, ``[+-]digits[.digits]`` or
+#: ``.digits``, with the value it stands for.
+NUMBERS_ALLOWED = {"5": 5.0, "+5": 5.0, "-5": -5.0, "05": 5.0, "0": 0.0, "-0": 0.0,
+                   "5.25": 5.25, "+5.25": 5.25, "-5.25": -5.25, "5.250": 5.25,
+                   "0.000": 0.0, ".5": 0.5, ".05": 0.05, "10999.9": 10999.9}
+#: Forms it forbids: a point without digits after it, a sign before ``.digits``, a bare
+#: sign or point, exponents, nan/inf, spaces, ``_``, hex, doubled signs or points.
+NUMBERS_FORBIDDEN = ["9.", "+5.", "-5.", "-.5", "+.5", ".", "+", "-", "", " 5", "5 ",
+                     "+-5", "--5", "++5", "5.2.1", "5..2", "1e3", "1E3", "1e-3", "nan",
+                     "NaN", "inf", "-inf", "Infinity", "1_0", "0x10", "5d", "five"]
+#: Integers: unsigned strings of 1 to 10 digits.
+INTEGERS_ALLOWED = {"0": 0, "7": 7, "0042": 42, "4294967295": 2**32 - 1}
+INTEGERS_FORBIDDEN = ["+5", "-5", "5.0", "5.", ".5", "", " 5", "1e3", "12345678901",
+                      "00000000001", "0x1F", "1_0"]
+
+
+@pytest.mark.parametrize(("text", "value"), NUMBERS_ALLOWED.items())
+def test_every_number_form_the_grammar_allows_is_read(text: str, value: float) -> None:
+    parser = LineParser(VEHICLE)
+    [sentence] = parser.feed(frame(f"VHDPT,1,{text}"))
+    assert sentence.values == (1, value) and parser.counts == {"ok": 1}
+
+
+@pytest.mark.parametrize("text", NUMBERS_FORBIDDEN)
+def test_every_number_form_the_grammar_forbids_is_a_bad_value(text: str) -> None:
+    parser = LineParser(VEHICLE)
+    assert parser.feed(frame(f"VHDPT,1,{text}")) == []
+    assert parser.counts == {"bad_value": 1}
+
+
+@pytest.mark.parametrize(("text", "value"), INTEGERS_ALLOWED.items())
+def test_every_integer_form_the_grammar_allows_is_read(text: str, value: int) -> None:
+    parser = LineParser(VEHICLE)
+    [sentence] = parser.feed(frame(f"VHDPT,{text},2.5"))
+    assert sentence.values == (value, 2.5)
+
+
+@pytest.mark.parametrize("text", INTEGERS_FORBIDDEN)
+def test_every_integer_form_the_grammar_forbids_is_a_bad_value(text: str) -> None:
+    parser = LineParser(VEHICLE)
+    for line in (f"VHDPT,{text},2.5", f"VHTHR,1,1,{text}"):   # t_ms, a PWM output
+        assert parser.feed(frame(line)) == []
+    assert parser.counts == {"bad_value": 2}
 
 
 # ---------------------------------------------------------------------- bad lines

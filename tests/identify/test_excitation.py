@@ -9,7 +9,7 @@ import pytest
 
 from trimd.core.events import Abort, Confirm, Phase, Tick
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, PilotInput, Release
 from trimd.identify.experiment import Excite
 from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values
 from trimd.identify.signals import axis_forces, design_signal
@@ -70,6 +70,8 @@ def test_no_command_before_confirmation_then_inputs(sabertooth: Profile) -> None
     (Attitude(5.0, math.radians(31.0), 0.0, 0.0, 0.0, 0.0, 0.0), "envelope"),
     (Depth(5.0, 16.0), "envelope"),
     (Health(5.0, False, "", False), "link"),
+    (Health(5.0, True, "MANUAL", False), "vehicle"),           # disarmed
+    (PilotInput(5.0, "sticks from another station"), "pilot"),
     (Tick(10.0), "link"),
     (Abort("stop"), "operator"),
 ])

@@ -23,7 +23,7 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import experiments_from_samples
 from trimd.identify.experiment import Excite
-from trimd.identify.fit import FitOptions, StageFit, Validation, fit_stage, nrmse, validate
+from trimd.identify.fit import FitOptions, StageFit, fit_stage
 from trimd.identify.model import (
     HYDRO_NAMES,
     STAGES,
@@ -32,6 +32,7 @@ from trimd.identify.model import (
 )
 from trimd.identify.report import profile_fragment
 from trimd.identify.signals import design_signal
+from trimd.identify.validation import Validation, nrmse, validate
 
 
 def record(truth: Profile, design_profile: Profile, stage: str, duration: float, seed: int,
@@ -289,7 +290,7 @@ def test_excitation_is_the_spread_of_tau_against_the_authority(sabertooth: Profi
     """A constant trim force is no excitation; a doublet train of 5 % of the authority
     is; the threshold is a share of what the thrusters give on that axis."""
     from trimd.identify.data import Experiment
-    from trimd.identify.fit import excitation_of
+    from trimd.identify.excitation import excitation_of
     from trimd.identify.signals import axis_authority
 
     n = 1000
@@ -310,7 +311,7 @@ def test_jacobian_covariance_keeps_weakly_determined_directions() -> None:
     """Columns 10¹² apart in scale (the audit's −2.4e6 ± 0.06 came from a pseudo-inverse
     of the unscaled JᵀJ cutting the weak direction off): every standard deviation as the
     exact s²·(JᵀJ)⁻¹, an ineffective parameter infinitely uncertain."""
-    from trimd.identify.fit import jacobian_covariance
+    from trimd.identify.solve import jacobian_covariance
 
     rng = np.random.default_rng(3)
     X = rng.normal(size=(400, 4))
@@ -416,7 +417,7 @@ def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
     names = ("Z_wdot", "I_y+M_qdot", "Z_w", "M_q")
     results = {}
     for label, given in (("profile", None), ("estimate", statics)):
-        fit = fit_stage(fit_data, sabertooth, "uwq", FitOptions(max_nfev=15), statics=given)
+        fit = fit_stage(fit_data, sabertooth, "uwq", FitOptions(max_iter=8), statics=given)
         val = validate(fit.values(), val_data, sabertooth, "uwq", statics=given)
         results[label] = (relative_errors(fit.values(), sabertooth, names),
                           min(min(v.nrmse) for v in val))

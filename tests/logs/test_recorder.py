@@ -20,11 +20,13 @@ from trimd.core.samples import (
     Depth,
     Health,
     HoldAttitude,
+    PilotInput,
     Release,
     Thrusters,
     VehicleText,
 )
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.logs.log import open_log
 from trimd.logs.recorder import TlogRecorder
 from trimd.logs.tlog import TlogReader
 
@@ -90,6 +92,20 @@ def test_vehicle_texts_replay_whole_and_trimd_texts_stay_trimd_s(tmp_path: Path,
                 if isinstance(s, VehicleText)]
     assert replayed == [*stored, VehicleText(9.0, 7, "out-of-range severity")]
     assert [t.text for t in replayed[:4]] == texts
+
+
+def test_someone_else_taking_over_is_recorded_and_replayed_as_the_pilot_input_it_was(
+        tmp_path: Path, bluerov: Profile) -> None:
+    path = tmp_path / "s.tlog"
+    rec = TlogRecorder(path, bluerov, (PROFILES / "bluerov2-heavy.yaml").read_text())
+    rec.sample(Health(0.0, True, "ALT_HOLD", True))
+    source = "the vehicle reports control PILOT, mode MANUAL — a text of two chunks"
+    stored = rec.sample(PilotInput(12.5, source))
+    rec.close()
+    assert stored == PilotInput(12.5, source)
+    replayed = [s for s in open_log(path, bluerov).samples()
+                if isinstance(s, PilotInput | VehicleText)]
+    assert replayed == [stored]
 
 
 def test_timestamps_are_session_time_from_the_first_record(tmp_path: Path,

@@ -1,6 +1,6 @@
 """Plots of an identification: measured against simulated outputs, and the residuals, as PNG.
 
-One figure per free-run simulation (:class:`trimd.identify.fit.Validation`), one row per
+One figure per free-run simulation (:class:`trimd.identify.validation.Validation`), one row per
 output: on the left the measured and the simulated series with the NRMSE fit in the title,
 on the right the residual measured − simulated. Rates and angles are shown in degrees
 (per second), velocities in m/s. Figures are drawn off screen on matplotlib's Agg canvas
@@ -17,7 +17,7 @@ from pathlib import Path
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from trimd.identify.fit import Validation
+from trimd.identify.validation import Validation
 
 __all__ = ["write_plots"]
 
@@ -40,13 +40,16 @@ def write_plots(validations: Sequence[Validation], out_dir: Path, stage: str) ->
         FigureCanvasAgg(fig)
         axes = fig.subplots(n, 2, sharex=True, squeeze=False)
         t = v.t_s - v.t_s[0]
+        judged = v.judged()
         for row, name in enumerate(v.outputs):
             scale, unit = _unit(name)
+            fit = judged[name]
             left, right = axes[row]
             left.plot(t, scale * v.measured[:, row], lw=0.8, label="measured")
             left.plot(t, scale * v.simulated[:, row], lw=0.8, label="simulated")
             left.set_ylabel(f"{name} [{unit}]")
-            left.set_title(f"{name}: NRMSE fit {v.nrmse[row]:.1f} %", fontsize=9)
+            left.set_title(f"{name}: " + ("not excited" if fit is None
+                                          else f"NRMSE fit {fit:.1f} %"), fontsize=9)
             right.plot(t, scale * (v.measured[:, row] - v.simulated[:, row]), lw=0.8,
                        color="tab:red")
             right.set_title(f"{name}: residual measured − simulated [{unit}]", fontsize=9)

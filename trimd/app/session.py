@@ -7,8 +7,11 @@ The session is the only place where the procedure meets I/O. It
   recorder, so the procedure sees exactly what a replay of the log will see;
 * feeds the procedure samples, operator events and, when a live link goes quiet, Ticks
   from the monotonic clock (so a dead link still times out; a recording has its own
-  clock only);
-* sends the procedure's commands, records them, and hands notices and progress to the
+  clock only); a vehicle that talks but never connects (a link's disconnected Health:
+  another protocol version, no answer to the handshake) fails after
+  ``connect_timeout_s`` with the link's reason;
+* sends the procedure's commands, records them (stamped with the session time of the
+  sample or Tick that caused them), and hands notices and progress to the
   presenter (each presenter failure is logged, never fatal). A command is delivered in a
   task of its own: a link that waits for the vehicle to confirm a mode change (MAVLink,
   up to 3 s) never holds up an abort or the samples behind it;
@@ -43,14 +46,15 @@ from trimd.core.events import (
 from trimd.core.link import Link, RawPackets
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, Release, Sample
+from trimd.core.samples import Command, Health, PilotInput, Release, Sample
 
 __all__ = ["Machine", "Presenter", "Recorder", "Session", "SessionResult"]
 
 log = logging.getLogger(__name__)
 
-#: With no sample for this long [s, wall clock], the session ticks the procedure.
-TICK_S = 0.2
+#: With no sample for this long [s, wall clock], the session ticks the procedure: a link
+#: silent for the profile's ``link_timeout_s`` is released at most this much later.
+TICK_S = 0.1
 #: On the way out, how long [s, wall clock] the session waits for the link to take the
 #: last commands (the release) before it closes the link.
 DELIVERY_WAIT_S = 3.0
@@ -143,6 +147,7 @@ class Session:
         self._operator: asyncio.Queue[Event] = asyncio.Queue()
         self._t0: float | None = None
         self._t_last = 0.0
+        self._t_now = 0.0  # the latest sample's or Tick's session time: commands' stamp
         self._wall_last = time.monotonic()
         self._commanded = False
         self._deliveries: set[asyncio.Future[None]] = set()
@@ -184,6 +189,7 @@ class Session:
         next_operator = asyncio.ensure_future(self._operator.get())
         started = time.monotonic()
         connect_timeout = self.procedure.profile.procedure.connect_timeout_s
+        waiting = ""
         self._say(Notice(0.0, "state", f"waiting for the vehicle on "
                          f"{getattr(self.link, 'description', 'the link')}", Phase.CONNECT))
         try:
@@ -201,21 +207,26 @@ class Session:
                         await self._feed(Health(self._t_last, False, "", False, detail=detail))
                         break
                     next_sample = asyncio.ensure_future(anext(samples))
-                    if self._t0 is None and not (isinstance(sample, Health)
-                                                 and sample.connected):
-                        continue  # the session starts with the vehicle's first heartbeat
-                    await self._feed(self._on_session_time(sample))
-                elif done or not self.wall_clock:
+                    if self._t0 is not None or (isinstance(sample, Health) and sample.connected):
+                        await self._feed(self._on_session_time(sample))
+                    elif isinstance(sample, Health) and sample.detail:
+                        waiting = sample.detail  # why the link does not connect (yet)
+                if not self.wall_clock:
                     continue
-                elif self._t0 is not None:
+                if self._t0 is None:
+                    # the session starts with the vehicle's first heartbeat; a vehicle that
+                    # talks but never connects (wrong protocol, no handshake) times out too
+                    if time.monotonic() - started > connect_timeout:
+                        await self._feed(Health(0.0, False, "", False, detail=(
+                            f"the vehicle did not connect within {connect_timeout:g} s: "
+                            f"{waiting}" if waiting else
+                            f"no heartbeat from the vehicle within {connect_timeout:g} s")))
+                elif not done:
                     # session time runs from the first heartbeat: no Tick before it (a
                     # replay has none either)
                     await self._feed(Tick(self._t_last + time.monotonic() - self._wall_last))
                     if self.recorder:  # a quiet link: what came last reaches the disk too
                         self.recorder.flush_due()
-                elif time.monotonic() - started > connect_timeout:
-                    await self._feed(Health(0.0, False, "", False, detail=(
-                        f"no heartbeat from the vehicle within {connect_timeout:g} s")))
         finally:
             for task in (next_sample, next_operator):
                 task.cancel()
@@ -237,12 +248,18 @@ class Session:
             self._t0 = sample.t_s
         s = dataclasses.replace(sample, t_s=self._session_time(sample.t_s))
         self._t_last, self._wall_last = s.t_s, time.monotonic()
-        recorded = s if self._raw or self.recorder is None else self.recorder.sample(s)
+        self._t_now = max(self._t_now, s.t_s)
+        # a raw link's packets are its samples, except what the link concludes itself
+        # (someone else took over): no packet says that, so it is recorded as a sample
+        packet = self._raw and not isinstance(s, PilotInput)
+        recorded = s if packet or self.recorder is None else self.recorder.sample(s)
         for presenter in self.presenters:
             self._safely(presenter.sample, recorded, self.procedure.progress)
         return recorded
 
     async def _feed(self, event: Event) -> None:
+        if isinstance(event, Tick):
+            self._t_now = max(self._t_now, event.t_s)
         for out in self.procedure.step(event):
             if isinstance(out, Notice):
                 self._say(out)
@@ -261,7 +278,7 @@ class Session:
     def _send(self, command: Command) -> None:
         """Record ``command`` and start delivering it (commands leave in order)."""
         if self.recorder:
-            self.recorder.command(self._t_last, command)
+            self.recorder.command(self._t_now, command)
         self._commanded = not isinstance(command, Release)
         delivery = asyncio.ensure_future(self._deliver(command))
         self._deliveries.add(delivery)

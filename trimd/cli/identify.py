@@ -1,11 +1,18 @@
 """``trimd excite`` (an open-loop excitation experiment, recorded) and ``trimd identify``
-(the grey-box fit of recorded experiments, :mod:`trimd.identify.fit`).
+(the staged grey-box fit of recorded experiments, :mod:`trimd.identify.staged`).
+
+``trimd identify`` reads which stage each recording holds (a ``trimd excite`` recording
+names it in the notice that starts the excitation; ``--stage`` for any other log, or to
+override), fits the stages in the order uvr → uwq → uvwpqr carrying what earlier stages
+determined, validates each held-out log on the outputs its experiment excited, and writes
+one fragment, one summary and the plots.
 
 Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error (and logs that
-excite none of the stage's degrees of freedom), 3 link error. ``trimd identify`` exits 1
-when some degree of freedom of the stage was not excited in the logs: it still prints
-(and with ``--out`` writes) what it identified, the rest keeps the profile's values, but
-the stage is incomplete and a script must not take the fragment for a full result.
+excite none of a stage's degrees of freedom), 3 link error. ``trimd identify`` exits 1
+when some degree of freedom of a fitted stage was excited by none of the logs: it still
+prints (and with ``--out`` writes) what it identified, the rest keeps the profile's
+values, but the result is incomplete and a script must not take the fragment for a full
+result.
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ import argparse
 import asyncio
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,21 +34,19 @@ from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.identify.data import Experiment, experiments_from_samples
-from trimd.identify.experiment import Excite
-from trimd.identify.fit import (
-    FitOptions,
-    StageFit,
-    Validation,
-    fit_stage,
-    not_excited_message,
-    validate,
-)
-from trimd.identify.model import STAGES
+from trimd.identify.excitation import DofExcitation, not_excited_message
+from trimd.identify.experiment import Excite, stage_of_notice
+from trimd.identify.fit import NEEDS_DVL, NOT_DETERMINED, FitOptions, StageFit
+from trimd.identify.model import HYDRO_NAMES, STAGES
 from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
 from trimd.identify.signals import KINDS, design_signal
-from trimd.logs.log import open_log
+from trimd.identify.staged import fit_stages
+from trimd.identify.validation import Validation, validate
+from trimd.logs.log import is_dataflash, open_log
+from trimd.logs.recorder import TRIMD_SYSTEM
+from trimd.logs.tlog import TlogReader
 
-__all__ = ["read_log", "register", "run_excite", "run_identify"]
+__all__ = ["read_log", "recorded_stage", "register", "run_excite", "run_identify"]
 
 #: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
 MAX_DURATION_S = 3600.0
@@ -72,10 +77,13 @@ def register(sub: Any) -> None:
     e.set_defaults(func=run_excite)
     i: argparse.ArgumentParser = sub.add_parser(
         "identify", help="fit the dynamic model to recorded excitation experiments",
-        description="Grey-box output-error fit of one stage (docs/identification.md).")
+        description="Staged grey-box output-error fit, uvr → uwq → uvwpqr "
+        "(docs/identification.md).")
     i.add_argument("logs", nargs="+", metavar="LOG", help="recorded sessions (.tlog)")
     i.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
-    i.add_argument("--stage", choices=tuple(STAGES), default="uvwpqr")
+    i.add_argument("--stage", choices=tuple(STAGES), default=None,
+                   help="fit every log as this stage (default: the stage each trimd excite "
+                   "recording names; required for other logs)")
     i.add_argument("--validate", nargs="+", default=[], metavar="LOG",
                    help="held-out sessions for the NRMSE fit")
     i.add_argument("--segment", type=bounded(0.0), default=FitOptions.segment_s, metavar="S",
@@ -101,7 +109,8 @@ def run_excite(args: argparse.Namespace) -> int:
     sig = design_signal(profile, args.stage, kind=args.signal, amplitude=args.amplitude,
                         duration_s=args.duration, seed=args.seed,
                         depth_excursion_m=args.max_depth_excursion)
-    excite = Excite(profile, sig, confirmed=True, depth_excursion_m=args.max_depth_excursion)
+    excite = Excite(profile, sig, confirmed=True, depth_excursion_m=args.max_depth_excursion,
+                    stage=args.stage)
 
     async def go() -> SessionResult:
         link = await open_link(args.link, profile)
@@ -128,44 +137,105 @@ def read_log(path: str, profile: Profile) -> list[Experiment]:
     return experiments_from_samples(samples, profile, label=Path(path).name)
 
 
-def _load(paths: Sequence[str], profile: Profile) -> list[Experiment]:
-    return [e for p in paths for e in read_log(p, profile)]
+def recorded_stage(path: str) -> str | None:
+    """The stage a ``trimd excite`` recording names (:func:`stage_of_notice` on trimd's
+    own STATUSTEXT, chunks joined); None for a DataFlash log or a log without it."""
+    if is_dataflash(path):
+        return None
+    texts: dict[int, str] = {}
+    for _, msg in TlogReader.open(path).messages():
+        if msg.get_type() != "STATUSTEXT" or msg.get_srcSystem() != TRIMD_SYSTEM:
+            continue
+        chunk = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
+        key = int(getattr(msg, "id", 0) or 0)
+        more = key and int(getattr(msg, "chunk_seq", 0) or 0) > 0
+        texts[key] = texts.get(key, "") + chunk if more else chunk
+        stage = stage_of_notice(texts[key])
+        if stage is not None:
+            return stage
+    return None
+
+
+def _by_stage(paths: Sequence[str], profile: Profile, stage: str | None
+              ) -> dict[str, list[Experiment]]:
+    """The experiments of ``paths`` grouped by stage (``stage`` for all, else each
+    recording's own)."""
+    out: dict[str, list[Experiment]] = {}
+    for path in paths:
+        own = stage or recorded_stage(path)
+        if own is None:
+            raise DataError(f"{path}: the log does not say which stage it holds (not a trimd "
+                            f"excite recording): pass --stage ({', '.join(STAGES)})")
+        out.setdefault(own, []).extend(read_log(path, profile))
+    return out
+
+
+def _missing(fits: Sequence[StageFit]) -> list[tuple[StageFit, tuple[DofExcitation, ...]]]:
+    """Per fit, its DOFs that no fitted stage excited."""
+    excited = {d.dof for f in fits for d in f.excitation if d.excited}
+    out = []
+    for f in fits:
+        missing = tuple(d for d in f.not_excited if d.dof not in excited)
+        if missing:
+            out.append((f, missing))
+    return out
 
 
 def run_identify(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
     statics = read_statics(args.estimate) if args.estimate else None
-    experiments = _load(args.logs, profile)
-    fit: StageFit = fit_stage(experiments, profile, args.stage,
-                              FitOptions(segment_s=args.segment), statics=statics)
-    validations: list[Validation] = []
-    for e in _load(args.validate, profile):
-        validations += validate(fit.values(), [e], profile, args.stage, statics=statics)
-    print(format_fit(fit, validations))
+    experiments = _by_stage(args.logs, profile, args.stage)
+    fits = fit_stages(experiments, profile, FitOptions(segment_s=args.segment),
+                      statics=statics)
+    by_name = {f.stage: f for f in fits}
+    best = best_values(fits)
+
+    def values(stage: str) -> dict[str, float]:
+        """The fit of ``stage`` if there is one, else the last stage's with the best
+        estimate of every parameter."""
+        if stage in by_name:
+            return by_name[stage].values()
+        return fits[-1].values() | best
+
+    validations: dict[str, list[Validation]] = {}
+    for stage, held_out in _by_stage(args.validate, profile, args.stage).items():
+        for e in held_out:
+            validations.setdefault(stage, []).extend(
+                validate(values(stage), [e], profile, stage, statics=statics))
+    print("\n\n".join(format_fit(f, validations.get(f.stage, ())) for f in fits))
+    missing = _missing(fits)
     comments = [f"{d.name}: not excited in the fitted logs, the profile's values kept"
-                for d in fit.not_excited]
-    fragment = profile_fragment(best_values([fit]), profile, comments)
+                for _, ds in missing for d in ds]
+    comments += [f"{p.name}: {NOT_DETERMINED}, the profile's value kept"
+                 for f in fits for p in f.parameters
+                 if p.note == NOT_DETERMINED and p.name not in best]
+    blind = sorted({p.name for f in fits for p in f.parameters
+                    if p.note == NEEDS_DVL and p.name not in best}, key=HYDRO_NAMES.index)
+    if blind:
+        comments.append(f"{', '.join(blind)}: need a DVL (no body velocity in these logs), "
+                        "the profile's values kept")
+    fragment = profile_fragment(best, profile, comments)
     print("\n" + fragment)
     if args.out:
-        _write(Path(args.out), fit, fragment, validations or [
-            v for e in experiments   # without held-out logs: the free run of the fitted ones
-            for v in validate(fit.values(), [e], profile, args.stage, statics=statics)],
-            validations)
-    if fit.not_excited:
-        print(f"trimd: {not_excited_message(fit.stage, fit.not_excited)}", file=sys.stderr)
-        return 1
-    return 0
+        shown = [v for vs in validations.values() for v in vs] or [
+            v for stage, es in experiments.items()   # without held-out logs: the fitted ones
+            for e in es for v in validate(values(stage), [e], profile, stage,
+                                          statics=statics)]
+        _write(Path(args.out), fits, fragment, shown, validations)
+    for fit, ds in missing:
+        print(f"trimd: {not_excited_message(fit.stage, ds)}", file=sys.stderr)
+    return 1 if missing else 0
 
 
-def _write(out: Path, fit: StageFit, fragment: str, shown: Sequence[Validation],
-           validations: Sequence[Validation]) -> None:
+def _write(out: Path, fits: Sequence[StageFit], fragment: str, shown: Sequence[Validation],
+           validations: Mapping[str, Sequence[Validation]]) -> None:
     """fragment.yaml, summary.json and a PNG per series of ``shown`` in ``out``."""
     from trimd.app.plots import write_plots
 
     out.mkdir(parents=True, exist_ok=True)
     (out / "fragment.yaml").write_text(fragment, encoding="utf-8")
-    (out / "summary.json").write_text(json.dumps(
-        summary_dict([fit], {fit.stage: validations}), indent=2), encoding="utf-8")
-    plots = write_plots(shown, out, fit.stage)
+    (out / "summary.json").write_text(json.dumps(summary_dict(fits, validations), indent=2),
+                                      encoding="utf-8")
+    plots = write_plots(shown, out, "-".join(f.stage for f in fits))
     print(f"wrote {out / 'fragment.yaml'}, {out / 'summary.json'} and {len(plots)} "
           "plots (measured vs simulated, residuals)", file=sys.stderr)

@@ -24,6 +24,9 @@ def register(sub: Any) -> None:
     p.add_argument("holds", help="CSV of samples: time_s, roll_deg, pitch_deg and τ or pwm_N")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--station-keeping", action="store_true",
+                   help="the vehicle held its position at every hold (e.g. with a DVL): use "
+                   "the tilted holds' force rows and no drift correction")
     p.add_argument("--ballast", nargs="?", const="milp", choices=METHODS, metavar="METHOD",
                    help=f"also propose ballast ({', '.join(METHODS)}; default milp)")
     p.set_defaults(func=run)
@@ -31,7 +34,8 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    est = estimate_static(read_hold_csv(args.holds, profile), profile)
+    est = estimate_static(read_hold_csv(args.holds, profile), profile,
+                          station_keeping=args.station_keeping)
     proposal = propose_ballast(est, profile, method=args.ballast) if args.ballast else None
     if args.json:
         out = estimate_to_dict(est)

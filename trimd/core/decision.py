@@ -88,11 +88,13 @@ class StopRule:
         """The two-sided quantile for a 1 − ALPHA decision over all looks."""
         return float(norm.ppf(1 - ALPHA / (2 * len(self.looks_s))))
 
-    def row_limits(self, stiffness_Nm: float | None = None) -> FloatArray:
-        """The largest σ of a hold's mean τ row [N, N·m] that the decision tolerates."""
-        k = max(stiffness_Nm or self.stiffness_prior_Nm, 1e-9)
-        return np.r_[np.full(3, self.buoyancy_half_window_N),
-                     np.full(3, self.level_tol_rad * k)] / self.z
+    def row_limits(self) -> FloatArray:
+        """The largest σ of a hold's mean τ row [N, N·m] that the decision tolerates, with
+        the profile's stiffness (before the tilted hold there is no other)."""
+        k = max(self.stiffness_prior_Nm, 1e-9)
+        limits: FloatArray = np.r_[np.full(3, self.buoyancy_half_window_N),
+                                   np.full(3, self.level_tol_rad * k)] / self.z
+        return limits
 
     def hold_decided(self, hold: HoldSamples, phi: float, theta: float) -> bool:
         """Is one hold's mean effort known well enough, on the rows that carry information

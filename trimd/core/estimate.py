@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import restoring_matrix, thrust_configuration
@@ -206,6 +207,22 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
+def _drift_moments(profile: Profile, net_force_N: float,
+                   attitude: Sequence[tuple[float, float]], used: Sequence[NDArray[np.bool_]],
+                   drifting: Sequence[bool]) -> list[FloatArray]:
+    """Per hold, the used rows of the drift's Munk moment (:mod:`trimd.core.drift`) [N·m]
+    at a hold that drifts, zero elsewhere. It is subtracted from the hold's mean effort,
+    and, as its drift speed and added masses are priors, its full size is added to the
+    hold's variance (a systematic error shared by every sample)."""
+    out = []
+    for (phi, theta), r, d in zip(attitude, used, drifting, strict=True):
+        m = np.zeros(6)
+        if d:
+            m[3:] = munk_moment(profile, net_force_N, phi, theta)
+        out.append(m[r])
+    return out
+
+
 def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
                   weights: Sequence[FloatArray]) -> FloatArray:
     """q minimising Σ_k ‖w_k·(τ̄_k − A_k·q)‖²."""
@@ -217,7 +234,7 @@ def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
 
 def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
                     dofs: Sequence[bool] | None = None,
-                    level_forces_only: bool = True) -> StaticEstimate:
+                    station_keeping: bool = False) -> StaticEstimate:
     """Weighted least squares for the weight and centre of gravity over steady holds.
 
     Parameters
@@ -226,10 +243,12 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     profile : gives the nominal mass m, g, the buoyancy B and its centre r_b.
     dofs : which of the six rows of g(η) = τ were measured; default
         :func:`measurable_dofs` of the profile.
-    level_forces_only : use the force rows (X, Y, Z) of level holds only, when there is
-        one. A vehicle that holds depth but not station drifts at a tilted hold, and the
-        drag of that drift (much larger in heave than in sway) biases the tilted force
-        rows; the moment rows are barely affected. Level holds do not drift.
+    station_keeping : the vehicle held its position at every hold (a DVL or the
+        synthetic holds of a test). Without it (the default: ArduSub's ALT_HOLD holds
+        depth, not station) a tilted hold drifts: the drag of the drift (much larger in
+        heave than in sway) biases its force rows, so only level holds, which do not
+        drift, contribute force rows; and its moment rows carry the drift's Munk moment
+        (:mod:`trimd.core.drift`), which is subtracted with its full size as uncertainty.
 
     Raises
     ------
@@ -261,7 +280,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
                 and np.all(np.isfinite(h.tau))):
             raise EstimationError(f"hold {h.label!r} contains NaN or infinite values")
     level = [_is_level(h) for h in holds]
-    use_force = [lv or not (level_forces_only and any(level)) for lv in level]
+    use_force = [lv or station_keeping or not any(level) for lv in level]
     used = [rows & (_MOMENT_ROWS | f) for f in use_force]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
     G = [restoring_matrix(*a) for a in attitude]
@@ -274,19 +293,24 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # twice (the residuals depend on q)
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
+    drifting = [not (station_keeping or lv) for lv in level]
     for _ in range(2):
-        means = _residual_means(holds, used, q)
-        var = [np.diag(m.cov) for m in means]
+        drift = _drift_moments(profile, float(q[0]), attitude, used, drifting)
+        cov = [m.cov + np.diag(d**2) for m, d in
+               zip(_residual_means(holds, used, q), drift, strict=True)]
+        var = [np.diag(c) for c in cov]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
         weights = [np.sqrt(floor / np.maximum(v, floor)) for v in var]
-        q = _weighted_fit(A, tau, weights)
+        q = _weighted_fit(A, [t - d for t, d in zip(tau, drift, strict=True)], weights)
     means = _residual_means(holds, used, q)
+    drift = _drift_moments(profile, float(q[0]), attitude, used, drifting)
+    cov = [m.cov + np.diag(d**2) for m, d in zip(means, drift, strict=True)]
     # sandwich covariance: the weights need not be exact for it to hold
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
-    meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
-                zip(A, weights, means, strict=True)), np.zeros((4, 4)))
+    meat = sum(((Ak.T * w**2) @ c @ (Ak * w[:, None]**2) for Ak, w, c in
+                zip(A, weights, cov, strict=True)), np.zeros((4, 4)))
     q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)

@@ -4,27 +4,35 @@ the excitation experiment), in one place so they cannot drift apart.
 Before commanding, the vehicle must be connected. While commanding it must stay
 connected and armed, within the attitude envelope (the profile's ``max_tilt_deg`` plus
 :data:`ENVELOPE_MARGIN_DEG`) and the depth envelope (``max_depth_excursion_m``, or the
-experiment's own limit, from a reference depth), and every stream it is steered by must
-keep arriving (``link_timeout_s`` of sample time). Any breach is a :class:`Stop`, on
-which the state machine releases the vehicle and ends. Pure: time is the samples' own.
+experiment's own limit, from a reference depth), nobody else may fly it (a
+:class:`PilotInput`), and telemetry must keep arriving: no sample at all for
+``link_timeout_s`` of sample time is a lost link; a stream it is steered by that stops
+while others go on is lost after ``link_timeout_s`` or :data:`STREAM_MISSED_PERIODS`
+periods at the slowest rate it may arrive at, whichever is longer (a 1 Hz depth stream
+is not lost after 0.8 s). Any breach is a :class:`Stop`, on which the state machine
+releases the vehicle and ends. Pure: time is the samples' own.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from trimd.core.events import Cause
 from trimd.core.profile import ProcedureLimits
 from trimd.core.samples import Attitude, Depth, Health, PilotInput, Sample, Thrusters
 
-__all__ = ["ENVELOPE_MARGIN_DEG", "STREAMS", "Guard", "Stop"]
+__all__ = ["ENVELOPE_MARGIN_DEG", "STREAMS", "STREAM_MISSED_PERIODS", "Guard", "Stop"]
 
 #: An attitude beyond the profile's tilt limit by this much [deg] ends the commanding.
 ENVELOPE_MARGIN_DEG = 5.0
 #: The telemetry streams a commanding state machine relies on, by sample type.
 STREAMS: dict[str, type[Sample]] = {"attitude": Attitude, "thrusters": Thrusters,
                                     "depth": Depth}
+#: A stream that stops while others go on is lost after this many of its periods (at the
+#: slowest rate it may arrive at), if that is longer than ``link_timeout_s``.
+STREAM_MISSED_PERIODS = 2.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,10 +52,13 @@ class Guard:
     depth_excursion_m : the depth envelope [m] (default: the profile's).
     streams : the streams that must keep arriving while commanding (names of
         :data:`STREAMS`).
+    min_rates_hz : the slowest rate [Hz, sample time] each stream may arrive at (the
+        precheck's minimum); a stream not named is lost after ``link_timeout_s``.
     """
 
     def __init__(self, limits: ProcedureLimits, *, depth_excursion_m: float | None = None,
-                 streams: tuple[str, ...] = tuple(STREAMS)) -> None:
+                 streams: tuple[str, ...] = tuple(STREAMS),
+                 min_rates_hz: Mapping[str, float] | None = None) -> None:
         self.limits = limits
         self.depth_excursion_m = (limits.max_depth_excursion_m if depth_excursion_m is None
                                   else depth_excursion_m)
@@ -56,6 +67,10 @@ class Guard:
         self.what = "the hold's start depth"
         self._streams = streams
         self._t_stream = dict.fromkeys(streams, math.nan)
+        rates = min_rates_hz or {}
+        self._stream_timeout_s = {
+            name: max(limits.link_timeout_s, STREAM_MISSED_PERIODS / rates[name])
+            if rates.get(name, 0) > 0 else limits.link_timeout_s for name in streams}
         self._t_commanding = math.nan
         self._t_sample = math.nan
 
@@ -94,7 +109,8 @@ class Guard:
         return None
 
     def time(self, t_s: float) -> Stop | None:
-        """Check the silence of the link at ``t_s`` (a sample's time or a Tick's)."""
+        """Check the silence of the link, and of each stream, at ``t_s`` (a sample's time
+        or a Tick's)."""
         timeout = self.limits.link_timeout_s
         silent = t_s - self._t_sample
         if silent > timeout:
@@ -103,7 +119,7 @@ class Guard:
             return None
         for name, last in self._t_stream.items():
             quiet = t_s - (last if last >= self._t_commanding else self._t_commanding)
-            if quiet > timeout:
+            if quiet > self._stream_timeout_s[name]:
                 return Stop(f"link lost: no {name} for {quiet:.1f} s while commanding",
                             Cause.LINK)
         return None

@@ -100,7 +100,7 @@ class Procedure:
         self.cause = Cause.NONE
         self.estimate: StaticEstimate | None = None
         self.proposal: object | None = None
-        self.guard = Guard(profile.procedure)
+        self.guard = Guard(profile.procedure, min_rates_hz=MIN_RATES_HZ)
         self.rule = StopRule.for_profile(profile)
         self._confirmed = confirmed
         self._t = math.nan

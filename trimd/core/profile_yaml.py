@@ -222,7 +222,7 @@ def _procedure(node: _Node) -> ProcedureLimits:
         settle_timeout_s=node.number("settle_timeout_s", 120.0, positive=True),
         collect_max_s=node.number("collect_max_s", 120.0, positive=True),
         connect_timeout_s=node.number("connect_timeout_s", 30.0, positive=True),
-        link_timeout_s=node.number("link_timeout_s", 3.0, positive=True),
+        link_timeout_s=node.number("link_timeout_s", 0.8, positive=True),
     )
     if p.max_tilt_deg >= 60:
         raise node.fail("max_tilt_deg", f"expected less than 60 degrees, got {p.max_tilt_deg}")

@@ -9,9 +9,10 @@ the signal, its PID output is added on roll and pitch at every attitude sample) 
 (:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
 experiment's limit from the start depth, link loss (a Health sample that is not
-connected, no telemetry, or no attitude or depth, for ``link_timeout_s``) or a disarmed
-vehicle ends the experiment; so do a timeout and an internal error — every end after the
-first command sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
+connected, no telemetry for ``link_timeout_s``, or no attitude or depth for as long as
+the guard allows each), someone else flying it or a disarmed vehicle ends the
+experiment; so do a timeout and an internal error — every end after the first command
+sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
 """
 
 from __future__ import annotations
@@ -20,11 +21,33 @@ import math
 
 from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
 from trimd.core.guards import Guard
+from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
+from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
-__all__ = ["Excite"]
+__all__ = ["STAGE_NOTICE", "Excite", "stage_of_notice"]
+
+#: The words before the stage's name in the notice that starts an excitation.
+STAGE_NOTICE = "stage "
+
+
+def stage_of_notice(text: str) -> str | None:
+    """The stage an excitation notice names ("exciting stage uwq: open-loop inputs on
+    axes X, Z, M"), or, for a notice of an older recording without it, the stage whose
+    axes it lists; None for any other text."""
+    head, sep, rest = text.partition(": open-loop inputs on axes ")
+    if not sep or not head.startswith("exciting"):
+        return None
+    named = head.removeprefix("exciting").strip()
+    if named.startswith(STAGE_NOTICE):
+        name = named.removeprefix(STAGE_NOTICE)
+        return name if name in STAGES else None
+    axes = tuple(sorted("XYZKMN".index(a.strip()) for a in rest.split(",")
+                        if a.strip() in tuple("XYZKMN")))
+    return next((n for n, st in STAGES.items() if st.axes == axes), None)
+
 
 #: Telemetry seen for this long [s] before the experiment may start.
 PRECHECK_S = 2.0
@@ -39,12 +62,16 @@ class Excite:
     signal : the inputs to play (:func:`trimd.identify.signals.design_signal`).
     confirmed : the operator confirmed up front (``--yes``).
     depth_excursion_m : the largest allowed depth change from the start [m].
+    stage : the identification stage the signal excites (uvr, uwq, uvwpqr), named in the
+        notice that starts the excitation ("exciting stage uvr: …") so that a recording
+        says which stage it holds (:data:`STAGE_NOTICE`).
     """
 
     def __init__(self, profile: Profile, signal: Signal, *, confirmed: bool = False,
-                 depth_excursion_m: float = 5.0) -> None:
+                 depth_excursion_m: float = 5.0, stage: str | None = None) -> None:
         self.profile = profile
         self.signal = signal
+        self.stage = stage
         self.phase = Phase.CONNECT
         self.reason = ""
         self.cause = Cause.NONE
@@ -52,7 +79,7 @@ class Excite:
         self.proposal = None
         # open loop drives thrusters, so no thruster stream is needed to steer by
         self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
-                           streams=("attitude", "depth"))
+                           streams=("attitude", "depth"), min_rates_hz=MIN_RATES_HZ)
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
@@ -146,7 +173,8 @@ class Excite:
         self._depth_ref = self._depth
         self._t_start = self._t
         self.guard.start(self._t, self._depth, "the start depth")
-        out = self._enter(Phase.COLLECT, "exciting: open-loop inputs on axes "
+        named = f" {STAGE_NOTICE}{self.stage}" if self.stage else ""
+        out = self._enter(Phase.COLLECT, f"exciting{named}: open-loop inputs on axes "
                           + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
         return out + self._play(None)
 

@@ -2,28 +2,29 @@
 
 For one stage (:data:`trimd.identify.model.STAGES`) and one or more experiments:
 
-0. an excitation check (:func:`excitation_of`): per DOF of the stage, the spread of τ_i in
-   the data against what the thrusters can give on that axis; a DOF below
-   :data:`MIN_EXCITATION` is not fitted (its velocity and angle are taken from the
-   measurements, its parameters keep the profile's values and the fit says so);
-1. a starting point that owes nothing to the profile's hydrodynamic values: per excited
-   DOF, a non-negative least-squares equation-error fit of M_i·ν̇_i − D_i·ν_i −
-   D_i|i|·|ν_i|·ν_i = τ_i − g_i(η) on smoothed derivatives of the measurements;
-2. an output-error fit with :func:`scipy.optimize.least_squares` (trust-region reflective,
-   physical bounds: added masses ≥ 0, inertia sums > 0, damping derivatives ≤ 0, thruster
-   lag in [0, 1] s) of the simulation error over short segments, each started from the
-   measured state (a stable simulation-error objective that tolerates a poor start), all
-   experiments in one cost, each output weighted by the inverse of its spread;
+0. an excitation check (:func:`trimd.identify.excitation.excitation_of`): per DOF of the
+   stage, the spread of τ_i in the data against what the thrusters can give on that axis;
+   a DOF below the threshold is not fitted (its velocity and angle are taken from the
+   measurements, its parameters keep their given values and the fit says so);
+1. a starting point that owes nothing to the profile's hydrodynamic values: the
+   equation-error first pass (:func:`trimd.identify.start.equation_error_start`);
+2. an output-error fit with a bounded Levenberg–Marquardt least squares
+   (:func:`trimd.identify.solve.levenberg_marquardt`; physical bounds: added masses ≥ 0,
+   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s) of the simulation
+   error over short segments, each started from the measured state (a stable
+   simulation-error objective that tolerates a poor start), all experiments in one cost,
+   each output weighted by the inverse of its spread; the simulation steps over
+   ``FitOptions.step_s`` (two samples at 50 Hz) and its Jacobian is one batched simulation
+   of every perturbed parameter vector;
 3. standard deviations and correlations from the Jacobian at the optimum
-   (cov = s²·(JᵀJ)⁻¹, s² the residual variance, inverted on the column-scaled Jacobian:
-   :func:`jacobian_covariance`; the simulation errors are correlated in time, so these
-   are lower bounds), and a parameter whose relative standard deviation exceeds
-   ``max_rel_std`` is reported, fixed at the profile's value and the fit repeated;
-4. :func:`validate`: a free-run simulation of held-out experiments and the normalised RMSE
-   fit 100·(1 − ‖y − ŷ‖/‖y − mean(y)‖) % per output.
+   (:func:`trimd.identify.solve.jacobian_covariance`; the simulation errors are
+   correlated in time, so these are lower bounds); a parameter whose relative standard
+   deviation exceeds ``max_rel_std`` is reported as not determined by the data, held at
+   its estimate (never pulled back to the prior) and the fit repeated without it.
 
-The mass and the restoring terms are held fixed: the profile's nominal vehicle, or a
-measured static estimate (:class:`trimd.identify.model.Statics`).
+Validation of held-out experiments is :mod:`trimd.identify.validation`. The mass and the
+restoring terms are held fixed: the profile's nominal vehicle, or a measured static
+estimate (:class:`trimd.identify.model.Statics`).
 
 Pure computation: no I/O, no clock.
 """
@@ -35,14 +36,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares, nnls
-from scipy.signal import savgol_filter
 
 from trimd.core.errors import DataError, EstimationError
-from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
 from trimd.identify.data import Experiment
+from trimd.identify.excitation import (
+    MIN_EXCITATION,
+    DofExcitation,
+    excitation_of,
+    not_excited_message,
+)
 from trimd.identify.model import (
+    DVL_DOFS,
     HYDRO_NAMES,
     LAG,
     LEAD,
@@ -50,30 +55,26 @@ from trimd.identify.model import (
     STATE_NAMES,
     Stage,
     Statics,
-    lagged_thrust,
+    observed,
     prior_values,
     statics_of_profile,
 )
+from trimd.identify.nodvl import with_estimated_velocity
 from trimd.identify.problem import Problem
-from trimd.identify.signals import axis_authority
+from trimd.identify.solve import jacobian_covariance, levenberg_marquardt
+from trimd.identify.start import LAG_GRID, equation_error_start
 
-__all__ = ["DOF_NAMES", "DofExcitation", "FitOptions", "ParameterEstimate", "StageFit",
-           "Validation", "excitation_of", "fit_stage", "jacobian_covariance",
-           "not_excited_message", "nrmse", "validate"]
+__all__ = ["NEEDS_DVL", "NOT_DETERMINED", "FitOptions", "ParameterEstimate", "StageFit",
+           "fit_stage"]
 
 FloatArray = NDArray[np.float64]
 #: A parameter whose standard deviation moves less than this share of its DOF's force or
 #: moment counts as determined (negligible) even when its relative uncertainty is large.
 MIN_SHARE = 0.02
-#: A DOF counts as excited when the spread of its generalised force τ_i in the data (the
-#: standard deviation about each experiment's mean) is at least this share of what the
-#: thrusters can give on that axis (:func:`trimd.identify.signals.axis_authority`). Measured on
-#: the simulator (docs/identification.md): 3.4–34 % on the axes a stage excites, at most
-#: 1.4 % on the others (the BlueROV2 Heavy's attitude hold).
-MIN_EXCITATION = 0.02
-#: Degrees of freedom and the symbols of their generalised forces, in order.
-DOF_NAMES = ("surge", "sway", "heave", "roll", "pitch", "yaw")
-_FORCE_NAMES = ("X", "Y", "Z", "K", "M", "N")
+#: Note of a parameter of surge or sway fitted from logs without body velocity.
+NEEDS_DVL = "needs a DVL: profile's value"
+#: Note of a parameter the data did not determine (:attr:`ParameterEstimate.determined`).
+NOT_DETERMINED = "not determined by the data"
 
 
 @dataclass(frozen=True)
@@ -83,6 +84,8 @@ class FitOptions:
     Attributes
     ----------
     segment_s : simulation horizon of each segment [s].
+    step_s : longest integration step of the fit [s]: the simulation steps over whole
+        samples, as many as fit in it (at least one), and is compared at those samples.
     weights : per output name (u, v, w, p, q, r, phi, theta) the weight of its error;
         outputs not named get 1/std of the measured output.
     lag_s : thruster lag [s] when it is not fitted.
@@ -91,25 +94,26 @@ class FitOptions:
     fixed : parameters held at the given value (named as in the report).
     max_rel_std : relative standard deviation above which a parameter counts as not
         determined by the data.
-    max_nfev : iterations (function evaluations) per least-squares run.
+    max_iter : Jacobian evaluations (iterations) per least-squares run.
     min_excitation : share of the thrusters' authority the spread of τ_i must reach for
         DOF i to be fitted (:data:`MIN_EXCITATION`, :func:`excitation_of`).
     """
 
     segment_s: float = 4.0
+    step_s: float = 0.04
     weights: Mapping[str, float] = field(default_factory=dict)
     lag_s: float = 0.05
     fit_lag: bool = True
     fixed: Mapping[str, float] = field(default_factory=dict)
     max_rel_std: float = 0.3
-    max_nfev: int = 60
+    max_iter: int = 30
     min_excitation: float = MIN_EXCITATION
 
 
 @dataclass(frozen=True)
 class ParameterEstimate:
     """One named parameter: estimate, standard deviation (NaN when fixed), the profile's
-    value (prior) and whether it was estimated."""
+    value (prior), whether it was estimated and why not."""
 
     name: str
     value: float
@@ -118,41 +122,10 @@ class ParameterEstimate:
     free: bool
     note: str = ""
 
-
-@dataclass(frozen=True)
-class DofExcitation:
-    """How much the experiments excited one degree of freedom.
-
-    Attributes
-    ----------
-    dof : 0..5 (surge, sway, heave, roll, pitch, yaw).
-    spread : standard deviation of τ_i about each experiment's mean [N or N·m].
-    authority : what the thrusters can give on that axis [N or N·m]
-        (:func:`trimd.identify.signals.axis_authority`).
-    threshold : the share of ``authority`` the spread must reach (:data:`MIN_EXCITATION`).
-    """
-
-    dof: int
-    spread: float
-    authority: float
-    threshold: float
-
     @property
-    def ratio(self) -> float:
-        """Spread over authority (0.01 = 1 %)."""
-        return self.spread / self.authority if self.authority > 0 else 0.0
-
-    @property
-    def excited(self) -> bool:
-        return self.ratio >= self.threshold
-
-    @property
-    def name(self) -> str:
-        return DOF_NAMES[self.dof]
-
-    def describe(self) -> str:
-        """E.g. "τ_Z spread 0.73 %" (of the authority)."""
-        return f"τ_{_FORCE_NAMES[self.dof]} spread {100 * self.ratio:.2g} %"
+    def determined(self) -> bool:
+        """Estimated, and determined by the data (a fragment may use it)."""
+        return self.free and self.note != NOT_DETERMINED
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,98 +178,6 @@ class StageFit:
         raise KeyError(name)
 
 
-@dataclass(frozen=True, eq=False)
-class Validation:
-    """Free-run simulation of one experiment: NRMSE [%] per output, and the series."""
-
-    label: str
-    outputs: tuple[str, ...]
-    nrmse: tuple[float, ...]
-    t_s: FloatArray
-    measured: FloatArray
-    simulated: FloatArray
-
-
-def nrmse(y: FloatArray, y_hat: FloatArray) -> FloatArray:
-    """Normalised RMSE fit 100·(1 − ‖y − ŷ‖/‖y − mean(y)‖) [%] per column (MATLAB
-    compare()); 100 is perfect, negative is worse than the mean.
-
-    Examples
-    --------
-    >>> float(nrmse(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0])))
-    100.0
-    >>> float(nrmse(np.array([1.0, 2.0, 3.0]), np.array([2.0, 2.0, 2.0])))
-    0.0
-    """
-    y, y_hat = np.asarray(y, float), np.asarray(y_hat, float)
-    num = np.linalg.norm(y - y_hat, axis=0)
-    den = np.linalg.norm(y - y.mean(axis=0), axis=0)
-    out: FloatArray = 100.0 * (1.0 - num / np.where(den > 0, den, np.nan))
-    return out
-
-
-#: Thruster lags [s] tried for the starting point (the fit refines the best one).
-LAG_GRID = tuple(0.025 * k for k in range(17))
-
-
-def _initial_guess(experiments: Sequence[Experiment], stage: Stage, statics: Statics,
-                   lags: Sequence[float]) -> tuple[dict[str, float], dict[str, float]]:
-    """Equation-error start (module docstring, step 1) for the stage's DOFs and the lag
-    (the one of ``lags`` with the smallest equation error), and the share scale of each
-    hydrodynamic parameter: RMS of its regressor (ν̇_i, ν_i or ν_i²) over the RMS of
-    τ_i − g_i, so that |δ|·scale is the share of the force or moment of DOF i that a change
-    δ of the parameter makes at the experiments' typical motion.
-
-    The mass entry is at least the one whose time constant at the fastest recorded speed
-    is one sample interval (a stiffer start makes the RK4 simulation diverge)."""
-    m = statics.mass_kg
-    q_rest = statics.q_rest
-    regressors: dict[int, FloatArray] = {}
-    forces: dict[float, dict[int, FloatArray]] = {lag: {} for lag in lags}
-    smooth = []
-    for e in experiments:
-        window = max(5, 2 * round(0.15 / e.h_s) + 1)
-        smooth.append((savgol_filter(e.nu, window, 2, axis=0),
-                       savgol_filter(e.nu, window, 2, deriv=1, delta=e.h_s, axis=0),
-                       restoring_matrix(e.eta[:, 3], e.eta[:, 4]) @ q_rest))
-    for i in stage.dofs:
-        regressors[i] = np.concatenate([np.column_stack([dnu[:, i], nu[:, i],
-                                                         np.abs(nu[:, i]) * nu[:, i]])
-                                        for nu, dnu, _ in smooth])
-        for lag in lags:
-            forces[lag][i] = np.concatenate([lagged_thrust(e.tau, lag, e.h_s)[0][:, i] - g[:, i]
-                                             for e, (_, _, g) in zip(experiments, smooth,
-                                                                     strict=True)])
-
-    def solve(lag: float) -> tuple[float, dict[int, FloatArray]]:
-        total, sols = 0.0, {}
-        for i in stage.dofs:
-            A, b = regressors[i], forces[lag][i]
-            scale = np.maximum(np.abs(A).max(axis=0), 1e-12)
-            sol, res = nnls(A / scale, b)
-            sols[i] = sol / scale
-            total += (res / max(float(np.linalg.norm(b)), 1e-12)) ** 2
-        return total, sols
-
-    best = min(lags, key=lambda lag: solve(lag)[0])
-    sols = solve(best)[1]
-    guess: dict[str, float] = {LAG: best}
-    share: dict[str, float] = {}
-    h = max(e.h_s for e in experiments)
-    for i in stage.dofs:
-        sol = sols[i]
-        fastest = max(float(np.abs(e.nu[:, i]).max()) for e in experiments)
-        total_mass = max(float(sol[0]), h * float(sol[1] + 2 * sol[2] * fastest), 1e-6)
-        guess[HYDRO_NAMES[i]] = max(total_mass - m, 0.0) if i < 3 else total_mass
-        guess[HYDRO_NAMES[6 + i]] = -float(sol[1])
-        guess[HYDRO_NAMES[12 + i]] = -float(sol[2])
-        b = forces[best][i]
-        force = max(float(np.sqrt(np.mean(b * b))), 1e-12)
-        for k, rms in enumerate(np.sqrt(np.mean(regressors[i] ** 2, axis=0))):
-            share[HYDRO_NAMES[6 * k + i]] = float(rms) / force
-    return guess, share
-
-
 def _bounds(name: str, h: float) -> tuple[float, float]:
     if name == LAG:
         return 0.0, 1.0
@@ -335,47 +216,16 @@ def _weights(experiments: Sequence[Experiment], stage: Stage,
     return np.array(out)
 
 
-def excitation_of(experiments: Sequence[Experiment], profile: Profile, stage: Stage,
-                  threshold: float = MIN_EXCITATION) -> tuple[DofExcitation, ...]:
-    """Per DOF of ``stage``, the spread of τ_i in ``experiments`` (standard deviation about
-    each experiment's own mean, pooled: a constant trim force is no excitation) against
-    the thrusters' authority on that axis (:func:`trimd.identify.signals.axis_authority`)."""
-    authority = axis_authority(profile)
-    tau = np.concatenate([e.tau - e.tau.mean(axis=0) for e in experiments])
-    spread = np.sqrt(np.mean(tau * tau, axis=0))
-    return tuple(DofExcitation(i, float(spread[i]), float(authority[i]), threshold)
-                 for i in stage.dofs)
-
-
-def _join(words: Sequence[str]) -> str:
-    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
-
-
-def not_excited_message(stage: str, missing: Sequence[DofExcitation]) -> str:
-    """What is wrong and what to do when DOFs of ``stage`` were not excited."""
-    verb = "was" if len(missing) == 1 else "were"
-    return (f"{_join([d.name for d in missing])} {verb} not excited in these logs "
-            f"({', '.join(d.describe() for d in missing)} of what the thrusters give, at "
-            f"least {100 * missing[0].threshold:g} % needed): their parameters were not "
-            f"identified and keep the profile's values. Record an experiment of this stage "
-            f"(trimd excite --stage {stage}) and fit that")
-
-
-def _reduced(stage: Stage, dofs: tuple[int, ...]) -> Stage:
-    """``stage`` restricted to ``dofs``: the other velocities and angles are taken from the
-    measurements (roll angle with roll, pitch angle with pitch)."""
-    angles = tuple(a for a, dof in ((6, 3), (7, 4)) if dof in dofs and a in stage.states)
-    return Stage(stage.name, dofs, tuple(s for s in stage.states if s in dofs) + angles,
-                 stage.axes)
-
-
 def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
               options: FitOptions | None = None, *, statics: Statics | None = None
               ) -> StageFit:
     """Identify the parameters of ``stage`` (module docstring).
 
-    Only the DOFs the data excited (:func:`excitation_of`) are fitted; the parameters of
-    the others keep the profile's values, and :attr:`StageFit.warnings` says so.
+    Only the DOFs the data excited (:func:`excitation_of`) and the sensors observe are
+    fitted: without a DVL (an experiment whose ``dvl`` is False) not surge and sway, whose
+    parameters are noted :data:`NEEDS_DVL`, and u, v, w are estimated
+    (:func:`trimd.identify.nodvl.with_estimated_velocity`). The parameters of the others
+    keep the profile's values, and :attr:`StageFit.warnings` says so.
 
     Parameters
     ----------
@@ -402,21 +252,36 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if not experiments:
         raise DataError("no experiment to fit")
     fixed_by = statics or statics_of_profile(profile)
+    experiments = with_estimated_velocity(
+        experiments, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
+        fixed_by.mass_kg, fixed_by.q_rest)
     excitation = excitation_of(experiments, profile, STAGES[stage], opts.min_excitation)
     missing = tuple(d for d in excitation if not d.excited)
     if len(missing) == len(excitation):
         raise EstimationError(f"{stage}: nothing to identify: "
                               + not_excited_message(stage, missing))
-    st = _reduced(STAGES[stage], tuple(d.dof for d in excitation if d.excited))
+    dvl = all(e.dvl for e in experiments)
+    blind = () if dvl else tuple(d for d in STAGES[stage].dofs if d in DVL_DOFS)
+    st = observed(STAGES[stage], dvl).restricted(tuple(d.dof for d in excitation
+                                                       if d.excited))
+    if not st.dofs:
+        raise EstimationError(f"{stage}: nothing to identify: without a DVL the stage's "
+                              "excited degrees of freedom are not observed")
     problem, theta, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
-    theta, std, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, prior,
-                                                                share, opts, stage)
+    theta, std_of, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, share,
+                                                                   opts, stage)
     if missing:
         warnings.insert(0, f"{stage}: " + not_excited_message(stage, missing))
-        for n in STAGES[stage].free_names:
-            if n not in st.free_names:
+        for n in STAGES[stage].restricted(tuple(d.dof for d in missing)).free_names:
+            if n not in opts.fixed:
                 notes[n] = "not excited: profile's value"
-    std_of = {problem.names[i]: float(std[j]) for j, i in enumerate(free)}
+    if blind:
+        needs = STAGES[stage].restricted(blind).free_names
+        warnings.insert(0, f"{stage}: no body velocity (DVL) in these logs: "
+                        f"{', '.join(needs)} need a DVL and keep the profile's values")
+        for n in needs:
+            if n not in opts.fixed:
+                notes[n] = NEEDS_DVL
     params = tuple(ParameterEstimate(n, float(theta[k]), std_of.get(n, float("nan")),
                                      prior.get(n, 0.0), n in std_of, notes.get(n, ""))
                    for k, n in enumerate(problem.names))
@@ -433,7 +298,8 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
     h = experiments[0].h_s if experiments else 0.02
     problem = Problem(experiments, st, statics.mass_kg, statics.q_rest,
                       max(2, round(opts.segment_s / h)),
-                      _weights(experiments, st, opts.weights))
+                      _weights(experiments, st, opts.weights),
+                      stride=max(1, int(opts.step_s / h + 1e-9)))
     unknown = set(opts.fixed) - set(problem.names)
     if unknown:
         raise EstimationError(f"cannot fix unknown parameters {sorted(unknown)} "
@@ -442,7 +308,7 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
     theta = np.array([prior.get(n, 0.0) for n in problem.names])
     fit_lag = opts.fit_lag and LAG not in opts.fixed
     lags = LAG_GRID if fit_lag else (opts.fixed.get(LAG, opts.lag_s),)
-    guess, share = _initial_guess(experiments, st, statics, lags)
+    guess, share = equation_error_start(experiments, st, statics, lags, problem.step)
     for name, v in guess.items():
         theta[problem.index[name]] = v
     free = [problem.index[n] for n in st.free_names if n not in opts.fixed]
@@ -454,35 +320,38 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
     return problem, theta, free, prior, share
 
 
-def _fit(problem: Problem, theta: FloatArray, free: list[int], prior: Mapping[str, float],
-         share: Mapping[str, float], opts: FitOptions, stage: str
-         ) -> tuple[FloatArray, FloatArray, FloatArray, float, list[int], list[str],
+def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[str, float],
+         opts: FitOptions, stage: str
+         ) -> tuple[FloatArray, dict[str, float], FloatArray, float, list[int], list[str],
                     dict[str, str], int]:
-    """Output-error fit, then fix the worst undetermined parameter at the profile's value
-    and repeat until every free one is determined (module docstring, step 3). Returns
-    θ, the standard deviations and correlations of the free parameters, the RMS residual,
-    the free indices, warnings, notes per parameter and the simulations run."""
+    """Output-error fit, then hold the worst undetermined parameter at its estimate and
+    repeat until every free one is determined (module docstring, step 3). Returns θ, the
+    standard deviation of every parameter that was free in some run (the last run's for
+    those still free, the one that judged it for the others), the correlations of the
+    free parameters, the RMS residual, the free indices, warnings, notes per parameter and
+    the simulations run."""
     warnings: list[str] = []
     notes: dict[str, str] = {}
+    std_of: dict[str, float] = {}
     nfev = 0
     while True:
-        theta, J, nf = _solve(problem, theta, free, opts.max_nfev)
+        theta, r, J, nf = _solve(problem, theta, free, opts.max_iter)
         nfev += nf
-        std, corr, rms = _covariance(problem, theta, J)
+        std, corr = jacobian_covariance(J, r)
+        rms = float(np.sqrt(np.mean(r * r)))
+        std_of |= {problem.names[i]: float(std[j]) for j, i in enumerate(free)}
         j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std)
         if j < 0:
             break
         i = free[j]
         name = problem.names[i]
-        warnings.append(f"{stage}: {name} is not determined by the data (estimate "
-                        f"{theta[i]:.4g} ± {std[j]:.2g}); fixed at the profile's "
-                        f"{prior[name]:.4g}")
-        notes[name] = "not determined: fixed at the profile's value"
-        theta[i] = prior[name]
+        warnings.append(f"{stage}: {name} is {NOT_DETERMINED} (estimate {theta[i]:.4g} ± "
+                        f"{std[j]:.2g}): held at that estimate, not used in the fragment")
+        notes[name] = NOT_DETERMINED
         free.remove(i)
     if not np.all(np.isfinite(theta)):
         raise EstimationError(f"{stage}: the fit diverged")
-    return theta, std, corr, rms, free, warnings, notes, nfev
+    return theta, std_of, corr, rms, free, warnings, notes, nfev
 
 
 def _worst_undetermined(problem: Problem, theta: FloatArray, free: Sequence[int],
@@ -503,12 +372,13 @@ def _worst_undetermined(problem: Problem, theta: FloatArray, free: Sequence[int]
     return j if rel > max_rel_std else -1
 
 
-def _solve(problem: Problem, theta: FloatArray, free: list[int], max_nfev: int
-           ) -> tuple[FloatArray, FloatArray, int]:
-    """Trust-region reflective least squares over the ``free`` parameters."""
+def _solve(problem: Problem, theta: FloatArray, free: list[int], max_iter: int
+           ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Bounded Levenberg–Marquardt over the ``free`` parameters
+    (:func:`trimd.identify.solve.levenberg_marquardt`): θ, the residuals and Jacobian at
+    the optimum, and the simulations run."""
     names = [problem.names[i] for i in free]
     lower, upper = np.array([_bounds(n, problem.h) for n in names]).T
-    x0 = np.clip(theta[free], lower, upper)
 
     def full(x: FloatArray) -> FloatArray:
         t = theta.copy()
@@ -518,84 +388,14 @@ def _solve(problem: Problem, theta: FloatArray, free: list[int], max_nfev: int
     def fun(x: FloatArray) -> FloatArray:
         return problem.residuals(full(x))
 
-    def jac(x: FloatArray) -> FloatArray:
+    def fun_jac(x: FloatArray) -> tuple[FloatArray, FloatArray]:
         t = full(x)
         steps = np.array([_step(n, t[i], problem) for n, i in zip(names, free, strict=True)])
         return problem.jacobian(t, free, steps)
 
+    x0 = np.clip(theta[free], lower, upper)
     if not np.all(np.isfinite(fun(x0))):
         raise EstimationError("the simulation diverges from the starting point: the data "
                               "do not determine a stable model (too little excitation?)")
-    res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf",
-                        x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10)
-    out = full(res.x)
-    return out, np.asarray(res.jac), int(res.nfev + res.njev)
-
-
-def _covariance(problem: Problem, theta: FloatArray, J: FloatArray
-                ) -> tuple[FloatArray, FloatArray, float]:
-    """:func:`jacobian_covariance` at ``theta``, and the RMS residual."""
-    r = problem.residuals(theta)
-    std, corr = jacobian_covariance(J, r)
-    return std, corr, float(np.sqrt(np.mean(r * r)))
-
-
-def jacobian_covariance(J: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Standard deviations (units of the parameters) and correlation matrix of the
-    parameters of a least-squares fit with Jacobian ``J`` (n × p) and residuals ``r``
-    (n,): cov = s²·(JᵀJ)⁻¹, s² = ‖r‖²/(n − p).
-
-    The inverse is taken of the column-scaled Jacobian J·D⁻¹ (D the column norms) through
-    its singular values. The columns span many orders of magnitude (a gyro bias in rad/s
-    beside a quadratic damping in N·m·s²/rad²): a pseudo-inverse of the unscaled JᵀJ cuts
-    the weakly determined directions off as rank deficiency and so reports them as exact.
-    A parameter that does not change the residuals at all gets an infinite standard
-    deviation (and NaN correlations).
-
-    Examples
-    --------
-    Two parameters 10¹⁰ apart in effect (s²·pinv(JᵀJ) gives 5e-15 for the second):
-
-    >>> J = np.array([[1e4, 0.0], [0.0, 1e-6], [1e4, 1e-6]])
-    >>> std, _ = jacobian_covariance(J, np.array([1.0, -1.0, 0.5]))
-    >>> [f"{v:.3g}" for v in std]
-    ['0.000122', '1.22e+06']
-    """
-    n, p = J.shape
-    s2 = float(r @ r) / max(n - p, 1)
-    norms = np.linalg.norm(J, axis=0)
-    live = np.flatnonzero(norms > 0)
-    std = np.full(p, np.inf)
-    corr = np.full((p, p), np.nan)
-    np.fill_diagonal(corr, 1.0)
-    if live.size:
-        _, sv, vt = np.linalg.svd(J[:, live] / norms[live], full_matrices=False)
-        sv = np.maximum(sv, sv[0] * np.finfo(float).eps)
-        cov = (vt.T / sv ** 2) @ vt                      # of the scaled parameters
-        d = np.sqrt(np.diag(cov))
-        std[live] = np.sqrt(s2) * d / norms[live]
-        corr[np.ix_(live, live)] = cov / np.outer(d, d)
-    return std, corr
-
-
-def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
-             profile: Profile, stage: str, *, statics: Statics | None = None
-             ) -> list[Validation]:
-    """Free-run simulation of each experiment with the parameter ``values`` (bias
-    parameters are not carried over: another session has another gyro bias) from its
-    measured initial state; NRMSE per output of ``stage``. ``statics``: the mass and
-    restoring terms (default: the profile's nominal vehicle)."""
-    st = STAGES[stage]
-    fixed_by = statics or statics_of_profile(profile)
-    prior = prior_values(profile) | {LAG: 0.0, LEAD: 0.5 * experiments[0].h_s}
-    out = []
-    for e in experiments:
-        problem = Problem([e], st, fixed_by.mass_kg, fixed_by.q_rest, None,
-                          np.ones(len(st.outputs)))
-        theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
-                          for n in problem.names])
-        y_hat = problem.simulate(theta)[:, 0, 0]
-        y = problem.y[:, 0]
-        out.append(Validation(e.label, tuple(STATE_NAMES[s] for s in st.outputs),
-                              tuple(float(v) for v in nrmse(y, y_hat)), e.t_s[1:], y, y_hat))
-    return out
+    sol = levenberg_marquardt(fun_jac, fun, x0, lower, upper, max_iter=max_iter)
+    return full(sol.x), sol.r, sol.J, sol.nfev

@@ -27,16 +27,18 @@ command.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.signal import lfilter, lfilter_zi
 
 from trimd.core.estimate import StaticEstimate
-from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
 
 __all__ = [
+    "DVL_DOFS",
     "HYDRO_NAMES",
     "LAG",
     "LEAD",
@@ -45,6 +47,7 @@ __all__ = [
     "Stage",
     "Statics",
     "lagged_thrust",
+    "observed",
     "prior_values",
     "restoring_vector",
     "simulate",
@@ -97,12 +100,32 @@ class Stage:
         return tuple(n for group in (_MASS, _LIN, _QUAD) for i, n in enumerate(group)
                      if i in self.dofs)
 
+    def restricted(self, dofs: tuple[int, ...]) -> Stage:
+        """This stage with only the DOFs of ``dofs`` fitted and simulated; the other
+        velocities and angles are taken from the measurements (roll angle with roll, pitch
+        angle with pitch)."""
+        kept = tuple(d for d in self.dofs if d in dofs)
+        angles = tuple(a for a, dof in ((6, 3), (7, 4)) if dof in kept and a in self.states)
+        return Stage(self.name, kept, tuple(s for s in self.states if s in kept) + angles,
+                     self.axes)
+
+
+#: The DOFs only a DVL observes (surge, sway); without one, the gyro and attitude observe
+#: roll, pitch and yaw and the depth sensor heave.
+DVL_DOFS = (0, 1)
 
 STAGES = {
     "uvr": Stage("uvr", (0, 1, 5), (0, 1, 5), (0, 1, 5)),
     "uwq": Stage("uwq", (0, 2, 4), (0, 2, 4, 7), (0, 2, 4)),
     "uvwpqr": Stage("uvwpqr", (0, 1, 2, 3, 4, 5), tuple(range(8)), tuple(range(6))),
 }
+
+
+def observed(stage: Stage, dvl: bool) -> Stage:
+    """``stage`` restricted to what the sensors observe: everything with a DVL, without one
+    all but :data:`DVL_DOFS`."""
+    return stage if dvl else stage.restricted(tuple(d for d in stage.dofs
+                                                    if d not in DVL_DOFS))
 
 
 def prior_values(profile: Profile) -> dict[str, float]:
@@ -175,47 +198,47 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
     """
     c = 0.5 * h if lead_s is None else min(max(lead_s, 0.0), h)
 
-    def decay(dt: float) -> float:
-        return math.exp(-dt / T_s) if T_s > 0 else (1.0 if dt <= 0 else 0.0)
+    def decay(dt: float) -> float:   # after dt ≥ 0 [s]
+        dt = max(dt, 0.0)
+        return math.exp(-dt / T_s) if T_s > 0 else (1.0 if dt == 0 else 0.0)
 
     sw, half, rest = decay(h - c), decay(0.5 * h), decay(c)
     after = decay(c - 0.5 * h)
-    start = np.empty_like(tau)
-    mid = np.empty_like(tau)
-    start[0] = tau[0]
-    n = len(tau)
-    for k in range(n):   # τ[k] until t_{k+1} − c, then τ[k + 1]
-        nxt = tau[k + 1] if k + 1 < n else tau[k]
-        at_switch = tau[k] + sw * (start[k] - tau[k])
-        if c <= 0.5 * h:
-            mid[k] = tau[k] + half * (start[k] - tau[k])
-        else:
-            mid[k] = nxt + after * (at_switch - nxt)
-        if k + 1 < n:
-            start[k + 1] = nxt + rest * (at_switch - nxt)
+    tau = np.asarray(tau, float)
+    nxt = np.concatenate([tau[1:], tau[-1:]])
+    # τ[k] until t_{k+1} − c, then τ[k + 1]: start[k+1] = a·start[k] + b0·τ[k+1] + b1·τ[k]
+    # (a + b0 + b1 = 1: settled on τ[0] at the start)
+    b, a = [1.0 - rest, rest * (1.0 - sw)], [1.0, -rest * sw]
+    start = lfilter(b, a, tau, axis=0, zi=lfilter_zi(b, a)[:, None] * tau[:1])[0]
+    at_switch = tau + sw * (start - tau)
+    mid = (tau + half * (start - tau) if c <= 0.5 * h
+           else nxt + after * (at_switch - nxt))
     return start, mid
 
 
 def _derivative(s: list[FloatArray], M: FloatArray, Dl: FloatArray, Dq: FloatArray,
-                tau: FloatArray, q_rest: FloatArray) -> list[FloatArray]:
+                tau: FloatArray, q_rest: Sequence[float]) -> list[FloatArray]:
     """ẋ of every state component; ``s`` holds 8 arrays (B, K); M, Dl, Dq are (6, B, 1);
-    ``tau`` is (K, 6)."""
+    ``tau`` is (K, 6) or, one per parameter vector, (B, K, 6)."""
     u, v, w, p, q, r, phi, th = s
     a1, a2, a3 = M[0] * u, M[1] * v, M[2] * w
     c1, c2, c3 = M[3] * p, M[4] * q, M[5] * r
-    g = restoring_matrix(phi, th) @ q_rest
+    sp, cp, st, ct = np.sin(phi), np.cos(phi), np.sin(th), np.cos(th)
+    # g(η) = G(φ, θ)·q_rest written out (trimd.core.model.restoring_matrix)
+    q0, q1, q2, q3 = q_rest
+    ctsp, ctcp = ct * sp, ct * cp
     f = (
-        tau[:, 0] - (q * a3 - r * a2) + (Dl[0] + Dq[0] * np.abs(u)) * u - g[..., 0],
-        tau[:, 1] - (r * a1 - p * a3) + (Dl[1] + Dq[1] * np.abs(v)) * v - g[..., 1],
-        tau[:, 2] - (p * a2 - q * a1) + (Dl[2] + Dq[2] * np.abs(w)) * w - g[..., 2],
-        tau[:, 3] - (q * c3 - r * c2) - (v * a3 - w * a2)
-        + (Dl[3] + Dq[3] * np.abs(p)) * p - g[..., 3],
-        tau[:, 4] - (r * c1 - p * c3) - (w * a1 - u * a3)
-        + (Dl[4] + Dq[4] * np.abs(q)) * q - g[..., 4],
-        tau[:, 5] - (p * c2 - q * c1) - (u * a2 - v * a1)
-        + (Dl[5] + Dq[5] * np.abs(r)) * r - g[..., 5],
+        tau[..., 0] - (q * a3 - r * a2) + (Dl[0] + Dq[0] * np.abs(u)) * u - st * q0,
+        tau[..., 1] - (r * a1 - p * a3) + (Dl[1] + Dq[1] * np.abs(v)) * v + ctsp * q0,
+        tau[..., 2] - (p * a2 - q * a1) + (Dl[2] + Dq[2] * np.abs(w)) * w + ctcp * q0,
+        tau[..., 3] - (q * c3 - r * c2) - (v * a3 - w * a2)
+        + (Dl[3] + Dq[3] * np.abs(p)) * p + ctcp * q2 - ctsp * q3,
+        tau[..., 4] - (r * c1 - p * c3) - (w * a1 - u * a3)
+        + (Dl[4] + Dq[4] * np.abs(q)) * q - ctcp * q1 - st * q3,
+        tau[..., 5] - (p * c2 - q * c1) - (u * a2 - v * a1)
+        + (Dl[5] + Dq[5] * np.abs(r)) * r + ctsp * q1 + st * q2,
     )
-    sp, cp, tt = np.sin(phi), np.cos(phi), np.tan(th)
+    tt = st / ct
     return [fi / M[i] for i, fi in enumerate(f)] + [p + (q * sp + r * cp) * tt,
                                                      q * cp - r * sp]
 
@@ -233,21 +256,23 @@ def simulate(M: FloatArray, Dl: FloatArray, Dq: FloatArray, q_rest: FloatArray,
     x0 : initial state per parameter vector and segment, shape (B, K, 8).
     exo : measured state at every step, shape (L + 1, K, 8); the components not in
         ``states`` follow it (midpoints interpolated linearly).
-    tau_start, tau_mid : lagged thrust at the steps and half steps, shape (L + 1, K, 6).
+    tau_start, tau_mid : lagged thrust at the steps and half steps, shape (L + 1, K, 6),
+        or (L + 1, B, K, 6) for one per parameter vector.
     states : simulated state components.
     h : step [s].
 
     Returns
     -------
-    x : simulated state at steps 1..L, shape (L, B, K, 8).
+    x : simulated ``states`` at steps 1..L, shape (L, B, K, len(states)).
     """
     Mt, Dlt, Dqt = (np.asarray(a, float).T[:, :, None] for a in (M, Dl, Dq))
+    q = [float(v) for v in q_rest]
     B, K = x0.shape[:2]
     L = exo.shape[0] - 1
     sim = [i in states for i in range(8)]
     x = [np.array(x0[..., i]) if sim[i] else np.broadcast_to(exo[0, :, i], (B, K))
          for i in range(8)]
-    out = np.empty((L, B, K, 8))
+    out = np.empty((L, len(states), B, K))
 
     def at(base: list[FloatArray], d: list[FloatArray] | None, c: float, ex: FloatArray
            ) -> list[FloatArray]:
@@ -257,11 +282,12 @@ def simulate(M: FloatArray, Dl: FloatArray, Dq: FloatArray, q_rest: FloatArray,
     for k in range(L):
         e0, e1 = exo[k], exo[k + 1]
         em = 0.5 * (e0 + e1)
-        k1 = _derivative(at(x, None, 0.0, e0), Mt, Dlt, Dqt, tau_start[k], q_rest)
-        k2 = _derivative(at(x, k1, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q_rest)
-        k3 = _derivative(at(x, k2, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q_rest)
-        k4 = _derivative(at(x, k3, h, e1), Mt, Dlt, Dqt, tau_start[k + 1], q_rest)
+        k1 = _derivative(at(x, None, 0.0, e0), Mt, Dlt, Dqt, tau_start[k], q)
+        k2 = _derivative(at(x, k1, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q)
+        k3 = _derivative(at(x, k2, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q)
+        k4 = _derivative(at(x, k3, h, e1), Mt, Dlt, Dqt, tau_start[k + 1], q)
         x = [x[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]) if sim[i]
              else np.broadcast_to(e1[:, i], (B, K)) for i in range(8)]
-        out[k] = np.stack(x, axis=-1)
-    return out
+        for j, i in enumerate(states):
+            out[k, j] = x[i]
+    return np.moveaxis(out, 1, -1)

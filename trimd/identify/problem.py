@@ -50,10 +50,14 @@ class Problem:
     segment_steps : simulation horizon L [steps]; ``None``: each experiment whole (free
         run, one segment each; used for validation).
     weights : per compared output (order of ``stage.outputs``), multiplying its error.
+    stride : samples per integration step (the simulation runs at the sample interval
+        times ``stride`` and is compared at every ``stride``-th sample; the thrust at the
+        half steps stays exact, the exogenous states are interpolated linearly).
     """
 
     def __init__(self, experiments: Sequence[Experiment], stage: Stage, mass_kg: float,
-                 q_rest: FloatArray, segment_steps: int | None, weights: FloatArray) -> None:
+                 q_rest: FloatArray, segment_steps: int | None, weights: FloatArray,
+                 stride: int = 1) -> None:
         if not experiments:
             raise DataError("no experiment to fit")
         hs = [e.h_s for e in experiments]
@@ -69,10 +73,11 @@ class Problem:
         self.names = (*HYDRO_NAMES, LAG, LEAD, *biases)
         self.index = {n: i for i, n in enumerate(self.names)}
         lengths = [len(e.t_s) for e in experiments]
-        L = segment_steps or min(lengths) - 1
         if segment_steps is None and len(set(lengths)) > 1:
             raise DataError("free-run simulation needs experiments of equal length; "
                             "simulate them one at a time")
+        self.stride = d = max(1, int(stride))
+        L = d * max(1, (segment_steps or min(lengths) - 1) // d)   # samples per segment
         starts, owner = [], []
         offset = 0
         for j, n in enumerate(lengths):
@@ -82,9 +87,10 @@ class Problem:
             offset += n
         if not starts:
             raise DataError(f"experiments shorter than one segment ({L * self.h:g} s)")
-        self.L = L
+        self.step = d * self.h
         self.owner = np.array(owner)
-        self.rows = np.array(starts)[None, :] + np.arange(L + 1)[:, None]   # (L+1, K)
+        self.rows = np.array(starts)[None, :] + d * np.arange(L // d + 1)[:, None]
+        self._n = offset
         x = np.concatenate([e.x for e in experiments])
         self.exo = x[self.rows]                                              # (L+1, K, 8)
         self.y = self.exo[1:][..., list(stage.outputs)]                      # (L, K, n_out)
@@ -96,19 +102,38 @@ class Problem:
         return int(self.y.size)
 
     def _tau(self, lag: float, lead: float) -> tuple[FloatArray, FloatArray]:
+        """Lagged thrust at the steps and half steps of every segment, (L + 1, K, 6) each;
+        the last few (lag, lead) pairs are kept (a Jacobian's base and timing columns)."""
         key = (lag, lead)
         if key not in self._tau_cache:
             parts = [lagged_thrust(e.tau, lag, self.h, lead) for e in self.experiments]
-            start = np.concatenate([p[0] for p in parts])[self.rows]
-            mid = np.concatenate([p[1] for p in parts])[self.rows]
-            self._tau_cache = {key: (start, mid)}
+            every = np.concatenate([p[0] for p in parts])
+            halves = np.concatenate([p[1] for p in parts])
+            d = self.stride
+            start = every[self.rows]
+            # the half step of a stride d: a sample (d even) or a sample's half step (d odd)
+            mid_rows = np.minimum(self.rows + d // 2, self._n - 1)
+            mid = every[mid_rows] if d % 2 == 0 else halves[mid_rows]
+            if len(self._tau_cache) >= 4:
+                self._tau_cache.pop(next(iter(self._tau_cache)))
+            self._tau_cache[key] = (start, mid)
         return self._tau_cache[key]
 
+    def _taus(self, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Thrust of each row of ``theta`` (B, P): shared (L + 1, K, 6) when every row has
+        the same lag and lead, else per row (L + 1, B, K, 6)."""
+        timing = theta[:, [self.index[LAG], self.index[LEAD]]]
+        keys = [(float(a), float(b)) for a, b in timing]
+        if len(set(keys)) == 1:
+            return self._tau(*keys[0])
+        pairs = [self._tau(*k) for k in keys]
+        return (np.stack([p[0] for p in pairs], axis=1),
+                np.stack([p[1] for p in pairs], axis=1))
+
     def simulate(self, theta: FloatArray) -> FloatArray:
-        """Predicted outputs for parameter vectors ``theta`` (B, P) sharing one lag and
-        lead: shape (L, B, K, n_out)."""
+        """Predicted outputs for parameter vectors ``theta`` (B, P): shape
+        (L, B, K, n_out)."""
         theta = np.atleast_2d(theta)
-        lag, lead = float(theta[0, self.index[LAG]]), float(theta[0, self.index[LEAD]])
         mass = theta[:, 0:6].copy()
         mass[:, :3] += self.mass
         Dl, Dq = theta[:, 6:12], theta[:, 12:18]
@@ -119,10 +144,10 @@ class Problem:
                 bias[:, int(name[name.index("[") + 1:-1]), state] = theta[:, i]
         b = bias[:, self.owner]                                              # (B, K, 8)
         x0 = self.exo[0][None] - b
-        start, mid = self._tau(lag, lead)
+        start, mid = self._taus(theta)
         x = simulate(mass, Dl, Dq, self.q_rest, x0, self.exo, start, mid,
-                     self.stage.states, self.h)
-        y: FloatArray = (x + b[None])[..., list(self.stage.outputs)]
+                     self.stage.states, self.step)
+        y: FloatArray = x + b[None][..., list(self.stage.states)]
         return y
 
     def residuals(self, theta: FloatArray) -> FloatArray:
@@ -131,25 +156,15 @@ class Problem:
         return r
 
     def jacobian(self, theta: FloatArray, free: Sequence[int], steps: FloatArray
-                 ) -> FloatArray:
-        """Forward-difference Jacobian of :meth:`residuals` in the ``free`` parameters with
-        signed ``steps``: every parameter except the thrust timing (lag and lead: they
-        change τ) in one batched simulation."""
-        base = self.residuals(theta)
-        J = np.empty((base.size, len(free)))
-        timing = (self.index[LAG], self.index[LEAD])
-        batch = [j for j, i in enumerate(free) if i not in timing]
-        if batch:
-            thetas = np.repeat(theta[None], len(batch), axis=0)
-            for row, j in enumerate(batch):
-                thetas[row, free[j]] += steps[j]
-            y = self.simulate(thetas)
-            for row, j in enumerate(batch):
-                r = ((y[:, row] - self.y) * self.weights).ravel()
-                J[:, j] = (r - base) / steps[j]
+                 ) -> tuple[FloatArray, FloatArray]:
+        """:meth:`residuals` and their forward-difference Jacobian in the ``free``
+        parameters with signed ``steps``: the base vector and every perturbed one in one
+        batched simulation."""
+        thetas = np.repeat(theta[None], len(free) + 1, axis=0)
         for j, i in enumerate(free):
-            if i in timing:
-                t = theta.copy()
-                t[i] += steps[j]
-                J[:, j] = (self.residuals(t) - base) / steps[j]
-        return J
+            thetas[j + 1, i] += steps[j]
+        y = self.simulate(thetas)
+        base = (y[:, 0] - self.y) * self.weights                        # (L, K, n_out)
+        dy = (y[:, 1:] - y[:, :1]) * (self.weights / np.asarray(steps)[:, None, None])
+        J: FloatArray = np.moveaxis(dy, 1, -1).reshape(base.size, len(free))
+        return base.ravel(), J

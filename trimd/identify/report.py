@@ -14,8 +14,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from trimd.core.profile import Profile
-from trimd.identify.fit import StageFit, Validation
+from trimd.identify.fit import StageFit
 from trimd.identify.model import HYDRO_NAMES
+from trimd.identify.validation import Validation
 
 __all__ = ["best_values", "excitation_dict", "format_fit", "profile_fragment",
            "statics_dict", "summary_dict"]
@@ -26,11 +27,11 @@ _ADDED = ("surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_k
 
 def best_values(fits: Sequence[StageFit]) -> dict[str, float]:
     """Per hydrodynamic parameter, the estimate with the smallest standard deviation among
-    the stages that estimated it."""
+    the stages whose data determined it."""
     best: dict[str, tuple[float, float]] = {}
     for fit in fits:
         for p in fit.parameters:
-            if p.free and p.name in HYDRO_NAMES and (p.name not in best
+            if p.determined and p.name in HYDRO_NAMES and (p.name not in best
                                                       or p.std < best[p.name][1]):
                 best[p.name] = (p.value, p.std)
     return {k: v for k, (v, _) in best.items()}
@@ -111,9 +112,11 @@ def summary_dict(fits: Sequence[StageFit], validations: Mapping[str, Sequence[Va
             "correlation": [[_num(float(c)) for c in row] for row in fit.correlation],
             "rms_residual": fit.rms_residual, "samples": fit.n_samples,
             "simulations": fit.nfev, "warnings": list(fit.warnings),
-            "validation": [{"label": v.label, "nrmse_pct": dict(zip(
-                v.outputs, (_num(x) for x in v.nrmse), strict=True))}
-                for v in validations.get(fit.stage, ())],
+            "validation": [{"label": v.label,
+                            "nrmse_pct": {o: None if x is None else _num(x)
+                                          for o, x in v.judged().items()},
+                            "not_excited": [o for o, x in v.judged().items() if x is None]}
+                           for v in validations.get(fit.stage, ())],
         }
     return out
 
@@ -147,6 +150,5 @@ def format_fit(fit: StageFit, validations: Sequence[Validation] = ()) -> str:
             rows.append(f"  {p.name:<12} {p.value:12.5g} {std} {p.prior:12.5g} {p.note}")
     rows += [f"  warning: {w}" for w in fit.warnings]
     for v in validations:
-        fits = ", ".join(f"{o} {x:.1f}" for o, x in zip(v.outputs, v.nrmse, strict=True))
-        rows.append(f"  validation {v.label}: NRMSE % {fits}")
+        rows.append(f"  validation {v.label}: NRMSE % {v.describe()}")
     return "\n".join(rows)

@@ -16,9 +16,10 @@ from typing import Any, Protocol
 
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
-from trimd.core.samples import Sample, VehicleText
+from trimd.core.samples import PilotInput, Sample, VehicleText
 from trimd.drivers.mavlink.decode import MavlinkDecoder
 from trimd.logs.dataflash import DataflashReader
+from trimd.logs.recorder import PILOT_TEXT
 from trimd.logs.tlog import TlogReader
 
 __all__ = ["DataflashLog", "TlogLog", "VehicleLog", "is_dataflash", "open_log"]
@@ -77,7 +78,9 @@ def _span_s(first_us: int | None, last_us: int | None) -> float:
 
 
 class TlogLog:
-    """A MAVLink ``.tlog`` (any ground station's) through trimd's decoder."""
+    """A MAVLink ``.tlog`` (any ground station's) through trimd's decoder. The vehicle
+    text trimd's recorder writes for someone else taking over (``PILOT_TEXT``) comes
+    back as the :class:`PilotInput` it was, so a replay ends where the session did."""
 
     def __init__(self, path: str | Path, profile: Profile | None = None) -> None:
         self.path = str(path)
@@ -93,7 +96,10 @@ class TlogLog:
             if (self._firmware is None and isinstance(sample, VehicleText)
                     and sample.text.startswith("ArduSub")):
                 self._firmware = sample.text
-            yield sample
+            if isinstance(sample, VehicleText) and sample.text.startswith(PILOT_TEXT):
+                yield PilotInput(sample.t_s, sample.text.removeprefix(PILOT_TEXT))
+            else:
+                yield sample
 
     def warnings(self) -> list[str]:
         st = self._reader.stats

@@ -46,6 +46,7 @@ from trimd.core.samples import (
     Health,
     HoldAttitude,
     OpenLoop,
+    PilotInput,
     Release,
     Sample,
     Thrusters,
@@ -54,11 +55,14 @@ from trimd.core.samples import (
 )
 from trimd.drivers.mavlink.ardusub import mode_name, mode_number
 
-__all__ = ["TRIMD_COMPONENT", "TRIMD_SYSTEM", "TlogRecorder"]
+__all__ = ["PILOT_TEXT", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "TlogRecorder"]
 
 TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
 VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
 SESSION_START = "trimd session start"
+#: A :class:`PilotInput` is recorded as the vehicle's STATUSTEXT (warning) with this
+#: prefix before its source; :class:`trimd.logs.log.TlogLog` reads it back as one.
+PILOT_TEXT = "pilot took over: "
 _STATUSTEXT_BYTES = 50
 #: Longest time [s, wall clock] a written record waits before it is synced to the disk.
 FLUSH_EVERY_S = 1.0
@@ -195,6 +199,8 @@ class TlogRecorder:
             severity = min(max(s.severity, 0), 7)
             self._write_text(s.t_s, s.text, severity, v)
             return VehicleText(s.t_s, severity, s.text)
+        if isinstance(s, PilotInput):
+            self._write_text(s.t_s, PILOT_TEXT + s.source, 4, v)
         return s
 
     def command(self, t_s: float, command: Command) -> None:

@@ -27,7 +27,7 @@ from trimd.core.profile import Profile
 from trimd.tui.attitude_panel import AttitudePanel
 from trimd.tui.event_log import EventLog
 from trimd.tui.help_screen import HelpScreen
-from trimd.tui.link_panel import LinkPanel
+from trimd.tui.link_panel import HEARTBEAT_STALE_S, LinkPanel
 from trimd.tui.messages import (
     CommandSent,
     LinkMessage,
@@ -99,7 +99,7 @@ class TrimApp(App[SessionResult]):
             with Vertical(id="left"):
                 yield LinkPanel(self.state, link_description=self.link_description,
                                 vehicle=self.profile.name,
-                                stale_after_s=self.profile.procedure.link_timeout_s / 2)
+                                stale_after_s=HEARTBEAT_STALE_S)
                 yield Stepper(self.profile)
                 yield EventLog()
             with Vertical(id="right"):

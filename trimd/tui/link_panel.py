@@ -9,18 +9,20 @@ from textual.widgets import Static
 
 from trimd.tui.telemetry import LiveState
 
-__all__ = ["LinkPanel"]
+__all__ = ["HEARTBEAT_STALE_S", "LinkPanel"]
 
 #: Every so often [s, wall clock] the heartbeat age is redrawn, samples or not.
 _AGE_REFRESH_S = 0.5
+#: Heartbeats (MAVLink HEARTBEAT, serial VHSTA) come at 1 Hz: one missed is worth a red.
+HEARTBEAT_STALE_S = 1.5
 
 
 class LinkPanel(Static):
     """What the link carries; the vehicle's id and type (as the link names it) in the
     title, the profile's name in the text (a replay's pace goes in the bottom border).
-    The heartbeat turns red (class ``-stale``) once ``stale_after_s`` pass without one:
-    half the procedure's link timeout, so the operator sees it before the procedure
-    gives up."""
+    The heartbeat turns red (class ``-stale``) once ``stale_after_s`` pass without one
+    (:data:`HEARTBEAT_STALE_S`: one missed 1 Hz heartbeat). The procedure does not wait
+    for it: it releases on ``link_timeout_s`` without any telemetry."""
 
     stale: reactive[bool] = reactive(False)
     closed: reactive[bool] = reactive(False)

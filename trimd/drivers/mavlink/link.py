@@ -367,5 +367,8 @@ class MavlinkLink:
 
 def open_mavlink_link(rest: str, profile: Profile) -> MavlinkLink:
     """A :class:`MavlinkLink` for what follows ``mavlink:`` (``trimd.drivers.mavlink.url``)."""
-    options = parse_mavlink_url(rest, default_timeout_s=profile.procedure.link_timeout_s)
+    # heartbeats come at 1 Hz: never lost sooner than 3 s (the procedure releases on its
+    # own after link_timeout_s without any telemetry)
+    options = parse_mavlink_url(rest, default_timeout_s=max(
+        3.0, profile.procedure.link_timeout_s))
     return MavlinkLink(options, profile)

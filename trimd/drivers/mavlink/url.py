@@ -12,7 +12,7 @@ Syntax (``docs/mavlink.md``)::
 
     sysid=N      the vehicle's system id (default: the first autopilot that is not a GCS)
     timeout=S    heartbeat timeout [s] before the link is reported lost
-                 (default: the profile's procedure.link_timeout_s)
+                 (default: 3, or the profile's procedure.link_timeout_s if longer)
     gcs=N        trimd's own system id (default 255: ArduSub's SYSID_MYGCS)
     key=PATH     MAVLink 2 signing key: a file of 32 raw bytes or 64 hex digits; with a key,
                  every unsigned or badly signed packet received is refused

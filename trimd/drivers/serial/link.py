@@ -13,11 +13,20 @@ own clock (each sentence's ``t_ms``) rather than by the time of receipt: serial 
 and chunked reads then cannot bunch samples together, and a simulator served at ``--rate
 X`` keeps its own time, as the procedure's windows need. The first sentence (and any
 jump of the vehicle clock back by more than 1 s, i.e. a reboot) anchors the vehicle clock
-to ``time.monotonic()``.
+to ``time.monotonic()``; a jump forward (a time sync) counts as one ordinary step.
 
 Link loss: no valid sentence for ``timeout_s`` (default 1 s) after the handshake yields a
 disconnected :class:`Health` (the reader checks every 50 ms); a device error (a port
-unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream.
+unplugged, a pseudo-terminal whose vehicle exited) yields one at once and ends the stream
+with a :class:`LinkError` saying why. So does a vehicle answering the handshake with
+another protocol version. Until the handshake is answered, each VHSTA (or, without one,
+any telemetry once a second) gives a disconnected Health saying what is missing.
+
+The pilot: when the vehicle reports (VHSTA) that control went from trimd's hold or
+open-loop input back to the pilot while trimd still commands, or that the pilot still
+flies :data:`NOT_TAKEN_AFTER` status sentences after trimd's command, the link yields a
+:class:`PilotInput`, on which the procedure releases and ends: no data from the pilot's
+flying is taken for a hold.
 """
 
 from __future__ import annotations
@@ -30,11 +39,20 @@ from collections import deque
 from collections.abc import AsyncIterator
 from typing import Any
 
+import numpy as np
 import serial
 
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, HoldAttitude, OpenLoop, Release, Sample
+from trimd.core.samples import (
+    Command,
+    Health,
+    HoldAttitude,
+    OpenLoop,
+    PilotInput,
+    Release,
+    Sample,
+)
 from trimd.drivers.limits import check_command
 from trimd.drivers.serial.protocol import (
     MAX_OUTPUTS,
@@ -48,33 +66,56 @@ from trimd.drivers.serial.protocol import (
     to_sample,
 )
 
-__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "TIMEOUT_S", "SerialLink", "open_serial_link"]
+__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "NOT_TAKEN_AFTER", "TIMEOUT_S", "SerialLink",
+           "open_serial_link"]
 
 DEFAULT_BAUD = 115_200
 #: Vehicle silence that makes the link lost [s].
 TIMEOUT_S = 1.0
 #: Period of the control sentence (and of the handshake until answered) [s].
 CONTROL_PERIOD_S = 0.5
+#: Before the handshake, a vehicle's telemetry yields a disconnected Health (with the reason)
+#: at most this often [s, wall clock], VHSTA or not.
+WAITING_EVERY_S = 1.0
+#: While trimd commands, this many VHSTA in a row saying control PILOT (1 Hz: the first
+#: may have left before the vehicle had trimd's command) mean the vehicle did not take it.
+NOT_TAKEN_AFTER = 3
 _READ_TIMEOUT_S = 0.05
 _WRITE_TIMEOUT_S = 1.0
 _QUEUE_MAX = 20_000
 _REBOOT_MS = -1000
+#: A forward step of the vehicle clock beyond this [s] and this many recent steps is a jump.
+_JUMP_S = 5.0
+_JUMP_FACTOR = 50.0
 
 
 class _VehicleClock:
-    """Vehicle ``t_ms`` (uint32, wrapping) → seconds on the ``time.monotonic()`` base."""
+    """Vehicle ``t_ms`` (uint32, wrapping) → seconds on the ``time.monotonic()`` base.
+
+    A step back of more than 1 s is a reboot: re-anchored to ``now``. A step forward of
+    more than :data:`_JUMP_S` and :data:`_JUMP_FACTOR` times the recent steps between
+    sentences is the vehicle's clock being set (a time sync), not time passing: it counts
+    as one ordinary step, so a hold is not cut short by a jump it did not live through.
+    """
 
     def __init__(self) -> None:
         self._ms: int | None = None
         self._t = 0.0
+        self._steps: deque[float] = deque(maxlen=32)
 
     def stamp(self, t_ms: int, now: float) -> float:
         if self._ms is not None:
-            step = (t_ms - self._ms + 2**31) % 2**32 - 2**31
-            if step >= _REBOOT_MS:
-                self._ms, self._t = t_ms, self._t + step / 1000.0
+            step = ((t_ms - self._ms + 2**31) % 2**32 - 2**31) / 1000.0
+            if step >= _REBOOT_MS / 1000.0:
+                usual = float(np.median(self._steps)) if self._steps else 0.0
+                if step > max(_JUMP_S, _JUMP_FACTOR * usual) and self._steps:
+                    step = usual
+                elif step > 0:
+                    self._steps.append(step)
+                self._ms, self._t = t_ms, self._t + step
                 return self._t
         self._ms, self._t = t_ms, now
+        self._steps.clear()
         return now
 
 
@@ -112,7 +153,13 @@ class SerialLink:
         self.vehicle: Version | None = None
         self.dropped = 0
         self.unmapped = 0
-        self._problem = "waiting for the vehicle's version sentence (VHVER)"
+        self._problem = ("the vehicle sends telemetry but has not answered trimd's version "
+                         "sentence (TRVER) with VHVER")
+        self._fatal = ""   # why the stream ended, for the LinkError that ends it
+        self._flying = ""  # who flies, as the vehicle's last VHSTA said
+        self._t_waiting = -WAITING_EVERY_S  # monotonic: when a not-connected Health went out
+        self._pilot_stas = 0  # VHSTAs in a row saying PILOT while trimd commands
+        self._pilot_said = False  # a PilotInput was yielded for this command
         self._clock = _VehicleClock()
         self._pending: deque[Sample] = deque()
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -139,6 +186,8 @@ class SerialLink:
             while True:
                 while self._pending:
                     yield self._pending.popleft()
+                if self._fatal and not self._closed:
+                    raise LinkError(self._fatal)
                 if self._finished or self._closed:
                     return
                 wake.clear()
@@ -162,6 +211,8 @@ class SerialLink:
         except ValueError as exc:
             raise LinkError(f"not sent: {exc}") from None
         if isinstance(command, HoldAttitude | OpenLoop):
+            if isinstance(self._active, Heartbeat):   # trimd takes control afresh
+                self._pilot_stas, self._pilot_said = 0, False
             self._active, self._commanded = command, True
         elif isinstance(command, Release):
             self._active = Heartbeat()
@@ -194,13 +245,13 @@ class SerialLink:
                 data = self.port.read(self.port.in_waiting or 1)
             except (serial.SerialException, OSError, LinkError) as exc:
                 if not self._stop.is_set():
-                    self._lose(f"{self.description}: {exc}", time.monotonic())
-                    self._finished = True
-                    self._notify()
+                    self._end(f"{self.description}: {exc}", time.monotonic())
                 return
             now = time.monotonic()
             for sentence in self.parser.feed(data) if data else ():
                 self._on_sentence(sentence, now)
+            if self._finished:
+                return
             if self._connected and now - self._last_rx[0] > self.timeout_s:
                 self._lose(f"no data from the vehicle for {now - self._last_rx[0]:.1f} s", now)
             if self._pending:
@@ -216,10 +267,13 @@ class SerialLink:
         self._last_rx = (now, t_s)
         out = to_sample(s, t_s, self.channels)
         if isinstance(out, Version):
-            ok = out.version == VERSION
-            self.vehicle = out if ok else None
-            self._problem = "" if ok else (f"the vehicle ({out.name}) speaks serial protocol "
-                                           f"version {out.version}, trimd speaks {VERSION}")
+            if out.version == VERSION:
+                self.vehicle, self._problem = out, ""
+            elif not self._finished:
+                self.vehicle = None
+                self._problem = (f"the vehicle ({out.name}) speaks serial protocol version "
+                                 f"{out.version}, trimd speaks {VERSION}")
+                self._end(self._problem, now)
             return
         if isinstance(out, Health):
             self._connected = self.vehicle is not None
@@ -227,10 +281,46 @@ class SerialLink:
                          out.detail if self._connected else self._problem,
                          self.vehicle.name if self.vehicle else "")
             self._last = out
+            self._emit(out)
+            self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
+            if not self._connected:
+                self._t_waiting = now
+            return
         if out is None:
             self.unmapped += 1
         else:
             self._emit(out)
+        if self.vehicle is None and now - self._t_waiting >= WAITING_EVERY_S:
+            # a vehicle that talks without a VHSTA: say why it is not connected all the same
+            self._t_waiting = now
+            self._emit(Health(t_s, False, "", False, self.parser.bad_lines, self._problem))
+
+    def _on_control(self, control: str, health: Health) -> None:
+        """While trimd commands, the pilot flies if the vehicle handed control back (HOLD/
+        OPEN → PILOT) or never took trimd's command (PILOT in :data:`NOT_TAKEN_AFTER`
+        status sentences in a row): say so with one PilotInput. trimd's own release sets
+        ``_active`` first, so the PILOT after it is no takeover."""
+        previous, self._flying = self._flying, control
+        if (control != "PILOT" or self._pilot_said
+                or not isinstance(self._active, HoldAttitude | OpenLoop)):
+            self._pilot_stas = 0
+            return
+        self._pilot_stas += 1
+        if previous in ("HOLD", "OPEN"):
+            source = f"the vehicle reports control PILOT, mode {health.mode}"
+        elif self._pilot_stas >= NOT_TAKEN_AFTER:
+            source = (f"the vehicle did not take trimd's command: control PILOT in "
+                      f"{self._pilot_stas} status sentences, mode {health.mode}")
+        else:
+            return
+        self._pilot_said = True
+        self._emit(PilotInput(health.t_s, source))
+
+    def _end(self, reason: str, now: float) -> None:
+        """The stream ends: a disconnected Health, then a LinkError saying ``reason``."""
+        self._lose(reason, now)
+        self._fatal, self._finished = reason, True
+        self._notify()
 
     def _lose(self, detail: str, now: float) -> None:
         """The vehicle is gone: stop repeating a command (one must come again after a

@@ -31,6 +31,7 @@ from trimd.core.samples import (
     Health,
     HoldAttitude,
     OpenLoop,
+    PilotInput,
     Release,
     Sample,
     Thrusters,
@@ -54,8 +55,11 @@ CONTROLS = ("PILOT", "HOLD", "OPEN")
 #: The counters of dropped lines, in the order a receiver checks them.
 BAD_COUNTERS = ("too_long", "malformed", "bad_checksum", "unknown", "bad_fields", "bad_value")
 
-_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)")
-_INTEGER = re.compile(r"\d{1,10}")
+#: A number: ``[+-]digits[.digits]`` or ``.digits`` (ASCII digits; no ``9.``, ``-.5``,
+#: exponent, ``nan``, ``inf``, space or ``_``).
+_NUMBER = re.compile(r"[+-]?[0-9]+(?:\.[0-9]+)?|\.[0-9]+")
+#: An integer: an unsigned string of 1 to 10 ASCII digits.
+_INTEGER = re.compile(r"[0-9]{1,10}")
 _MODE = re.compile(r"[A-Z][A-Z0-9_]{0,15}")
 _NAME = re.compile(r"[A-Za-z0-9_.\-]{1,32}")
 #: A vehicle message's text: printable ASCII without ``,`` (or ``$``, ``*``: the frame's).
@@ -314,7 +318,8 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
     """A vehicle sentence for ``sample`` (the simulator's side), vehicle clock ``t_ms``.
 
     Thrusters go out on ``outputs`` channels, thruster k on ``channels[k]``, the rest 0;
-    Health becomes STA with ``control`` (one of :data:`CONTROLS`). Values outside the
+    Health becomes STA with ``control`` (one of :data:`CONTROLS`); a PilotInput has no
+    sentence (ValueError: the pilot's takeover is STA's control PILOT). Values outside the
     protocol's ranges are clamped to them (a saturated sensor reads its full scale); a
     vehicle text is made to fit TXT (see below).
     """
@@ -339,6 +344,9 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
         return encode(VEHICLE, "BAT", [t, _f(_clamp(sample.voltage_V, 100, 1), 2)])
     if isinstance(sample, Health):
         return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
+    if isinstance(sample, PilotInput):
+        raise ValueError("a pilot taking over is sent as STA with control PILOT, not as a "
+                         "sentence of its own")
     # a text the protocol cannot carry is made to fit: other characters become "?",
     # commas ";", and it is cut to _TEXT_CHARS characters
     text = "".join(";" if c == "," else c if " " <= c <= "~" and c not in "$*" else "?"

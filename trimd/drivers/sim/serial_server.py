@@ -13,7 +13,11 @@ of ``docs/serial-protocol.md``:
   no valid trimd sentence for :data:`COMMAND_TIMEOUT_S` of *wall-clock* time: release,
   back to the mode the vehicle had before trimd took control (level, same heading and
   depth; MANUAL with neutral inputs), saying so in a VHTXT after a silence. The silence
-  timeout is a property of the link, so it runs on the wall clock even at ``--rate X``.
+  timeout is a property of the link, so it runs on the wall clock even at ``--rate X``;
+* the pilot can take the vehicle back at any time (:meth:`SerialServer.pilot_takes_over`,
+  e.g. a mode switch on the pilot's console): control PILOT in a VHSTA sent at once, and
+  no trimd hold or open-loop input is taken until trimd has released (TRREL or TRHBT),
+  so a repeated hold sentence cannot take the vehicle back from the pilot.
 
 Bad lines from trimd are counted (:attr:`SerialServer.parser`) and dropped. Output the
 other end does not read is dropped beyond :data:`MAX_BACKLOG_BYTES` (counted).
@@ -28,6 +32,7 @@ import re
 import threading
 import time
 import tty
+from collections import Counter
 
 from trimd.core.errors import LinkError
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release, VehicleText
@@ -43,6 +48,7 @@ from trimd.drivers.serial.protocol import (
     encode_sample,
     to_command,
 )
+from trimd.drivers.sim.controller import MODES
 from trimd.drivers.sim.pacing import run_paced
 from trimd.drivers.sim.vehicle import SimVehicle
 
@@ -67,6 +73,8 @@ class SerialServer:
     path : the pseudo-terminal's device path, for ``serial:<path>``.
     parser : the parser of trimd's lines (``parser.counts``).
     control : PILOT, HOLD or OPEN (who is in control, as STA reports it).
+    pilot_latched : the pilot took over; trimd's holds are ignored until it releases.
+    heard : trimd's sentences handled, by kind (``HLD``, ``REL``, …).
     dropped_bytes : output dropped because nobody read it.
     """
 
@@ -84,7 +92,10 @@ class SerialServer:
         self.path = os.ttyname(self._slave)
         self.parser = LineParser(TRIMD)
         self.control = "PILOT"
+        self.pilot_latched = False
+        self.heard: Counter[str] = Counter()
         self.dropped_bytes = 0
+        self._takeover = ""   # a mode the pilot switched to, for the serving thread
         self._pilot_mode = vehicle.mode
         self._heard = math.nan
         self._backlog = b""
@@ -137,19 +148,48 @@ class SerialServer:
                 break
             for sentence in self.parser.feed(data):
                 self._heard = time.monotonic()
+                self.heard[sentence.kind] += 1
                 self.handle(to_command(sentence))
+        if self._takeover:
+            self._pilot_takes_over(self._takeover)
+            self._takeover = ""
         if self.control != "PILOT" and time.monotonic() - self._heard > COMMAND_TIMEOUT_S:
             self._release()
             self._say(4, f"trimd silent for {COMMAND_TIMEOUT_S:g} s: control back to the pilot")
+
+    # ------------------------------------------------------------------ the pilot
+    def pilot_takes_over(self, mode: str = "MANUAL") -> None:
+        """The pilot switches the vehicle to ``mode`` (one of the simulator's
+        :data:`~trimd.drivers.sim.controller.MODES`) and flies it; from any thread: the serving
+        thread acts on it at its next poll."""
+        if mode not in MODES:
+            raise ValueError(f"the simulated vehicle flies {', '.join(MODES)}, not {mode}")
+        self._takeover = mode
+
+    def _pilot_takes_over(self, mode: str) -> None:
+        v = self.vehicle
+        self.pilot_latched = self.control != "PILOT"
+        self.control = "PILOT"
+        v.set_mode(mode)
+        if mode == "MANUAL":
+            v.open_loop(_NEUTRAL)
+        else:
+            v.level()
+        self._send(self._sentence("health"))
+        self._say(4, f"the pilot took control ({mode})")
 
     # ------------------------------------------------------------------ commands
     def handle(self, command: Command | Heartbeat | Version) -> None:
         """Act on one command from trimd (module docstring)."""
         v = self.vehicle
+        if isinstance(command, Release | Heartbeat):
+            self.pilot_latched = False   # trimd has let go
         if isinstance(command, Version):
             self._send(self._version())
         elif isinstance(command, Arm):
             v.arm(command.armed)
+        elif isinstance(command, HoldAttitude | OpenLoop) and self.pilot_latched:
+            return   # the pilot flies until trimd releases
         elif isinstance(command, HoldAttitude):
             self._take("HOLD")
             if v.mode != "ALT_HOLD":

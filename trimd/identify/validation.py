@@ -1,0 +1,116 @@
+"""Validation of an identified model: a free-run simulation of held-out experiments and
+the normalised RMSE fit per output.
+
+Pure computation: no I/O, no clock.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from trimd.core.profile import Profile
+from trimd.identify.data import Experiment
+from trimd.identify.model import (
+    LAG,
+    LEAD,
+    STAGES,
+    STATE_NAMES,
+    Statics,
+    observed,
+    prior_values,
+    statics_of_profile,
+)
+from trimd.identify.nodvl import with_estimated_velocity
+from trimd.identify.problem import Problem
+
+__all__ = ["MIN_OUTPUT_SPREAD", "Validation", "nrmse", "validate"]
+
+FloatArray = NDArray[np.float64]
+
+
+#: An output whose standard deviation in a held-out experiment stays below this [m/s,
+#: rad/s, rad] was not excited: it has no meaningful NRMSE (its denominator is the sensor
+#: noise). About ten times the simulator's default sensor noise; 1.1°/s and 0.6°.
+MIN_OUTPUT_SPREAD = {"u": 0.02, "v": 0.02, "w": 0.02, "p": 0.02, "q": 0.02, "r": 0.02,
+                     "phi": 0.01, "theta": 0.01}
+
+
+@dataclass(frozen=True, eq=False)
+class Validation:
+    """Free-run simulation of one experiment: NRMSE [%] per output, whether the experiment
+    excited that output (:data:`MIN_OUTPUT_SPREAD`), and the series."""
+
+    label: str
+    outputs: tuple[str, ...]
+    nrmse: tuple[float, ...]
+    t_s: FloatArray
+    measured: FloatArray
+    simulated: FloatArray
+    excited: tuple[bool, ...] = ()
+
+    def judged(self) -> dict[str, float | None]:
+        """NRMSE [%] of each excited output, None for an output that was not excited."""
+        flags = self.excited or (True,) * len(self.outputs)
+        return {o: (x if ok else None)
+                for o, x, ok in zip(self.outputs, self.nrmse, flags, strict=True)}
+
+    def describe(self) -> str:
+        """E.g. "u 97.1, v 96.0, r not excited" [%]."""
+        return ", ".join(f"{o} {x:.1f}" if x is not None else f"{o} not excited"
+                         for o, x in self.judged().items())
+
+    def worst(self) -> float | None:
+        """The smallest NRMSE [%] of the excited outputs (None when none was)."""
+        values = [x for x in self.judged().values() if x is not None]
+        return min(values) if values else None
+
+
+def nrmse(y: FloatArray, y_hat: FloatArray) -> FloatArray:
+    """Normalised RMSE fit 100·(1 − ‖y − ŷ‖/‖y − mean(y)‖) [%] per column (MATLAB
+    compare()); 100 is perfect, negative is worse than the mean.
+
+    Examples
+    --------
+    >>> float(nrmse(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0])))
+    100.0
+    >>> float(nrmse(np.array([1.0, 2.0, 3.0]), np.array([2.0, 2.0, 2.0])))
+    0.0
+    """
+    y, y_hat = np.asarray(y, float), np.asarray(y_hat, float)
+    num = np.linalg.norm(y - y_hat, axis=0)
+    den = np.linalg.norm(y - y.mean(axis=0), axis=0)
+    out: FloatArray = 100.0 * (1.0 - num / np.where(den > 0, den, np.nan))
+    return out
+
+
+def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
+             profile: Profile, stage: str, *, statics: Statics | None = None
+             ) -> list[Validation]:
+    """Free-run simulation of each experiment with the parameter ``values`` (bias
+    parameters are not carried over: another session has another gyro bias) from its
+    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe
+    (without a DVL not u and v: :func:`trimd.identify.model.observed`), and which outputs
+    the experiment excited. ``statics``: the mass and restoring terms (default: the profile's
+    nominal vehicle)."""
+    fixed_by = statics or statics_of_profile(profile)
+    prior = prior_values(profile) | {LAG: 0.0, LEAD: 0.5 * experiments[0].h_s}
+    out = []
+    for e in with_estimated_velocity(experiments, prior | dict(values), fixed_by.mass_kg,
+                                     fixed_by.q_rest):
+        st = observed(STAGES[stage], e.dvl)
+        problem = Problem([e], st, fixed_by.mass_kg, fixed_by.q_rest, None,
+                          np.ones(len(st.outputs)))
+        theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
+                          for n in problem.names])
+        y_hat = problem.simulate(theta)[:, 0, 0]
+        y = problem.y[:, 0]
+        names = tuple(STATE_NAMES[s] for s in st.outputs)
+        excited = tuple(bool(np.std(y[:, j]) >= MIN_OUTPUT_SPREAD[n])
+                        for j, n in enumerate(names))
+        out.append(Validation(e.label, names, tuple(float(v) for v in nrmse(y, y_hat)),
+                              e.t_s[1:], y, y_hat, excited))
+    return out

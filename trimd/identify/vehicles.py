@@ -1,0 +1,49 @@
+"""Unseen vehicles for judging an identification: a profile whose hydrodynamics differ from
+a prior's by random factors, and the damping force a parameter set gives at a speed.
+
+Pure computation: no I/O, no clock.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+
+import numpy as np
+
+from trimd.core.profile import Profile
+from trimd.identify.model import HYDRO_NAMES
+
+__all__ = ["damping_force", "perturbed"]
+
+
+def perturbed(profile: Profile, rng: np.random.Generator, spread: float = 0.5,
+              name: str | None = None) -> Profile:
+    """``profile`` with every inertia sum (rigid inertia and added inertia scaled
+    together), added mass and linear and quadratic damping coefficient multiplied by its
+    own factor drawn uniformly from [1 − spread, 1 + spread]; mass, geometry, thrusters and
+    restoring terms unchanged."""
+    def factors(n: int) -> np.ndarray:
+        return rng.uniform(1.0 - spread, 1.0 + spread, n)
+
+    rot = factors(3)
+    i = np.asarray(profile.inertia_kg_m2, float) * rot
+    a = np.asarray(profile.added_mass, float) * np.concatenate([factors(3), rot])
+    dl = np.asarray(profile.linear_damping, float) * factors(6)
+    dq = np.asarray(profile.quadratic_damping, float) * factors(6)
+    return dataclasses.replace(
+        profile, name=name or f"{profile.name}-perturbed",
+        inertia_kg_m2=(float(i[0]), float(i[1]), float(i[2])),
+        added_mass=_vec6(a), linear_damping=_vec6(dl), quadratic_damping=_vec6(dq))
+
+
+def _vec6(a: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    return (float(a[0]), float(a[1]), float(a[2]), float(a[3]), float(a[4]), float(a[5]))
+
+
+def damping_force(values: Mapping[str, float], dof: int, speed: float) -> float:
+    """Damping force or moment [N, N·m] of DOF ``dof`` (0..5) at ``speed`` [m/s, rad/s]
+    from the linear and quadratic coefficients in ``values`` (Fossen's negative
+    derivatives: the force opposes the motion, so it is negative for a positive speed)."""
+    return (values[HYDRO_NAMES[6 + dof]] * speed
+            + values[HYDRO_NAMES[12 + dof]] * abs(speed) * speed)
