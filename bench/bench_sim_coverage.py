@@ -5,10 +5,11 @@ truth, and the RMS of error/σ (1 when the σ is right).
 Quantities: W − B and the three components of W·r_g − B·r_b ("x net" …) against the TRUE
 q; m_ext and r_g against what an exact estimate of the true q reads through the nominal
 profile (``trimd.drivers.sim.truth.implied_mass``). A run that does not end DONE counts as a
-failure, not in the coverage. ``TRIMD_COVERAGE_SEEDS`` (default 10) seeds per profile,
-``TRIMD_COVERAGE_OPTIONS`` (default ``disturb=real``) the sim options, e.g.
-``disturb=real,truth=perturbed``; ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker
-processes. One run takes ≈ 3 s (BlueROV2 Heavy) and ≈ 8–13 s (Sabertooth) of one core.
+failure, not in the coverage. ``TRIMD_COVERAGE_SEEDS`` (default 200) seeds per profile;
+``TRIMD_COVERAGE_OPTIONS`` the sim options (default ``disturb=real,truth=perturbed``:
+realistic disturbances on a vehicle whose buoyancy, centre of buoyancy and thrust curves
+differ from its profile); ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One
+run takes ≈ 2 s (BlueROV2 Heavy) and ≈ 3 s (Sabertooth) of one core.
 """
 
 from __future__ import annotations
@@ -66,8 +67,8 @@ def coverage(runs: list[Run]) -> tuple[np.ndarray, np.ndarray, int]:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", "10"))
-    options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real")
+    seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", "200"))
+    options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real,truth=perturbed")
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
     for name, payload in CASES:
         t0 = time.perf_counter()

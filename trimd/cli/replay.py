@@ -26,7 +26,7 @@ from trimd.app.report import format_estimate, format_proposal, format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import bounded
-from trimd.cli.inspect import format_report, inspect_log
+from trimd.cli.inspect import HOLD_MODES, format_report, inspect_log
 from trimd.cli.run import wants_tui
 from trimd.core.effort import thrust_at
 from trimd.core.errors import DataError, EstimationError
@@ -37,7 +37,7 @@ from trimd.core.link import Link
 from trimd.core.model import thrust_configuration
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
-from trimd.core.samples import Attitude, Battery, Sample, Thrusters
+from trimd.core.samples import Attitude, Battery, Health, Sample, Thrusters
 from trimd.logs.replay import ReplayLink, recorded_profile_yaml
 from trimd.tui.run import run_in_tui
 
@@ -111,13 +111,29 @@ def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> Tri
                     link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
+def _while_holding(samples: list[Sample]) -> list[Attitude]:
+    """The attitude samples taken while the vehicle was armed in a mode that holds
+    attitude (all of them when the log reports neither mode nor arming)."""
+    state: Health | None = None
+    seen = any(isinstance(s, Health) for s in samples)
+    out = []
+    for s in samples:
+        if isinstance(s, Health):
+            state = s
+        elif isinstance(s, Attitude) and (not seen or (
+                state is not None and state.armed and state.mode in HOLD_MODES)):
+            out.append(s)
+    return out
+
+
 def _holds(samples: list[Sample], profile: Profile, name: str) -> list[HoldSamples]:
     """The steady holds of a log, found as the live procedure finds them; each thruster's
     thrust rides along (the thrust curves' share of the ±)."""
-    att = [s for s in samples if isinstance(s, Attitude)]
+    att = _while_holding(samples)
     thr = [s for s in samples if isinstance(s, Thrusters)]
     if not att or not thr:
-        raise DataError(f"{name}: no attitude or no thruster outputs to estimate from")
+        raise DataError(f"{name}: no attitude while armed in a holding mode, or no thruster "
+                        "outputs, to estimate from")
     t = np.array([s.t_s for s in thr])
     thrust, ok = thrust_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
     tau = thrust[ok] @ thrust_configuration(profile.thrusters).T

@@ -76,6 +76,18 @@ def _collect(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: Flo
     return [(a, k) for a, k in collected if a.t_s <= end]
 
 
+def _trend_rad(got: list[tuple[Attitude, int]], min_s: float) -> float:
+    """How far roll or pitch moves along its fitted straight line over the collected
+    samples, or over ``min_s`` [s] if they span less [rad]: wander comes back, a slow ramp
+    (which each short window may call steady) does not."""
+    t = np.array([a.t_s for a, _ in got])
+    if t[-1] <= t[0]:
+        return 0.0
+    att = np.array([[a.phi, a.theta] for a, _ in got])
+    slope = np.polyfit(t - t[0], att, 1)[0]
+    return float(np.max(np.abs(slope)) * max(t[-1] - t[0], min_s))
+
+
 def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
                profile: Profile, thrust: FloatArray | None = None) -> list[HoldSamples]:
     """The steady holds in time-ordered ``attitude`` samples and thruster effort
@@ -90,7 +102,7 @@ def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: F
     groups: list[tuple[float, float, list[tuple[Attitude, int]]]] = []
     for i, j, phi, theta in _plateaus(attitude, tol, proc.min_steady_s):
         got = _collect(attitude[i:j], t_effort, tau_effort, phi, theta, profile, rule)
-        if len(got) < 2:
+        if len(got) < 2 or _trend_rad(got, proc.min_steady_s) > tol / 2:
             continue
         for g in groups:
             if abs(g[0] - phi) <= tol and abs(g[1] - theta) <= tol:
