@@ -15,6 +15,9 @@ SOURCES = sorted(p for d in ("trimd", "bench", "tests", "examples") for p in (RE
 #: A repository path inside backticks or a Markdown link: starts at a top-level directory.
 CITED_PATH = re.compile(r"[`(]((?:docs|trimd|tests|bench|examples|\.ci)/[\w./-]*\w)[`)#]")
 SECTION_REF = re.compile(r"docs/method\.md §(\d)")
+#: A path to the reference material that lived beside the repository (a parent-relative
+#: "shared" directory, or its docs/ and data/).
+BESIDE = re.compile(r"\.\./shar[e]d|shar[e]d/(docs|data)")
 
 
 def _rel(p: Path) -> str:
@@ -31,7 +34,7 @@ def test_every_path_the_docs_cite_exists() -> None:
 def test_nothing_points_outside_the_repository() -> None:
     outside = [f"{_rel(p)}:{i}" for p in [*TEXTS, *SOURCES] if p != Path(__file__)
                for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
-               if "../shared" in line or "shared/docs" in line or "shared/data" in line]
+               if BESIDE.search(line)]
     assert not outside, f"references to a directory beside the repository: {outside}"
 
 
