@@ -137,7 +137,8 @@ def test_a_trim_through_mavproxy_completes_close_to_the_truth(
     print(f"through MAVProxy: {took:.0f} s wall; estimate − truth: cg {d_cg} m, "
           f"m_ext {d_m:+.3f} kg")
     assert np.all(np.abs(d_cg[:2]) < 1e-3) and abs(d_cg[2]) < 3e-3, d_cg
-    assert abs(d_m) < 0.2
+    # within its own ± (which carries the thrust curves' 5 %: σ ≈ 0.5 kg here)
+    assert abs(d_m) < 3 * result["estimate"]["m_ext_std_kg"]
     # MAVProxy's 4 Hz REQUEST_DATA_STREAM (15 s after it found the vehicle) was overruled
     warnings = [x["text"] for x in lines if x.get("type") == "warning"]
     print("warnings:", warnings)
