@@ -315,16 +315,24 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     note, amounts = "", None
     if method == "line":
         amounts, note = _line_amounts(estimate, profile, items)
-    if amounts is None:
-        prog = build_programme(estimate, profile, items, level_tol_deg=_aim_deg(estimate, tol),
+    if amounts is not None:
+        return _assess(method, estimate, profile, items, amounts, tol, window, note)
+    # aim inside the tolerance first; when the pieces cannot meet the tolerance that way
+    # (aiming at 0 leaves them only as level as the moment resolution), at the tolerance
+    best: Proposal | None = None
+    for target in dict.fromkeys((_aim_deg(estimate, tol), tol)):
+        prog = build_programme(estimate, profile, items, level_tol_deg=target,
                                window_pct=window)
         sol = solve_programme(prog, node_limit=node_limit)
         if not sol.success:
-            return _assess(method, estimate, profile, items, sol.amounts, tol, window,
-                           f"{sol.message}; nothing proposed. ", success=False)
-        amounts = sol.amounts
-        note += f"{sol.note}. " if sol.note else ""
-    return _assess(method, estimate, profile, items, amounts, tol, window, note)
+            return best or _assess(method, estimate, profile, items, sol.amounts, tol, window,
+                                   f"{sol.message}; nothing proposed. ", success=False)
+        best = _assess(method, estimate, profile, items, sol.amounts, tol, window,
+                       note + (f"{sol.note}. " if sol.note else ""))
+        if best.feasible:
+            break
+    assert best is not None
+    return best
 
 
 def _number(value: float) -> float | None:
