@@ -18,11 +18,13 @@ with k = :data:`CUSUM_K` (tuned to a shift of 2k = 1σ) and h chosen for a false
 rate: by Siegmund's approximation one one-sided CUSUM on unit-normal z runs on average
 ARL₀ = (e^{2k·b} − 2k·b − 1)/(2k²), b = h + 1.166, segments between false alarms; the
 watch runs 2 sides × 3 components, so its rate per segment is 6/ARL₀ and per hour that
-times the segments per hour (:func:`threshold_for`). The change time is the first
-segment after the statistic last stood at 0; the change is the weighted mean innovation
-of the segments since then, with its ± (the segments' own variances, plus the
-baseline's once). After an alert that component's CUSUM starts again from 0 (a leak that
-goes on alerts again, with a larger change).
+times the segments per hour (:func:`threshold_for`). The change time is the most likely
+start of a step among the segments since the statistic last stood at 0 (the
+maximum-likelihood split, which the CUSUM's own restart point precedes by a few
+segments of noise); the change is the weighted mean innovation of the segments from
+there on, with its ± (the segments' own variances, plus the baseline's once). After an
+alert the component is tested against the alerting segment's level, from 0 again (a leak
+that goes on alerts again as it grows); the total change stays against the baseline.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ def threshold_for(false_alarms_per_h: float, segments_per_h: float, k: float = C
     Examples
     --------
     >>> round(threshold_for(0.01, 60), 2)
-    8.66
+    8.63
     """
     arl = tests * segments_per_h / false_alarms_per_h
     lo, hi = 0.0, 200.0
@@ -148,10 +150,21 @@ class _Cusum:
     #: end of the last segment at which the statistic stood at 0, per side
     zero_up: float = math.nan
     zero_down: float = math.nan
-    #: since then, per side: (δ, own variance, segment start) — its own variance excludes
-    #: the reference's, which every δ shares
-    run_up: list[tuple[float, float, float]] = field(default_factory=list)
-    run_down: list[tuple[float, float, float]] = field(default_factory=list)
+    #: since then, per side: (δ, own variance, segment start, end) — its own variance
+    #: excludes the reference's, which every δ shares
+    run_up: list[tuple[float, float, float, float]] = field(default_factory=list)
+    run_down: list[tuple[float, float, float, float]] = field(default_factory=list)
+
+
+def _step(run: list[tuple[float, float, float, float]]) -> tuple[int, float, float]:
+    """Where in ``run`` a step most likely began (the maximum-likelihood split: the
+    largest (Σ δ/v)²/Σ 1/v over the segments from it on), the mean change from there
+    on and its variance (the segments' own)."""
+    d = np.array([r[0] for r in run])
+    w = 1 / np.array([r[1] for r in run])
+    sw, swd = np.cumsum(w[::-1])[::-1], np.cumsum((w * d)[::-1])[::-1]
+    j = int(np.argmax(swd**2 / sw))
+    return j, float(swd[j] / sw[j]), float(1 / sw[j])
 
 
 def _innovation(seg: SegmentEstimate, i: int, ref: _Reference) -> tuple[float, float]:
@@ -194,19 +207,18 @@ class ChangeDetector:
                     run.clear()
                     setattr(c, f"zero_{side}", seg.t_end_s)
                 else:
-                    run.append((delta, own, seg.t_start_s))
+                    run.append((delta, own, seg.t_start_s, seg.t_end_s))
             if max(c.up, c.down) <= self.h:
                 continue
             up = c.up > c.down
             run = c.run_up if up else c.run_down
-            w = np.array([1 / v for _, v, _ in run])
-            change = float(np.sum(w * np.array([d for d, _, _ in run])) / w.sum())
+            j, change, change_var = _step(run)
+            after = (c.zero_up if up else c.zero_down) if j == 0 else run[j - 1][3]
             total, own_total = _innovation(seg, i, self._base[i])
             alerts.append(ChangeAlert(
                 i, total, math.sqrt(own_total + self._base[i].var), change,
-                math.sqrt(1 / w.sum() + ref.var), c.zero_up if up else c.zero_down,
-                run[0][2], seg.t_end_s, len(run), max(c.up, c.down),
-                i not in self._alerted))
+                math.sqrt(change_var + ref.var), after, run[j][2], seg.t_end_s,
+                len(run) - j, max(c.up, c.down), i not in self._alerted))
             self._alerted.add(i)
             self._ref[i] = _Reference(float(seg.q[i]), float(seg.q_cov_noise[i, i]),
                                       seg.gain_sensitivity[i].copy())

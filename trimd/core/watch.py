@@ -27,6 +27,7 @@ so they find the same segments.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,7 +45,8 @@ from trimd.core.change import (
 from trimd.core.decision import StopRule
 from trimd.core.effort import thrust_at
 from trimd.core.errors import DataError, EstimationError
-from trimd.core.estimate import HoldSamples
+from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.holdfinder import find_segments
 from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
@@ -94,11 +96,15 @@ SEGMENTS_PER_H = 60.0
 @dataclass(frozen=True)
 class WatchSegment:
     """A steady segment the watch found and its estimate (``index`` counts from 1);
-    ``baseline`` is True while it is one of the segments forming the baseline."""
+    ``baseline`` is True while it is one of the segments forming the baseline; ``full``,
+    at a tilted segment, the estimate of all four net quantities (weight and centre of
+    gravity) from it and the last level segment (:func:`trimd.core.estimate.
+    estimate_static`; it assumes the trim did not change between the two)."""
 
     index: int
     estimate: SegmentEstimate
     baseline: bool
+    full: StaticEstimate | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: times [s], attitude [deg], q and its 1σ [N, N·m] (null where not
@@ -114,7 +120,8 @@ class WatchSegment:
                 "net_moment_std_Nm": [_opt(std[i], e.observable[i]) for i in (1, 2, 3)],
                 "observable": list(e.observable), "resolved": e.resolved,
                 "cov_net": e.q_cov.tolist(), "cov_net_noise": e.q_cov_noise.tolist(),
-                "not_observable": _unobservable(e)}
+                "not_observable": _unobservable(e),
+                "full": None if self.full is None else estimate_to_dict(self.full)}
 
 
 @dataclass(frozen=True)
@@ -227,6 +234,7 @@ class TrimWatch:
         self._emitted_until = -math.inf
         self._next_tick = -math.inf
         self._pending: list[SegmentEstimate] = []
+        self._last_level: HoldSamples | None = None
 
     # ------------------------------------------------------------------ input
     def feed(self, s: Sample) -> list[WatchSegment | WatchAlert]:
@@ -396,31 +404,33 @@ class TrimWatch:
             self.rejected[why] = self.rejected.get(why, 0) + 1
             return []
         index = len(self.segments) + 1
+        named = HoldSamples(hold.t_s, hold.phi, hold.theta, hold.tau, f"segment {index}",
+                            hold.thrust)
         try:
-            est = estimate_segment(HoldSamples(hold.t_s, hold.phi, hold.theta, hold.tau,
-                                               f"segment {index}", hold.thrust),
-                                   self.profile, self._q_prior)
+            est = estimate_segment(named, self.profile, self._q_prior)
         except (EstimationError, DataError) as exc:
             key = f"not estimable ({exc})"
             self.rejected[key] = self.rejected.get(key, 0) + 1
             return []
-        out: list[WatchSegment | WatchAlert] = []
-        if self.detector is None:
-            level = all(est.observable[:3])
-            seg = WatchSegment(index, est, baseline=level)
-            self.segments.append(seg)
-            out.append(seg)
-            if level:
-                self._pending.append(est)
-                if len(self._pending) >= self.baseline_segments:
-                    self.detector = ChangeDetector(baseline_from_segments(self._pending),
-                                                   self.h)
-            return out
-        seg = WatchSegment(index, est, baseline=False)
+        level = all(est.observable[:3])
+        full = None
+        if level:
+            self._last_level = named
+        elif self._last_level is not None:
+            # a tilted segment with the last level one: two attitudes determine all four
+            with contextlib.suppress(EstimationError):
+                full = estimate_static([self._last_level, named], self.profile)
+        baseline = self.detector is None and level
+        seg = WatchSegment(index, est, baseline=baseline, full=full)
         self.segments.append(seg)
-        out.append(seg)
-        for a in self.detector.update(est):
-            alert = WatchAlert(a, alert_text(a, self.clock))
-            self.alerts.append(alert)
-            out.append(alert)
+        out: list[WatchSegment | WatchAlert] = [seg]
+        if baseline:
+            self._pending.append(est)
+            if len(self._pending) >= self.baseline_segments:
+                self.detector = ChangeDetector(baseline_from_segments(self._pending), self.h)
+        elif self.detector is not None:
+            for a in self.detector.update(est):
+                alert = WatchAlert(a, alert_text(a, self.clock))
+                self.alerts.append(alert)
+                out.append(alert)
         return out

@@ -72,7 +72,7 @@ def parse_drops(text: str, profile: Profile) -> tuple[Drop, ...]:
     >>> from trimd.core.profile_yaml import load_profile
     >>> d = parse_drops("0.5@W-aft-ctr@600", load_profile("bluerov2-heavy"))[0]
     >>> d.t_s, round(d.weight_N, 3)
-    (600.0, 4.903)
+    (600.0, 4.905)
     """
     out = []
     for part in filter(None, (p.strip() for p in text.split("+"))):
