@@ -18,13 +18,14 @@ with k = :data:`CUSUM_K` (tuned to a shift of 2k = 1σ) and h chosen for a false
 rate: by Siegmund's approximation one one-sided CUSUM on unit-normal z runs on average
 ARL₀ = (e^{2k·b} − 2k·b − 1)/(2k²), b = h + 1.166, segments between false alarms; the
 watch runs 2 sides × 3 components, so its rate per segment is 6/ARL₀ and per hour that
-times the segments per hour (:func:`threshold_for`). The change time is the most likely
-start of a step among the segments since the statistic last stood at 0 (the
-maximum-likelihood split, which the CUSUM's own restart point precedes by a few
-segments of noise); the change is the weighted mean innovation of the segments from
-there on, with its ± (the segments' own variances, plus the baseline's once). After an
-alert the component is tested against the alerting segment's level, from 0 again (a leak
-that goes on alerts again as it grows); the total change stays against the baseline.
+times the segments per hour (:func:`threshold_for`). The change began at the first
+segment since the statistic last stood at 0 that is :data:`Z_START` σ off on its own in
+the alert's direction (the CUSUM's own restart point precedes a step by a few segments
+of noise; a most-likely step split would date a ramp, a leak, too late); the change is
+the weighted mean innovation of the segments from there on, with its ± (the segments'
+own variances, plus the baseline's once). After an alert the component is tested
+against the alerting segment's level, from 0 again (a leak that goes on alerts again as
+it grows); the total change stays against the baseline.
 """
 
 from __future__ import annotations
@@ -44,6 +45,8 @@ __all__ = ["COMPONENTS", "CUSUM_K", "Baseline", "ChangeAlert", "ChangeDetector",
 FloatArray = NDArray[np.float64]
 #: CUSUM reference value k [σ]: half the shift it is tuned to.
 CUSUM_K = 0.5
+#: A segment this many σ off on its own marks where a change began.
+Z_START = 2.0
 #: The components tested (index into q): W − B and the two moments that level segments
 #: observe. W·z_g − B·z_b is never observable at level.
 COMPONENTS = (0, 1, 2)
@@ -156,15 +159,17 @@ class _Cusum:
     run_down: list[tuple[float, float, float, float]] = field(default_factory=list)
 
 
-def _step(run: list[tuple[float, float, float, float]]) -> tuple[int, float, float]:
-    """Where in ``run`` a step most likely began (the maximum-likelihood split: the
-    largest (Σ δ/v)²/Σ 1/v over the segments from it on), the mean change from there
-    on and its variance (the segments' own)."""
+def _step(run: list[tuple[float, float, float, float]], sign: float, ref_var: float
+          ) -> tuple[int, float, float]:
+    """Where in ``run`` the change began — the first segment that by itself is
+    :data:`Z_START` σ off in the alert's direction ``sign`` (±1), else the first — the
+    mean change from there on, and its variance (the segments' own)."""
     d = np.array([r[0] for r in run])
-    w = 1 / np.array([r[1] for r in run])
-    sw, swd = np.cumsum(w[::-1])[::-1], np.cumsum((w * d)[::-1])[::-1]
-    j = int(np.argmax(swd**2 / sw))
-    return j, float(swd[j] / sw[j]), float(1 / sw[j])
+    v = np.array([r[1] for r in run])
+    off = np.flatnonzero(sign * d / np.sqrt(v + ref_var) >= Z_START)
+    j = int(off[0]) if len(off) else 0
+    w = 1 / v[j:]
+    return j, float(np.sum(w * d[j:]) / w.sum()), float(1 / w.sum())
 
 
 def _innovation(seg: SegmentEstimate, i: int, ref: _Reference) -> tuple[float, float]:
@@ -212,7 +217,7 @@ class ChangeDetector:
                 continue
             up = c.up > c.down
             run = c.run_up if up else c.run_down
-            j, change, change_var = _step(run)
+            j, change, change_var = _step(run, 1.0 if up else -1.0, ref.var)
             after = (c.zero_up if up else c.zero_down) if j == 0 else run[j - 1][3]
             total, own_total = _innovation(seg, i, self._base[i])
             alerts.append(ChangeAlert(
