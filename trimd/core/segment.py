@@ -43,7 +43,7 @@ from trimd.core.estimate import (
     measurable_dofs,
 )
 from trimd.core.longrun import mean_covariance
-from trimd.core.model import restoring_matrix
+from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
 
 __all__ = ["Q_NAMES", "SegmentEstimate", "estimate_segment", "nominal_q"]
@@ -132,8 +132,10 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
         raise EstimationError(f"segment {h.label!r} contains NaN or infinite values")
     prior = nominal_q(profile) if q_prior is None else np.asarray(q_prior, float)
     rows = np.array(measurable_dofs(profile), bool)
-    used = rows & (_MOMENT_ROWS | (_is_level(h) or profile.holds_station))
     phi, theta = float(np.mean(h.phi)), float(np.mean(h.theta))
+    # as in estimate_static: rows without information at this attitude are left out
+    used = (rows & (_MOMENT_ROWS | (_is_level(h) or profile.holds_station))
+            & informative_rows(phi, theta))
     A = restoring_matrix(phi, theta)[used]
     _, s, vt = np.linalg.svd(A, full_matrices=False)
     r = int(np.sum(s >= _MIN_RELATIVE_SINGULAR * s[0]))
