@@ -125,7 +125,10 @@ class Profile:
     """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED.
 
     ``holds_station``: the vehicle holds horizontal position during a hold (a position
-    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`)."""
+    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`).
+    ``attitude_error_deg``: 1σ of the attitude reference's slow error in roll and pitch
+    [deg] (an AHRS at rest wanders by ≈ 0.1° over tens of seconds): constant over one hold,
+    so collecting does not average it out."""
 
     name: str
     source: str
@@ -148,6 +151,7 @@ class Profile:
     procedure: ProcedureLimits
     frame_config: int | None = None
     holds_station: bool = False
+    attitude_error_deg: float = 0.1
 
     @property
     def weight_N(self) -> float:
