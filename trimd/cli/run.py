@@ -17,10 +17,13 @@ from typing import Any
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
+from trimd.app.history import History
+from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import integer
+from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
@@ -66,6 +69,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions)")
     p.add_argument("--no-record", action="store_true", help="do not write a session log")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+    p.add_argument("--no-history", action="store_true", help="do not store the result in "
+                   "the trim history")
+    add_history_args(p)
 
 
 def _exit_code(result: SessionResult) -> int:
@@ -132,6 +138,11 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
         print("\n" + truth_text)
     if result.log_path:
         print(f"session log: {result.log_path}", file=sys.stderr)
+    if not args.no_history and result.estimate is not None:
+        vehicle = vehicle_of(args, profile.name)
+        with History(db_path(args)) as history:
+            record_result(history, vehicle, profile.name, result)
+        print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
     return _exit_code(result)
 
 
