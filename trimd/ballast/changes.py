@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 from trimd.ballast.check import SlotLoad
-from trimd.core.profile import InstalledPiece
+from trimd.core.profile import InstalledPiece, Profile
 
-__all__ = ["Change", "ballast_changes", "installed_after"]
+__all__ = ["Change", "ballast_changes", "change_loads", "installed_after"]
 
 
 @dataclass(frozen=True)
@@ -72,3 +72,30 @@ def installed_after(before: Sequence[InstalledPiece], loads: Sequence[SlotLoad]
     return tuple(InstalledPiece(slot, piece, n) for (slot, piece), n in
                  sorted(count.items(), key=lambda kv: (order.get(kv[0][0], -1), kv[0][1]))
                  if n > 0)
+
+
+def change_loads(profile: Profile, before: Sequence[InstalledPiece],
+                 after: Sequence[InstalledPiece]) -> tuple[SlotLoad, ...]:
+    """The slot loads that take ``before`` to ``after`` (both checked against ``profile``),
+    for :func:`trimd.ballast.check.check_trim`: the physics of a configuration the
+    operator edited."""
+    g, rho = profile.gravity_m_s2, profile.water_density_kg_m3
+    old = {(x.slot, x.piece): x.count for x in before}
+    new = {(x.slot, x.piece): x.count for x in after}
+    loads = []
+    for s in profile.slots:
+        delta = {p.name: new.get((s.name, p.name), 0) - old.get((s.name, p.name), 0)
+                 for p in profile.inventory}
+        kinds = {p.name: p for p in profile.inventory}
+        mass = sum(n * kinds[k].mass_kg for k, n in delta.items())
+        buoyancy = sum(n * rho * g * kinds[k].volume_m3 for k, n in delta.items())
+        loads.append(SlotLoad(
+            s.name, s.position_m,
+            weight_kg=sum(n * kinds[k].capacity_kg(rho) for k, n in delta.items()
+                          if kinds[k].kind == "weight"),
+            float_kg=sum(n * kinds[k].capacity_kg(rho) for k, n in delta.items()
+                         if kinds[k].kind == "float"),
+            mass_kg=mass, buoyancy_N=buoyancy, net_down_N=mass * g - buoyancy,
+            pieces=tuple((k, n) for k, n in delta.items() if n > 0),
+            removed=tuple((k, -n) for k, n in delta.items() if n < 0)))
+    return tuple(loads)

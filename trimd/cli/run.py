@@ -18,6 +18,7 @@ from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
@@ -69,8 +70,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions)")
     p.add_argument("--no-record", action="store_true", help="do not write a session log")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
-    p.add_argument("--no-history", action="store_true", help="do not store the result in "
-                   "the trim history")
+    p.add_argument("--no-history", action="store_true", help="do not read the installed "
+                   "ballast from the trim history (the profile's is used) nor store the "
+                   "result in it")
     add_history_args(p)
 
 
@@ -87,8 +89,12 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
         path = Path(args.record) if args.record else default_record_path(profile)
         recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0])
 
+    installed = profile.installed
+    if not args.no_history:
+        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
+
     def propose(estimate: StaticEstimate) -> Any:
-        return propose_ballast(estimate, profile, method=args.ballast)
+        return propose_ballast(estimate, profile, method=args.ballast, installed=installed)
 
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose)
