@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
@@ -89,12 +90,8 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
         path = Path(args.record) if args.record else default_record_path(profile)
         recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0])
 
-    installed = profile.installed
-    if not args.no_history:
-        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
-
     def propose(estimate: StaticEstimate) -> Any:
-        return propose_ballast(estimate, profile, method=args.ballast, installed=installed)
+        return propose_ballast(estimate, profile, method=args.ballast)
 
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose)
@@ -130,6 +127,9 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
     profile = load_profile(args.profile)
+    if not args.no_history:  # proposals (here and in the TUI) start from what is installed
+        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
+        profile = dataclasses.replace(profile, installed=installed)
     tui = wants_tui(args)
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
