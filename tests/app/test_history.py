@@ -98,16 +98,15 @@ def test_records_read_back_per_vehicle(tmp_path: Path) -> None:
         assert h.verifications("a")[0].values == {"residual_roll_deg": 0.1}
 
 
-def test_a_failed_write_leaves_nothing(tmp_path: Path) -> None:
+def test_a_failed_write_leaves_nothing_and_undefined_numbers_are_null(tmp_path: Path) -> None:
     with History(tmp_path / "h.db") as h:
         bad = [*PIECES[:2], InstalledPiece("slot-x", "lead-200g", 0)]
         h.record_installed("a", "p", 1.0, "proposal", bad)  # a zero count is dropped
-        with pytest.raises(sqlite3.IntegrityError):
+        with pytest.raises(DataError, match="cannot write the trim history"):
             h.record_installed("a", "p", 2.0, "bought", PIECES)  # type: ignore[arg-type]
-        with pytest.raises(ValueError):
-            h.record_alert("a", 3.0, {"change_N": float("nan")})
-        assert [len(r.pieces) for r in h.installs("a")] == [2]
-        assert h.alerts("a") == []
+        assert [len(r.pieces) for r in h.installs("a")] == [2]  # not the first pieces either
+        h.record_alert("a", 3.0, {"change_N": float("nan"), "x": [1.0, float("inf")]})
+        assert h.alerts("a")[0].values == {"change_N": None, "x": [1.0, None]}
 
 
 def test_vehicle_keys() -> None:
@@ -170,13 +169,14 @@ def test_readers_see_only_whole_records_while_a_process_writes(tmp_path: Path) -
     proc = _writer(path)
     try:
         _wait_for_records(path, 1)
-        seen = []
+        seen: list[int] = []
+        deadline = time.monotonic() + 60.0
         with History(path) as h:
-            for _ in range(50):
+            while len(set(seen)) < 5 and time.monotonic() < deadline:  # reads as it writes
                 installs = h.installs("rov")
                 assert all(r.pieces == tuple(PIECES) for r in installs)
                 seen.append(len(installs))
-        assert seen == sorted(seen) and seen[-1] > seen[0]
+        assert seen == sorted(seen) and len(set(seen)) == 5
     finally:
         proc.kill()
         proc.wait()

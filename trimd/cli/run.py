@@ -26,7 +26,7 @@ from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
-from trimd.core.errors import ProfileError
+from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
@@ -145,11 +145,22 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
     if result.log_path:
         print(f"session log: {result.log_path}", file=sys.stderr)
     if not args.no_history and result.estimate is not None:
-        vehicle = vehicle_of(args, profile.name)
+        _store(args, profile, result)
+    return _exit_code(result)
+
+
+def _store(args: argparse.Namespace, profile: Profile, result: SessionResult) -> None:
+    """Store the result in the trim history; a file that cannot take it is a warning (the
+    trim itself succeeded and was printed)."""
+    vehicle = vehicle_of(args, profile.name)
+    try:
         with History(db_path(args)) as history:
             record_result(history, vehicle, profile.name, result)
-        print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
-    return _exit_code(result)
+    except DataError as exc:
+        print(f"trimd: warning: the trim was not stored in the history: {exc}",
+              file=sys.stderr)
+        return
+    print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:

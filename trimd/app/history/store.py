@@ -11,6 +11,7 @@ each); ``trimd run`` through :meth:`History.record_trim`; ``trimd ballast apply`
 from __future__ import annotations
 
 import json
+import math
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -20,6 +21,7 @@ from types import TracebackType
 from typing import Any, Literal
 
 from trimd.app.history.schema import connect, default_db_path
+from trimd.core.errors import DataError
 from trimd.core.profile import InstalledPiece
 
 __all__ = ["EventRecord", "History", "InstallRecord", "TrimRecord", "vehicle_key"]
@@ -73,8 +75,20 @@ class InstallRecord:
     pieces: tuple[InstalledPiece, ...]
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinite number replaced by None (JSON ``null``)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
 def _json(values: object) -> str:
-    return json.dumps(values, allow_nan=False, sort_keys=True)
+    """Strict JSON of ``values``; an undefined number is stored as null."""
+    return json.dumps(_finite(values), allow_nan=False, sort_keys=True)
 
 
 class History:
@@ -98,13 +112,18 @@ class History:
 
     @contextmanager
     def _transaction(self) -> Iterator[sqlite3.Connection]:
-        self._conn.execute("BEGIN IMMEDIATE")
+        """One transaction: all of it is written, or nothing (DataError naming the file
+        when SQLite refuses: a full disk, a lock held too long, a bad value)."""
         try:
-            yield self._conn
-        except BaseException:
-            self._conn.execute("ROLLBACK")
-            raise
-        self._conn.execute("COMMIT")
+            self._conn.execute("BEGIN IMMEDIATE")
+            try:
+                yield self._conn
+            except BaseException:
+                self._conn.execute("ROLLBACK")
+                raise
+            self._conn.execute("COMMIT")
+        except sqlite3.Error as exc:
+            raise DataError(f"{self.path}: cannot write the trim history ({exc})") from None
 
     # writes ---------------------------------------------------------------------------
 
