@@ -203,3 +203,20 @@ def test_kill_9_mid_write_leaves_the_file_intact(tmp_path: Path) -> None:
             assert all(len(t.estimate["pad"]) == 20000 for t in trims)
             # each kill cut at most one install-then-trim pair in two
             assert 0 <= len(h.installs("rov")) - len(trims) <= kills
+
+
+def test_the_plot_draws_trims_watch_segments_and_alerts(tmp_path: Path) -> None:
+    from trimd.app.history.plot import write_history_plot
+
+    estimate = {**ESTIMATE, "cg_m": [0.001, 0.0, 0.005], "cg_std_m": [1e-4, 1e-4, 3e-4]}
+    with History(tmp_path / "h.db") as h:
+        for k in range(3):
+            h.record_trim("rov", "p", 1.8e9 + 86400 * k, estimate)
+        h.record_watch_segment("rov", 1.8e9 + 1000, {"net_force_N": 1.6,
+                                                     "net_force_std_N": 0.2})
+        h.record_watch_segment("rov", 1.8e9 + 2000, {"text": "no force"})
+        h.record_alert("rov", 1.8e9 + 3000, {"text": "heavier"})
+        h.record_installed("rov", "p", 1.8e9 + 4000, "proposal", PIECES)
+        png = tmp_path / "h.png"
+        assert write_history_plot(h, "rov", png) == 3
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000

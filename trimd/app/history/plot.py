@@ -1,8 +1,9 @@
 """``trimd history --plot``: W − B and the centre of gravity of a vehicle's trims over time.
 
 Four panels sharing the time axis (UTC): the net vertical force W − B [N] and x_g, y_g,
-z_g [mm] (body FRD, origin CG0), each trim a point with a ±1σ error bar; watch alerts
-are red dashed lines, recorded ballast changes grey dotted ones. Drawn off screen on
+z_g [mm] (body FRD, origin CG0), each trim a point with a ±1σ error bar; watch segments
+that carry ``net_force_N`` (and ``net_force_std_N``) are grey points on the W − B panel,
+watch alerts red dashed lines, recorded ballast changes grey dotted ones. Drawn off screen on
 matplotlib's Agg canvas (as :mod:`trimd.app.plots`).
 """
 
@@ -33,7 +34,15 @@ def write_history_plot(history: History, vehicle: str, path: Path) -> int:
     axes = fig.subplots(4, 1, sharex=True)
     net = [r.estimate["net_force_N"] for r in trims]
     net_std = [math.sqrt(max(r.estimate["cov_net"][0][0], 0.0)) for r in trims]
-    axes[0].errorbar(t, net, yerr=net_std, fmt="o-", capsize=3)
+    axes[0].errorbar(t, net, yerr=net_std, fmt="o-", capsize=3, label="trim")
+    segments = [r for r in history.watch_segments(vehicle)
+                if isinstance(r.values.get("net_force_N"), int | float)]
+    if segments:
+        axes[0].errorbar([_when(r.t_unix) for r in segments],
+                         [r.values["net_force_N"] for r in segments],
+                         yerr=[r.values.get("net_force_std_N") or 0.0 for r in segments],
+                         fmt=".", color="0.5", capsize=2, label="watch segment")
+        axes[0].legend(loc="best", fontsize=8)
     axes[0].set_ylabel("W − B [N]")
     for k, name in enumerate(("x_g", "y_g", "z_g")):
         cg = [1e3 * r.estimate["cg_m"][k] for r in trims]

@@ -146,7 +146,9 @@ class History:
         return int(cur.lastrowid or 0)
 
     def record_watch_segment(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
-        """Store one steady segment of a watch (e.g. its W − B and moments with their ±)."""
+        """Store one steady segment of a watch: any JSON values; ``net_force_N`` and
+        ``net_force_std_N`` (W − B and its 1σ [N]) are what ``trimd history --plot``
+        draws, ``net_moment_Nm``/``net_moment_std_Nm`` the natural names for the rest."""
         return self._event("watch_segments", vehicle, t_unix, values)
 
     def record_alert(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
