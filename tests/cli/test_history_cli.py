@@ -22,6 +22,9 @@ def test_history_of_an_absent_or_empty_file_says_so(
     assert "is empty" in capsys.readouterr().out
     assert main(["history", "--db", str(path), "--vehicle", "rov"]) == 0
     assert "no records for vehicle rov" in capsys.readouterr().out
+    assert main(["history", "--db", str(tmp_path / "absent.db"), "--json"]) == 0
+    empty = json.loads(capsys.readouterr().out)
+    assert empty["vehicles"] == [] and "no trim history yet" in empty["message"]
 
 
 def test_history_defaults_to_the_data_dir(capsys: pytest.CaptureFixture[str]) -> None:

@@ -32,23 +32,27 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _nothing(args: argparse.Namespace, path: Path, message: str) -> int:
+    """Say that there is nothing to list (``--json``: an object with no vehicles)."""
+    print(json.dumps({"db": str(path), "vehicles": [], "message": message}) if args.json
+          else message)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     path = Path(db_path(args))
     if not path.exists():
-        print(f"no trim history yet: {path} does not exist (trimd run and trimd ballast "
-              "apply write it)")
-        return 0
+        return _nothing(args, path, f"no trim history yet: {path} does not exist (trimd run "
+                        "and trimd ballast apply write it)")
     with History(path) as history:
         known = history.vehicles()
         if args.vehicle and args.vehicle not in known:
-            print(f"no records for vehicle {args.vehicle} in {path} (vehicles: "
-                  f"{', '.join(known) or 'none'})")
-            return 0
+            return _nothing(args, path, f"no records for vehicle {args.vehicle} in {path} "
+                            f"(vehicles: {', '.join(known) or 'none'})")
         vehicles = [args.vehicle] if args.vehicle else known
         if not vehicles:
-            print(f"the trim history {path} is empty: no trim, installed ballast or watch "
-                  "record yet")
-            return 0
+            return _nothing(args, path, f"the trim history {path} is empty: no trim, "
+                            "installed ballast or watch record yet")
         if args.plot:
             if len(vehicles) > 1:
                 raise DataError(f"--plot draws one vehicle; pick one with --vehicle "

@@ -56,7 +56,8 @@ def write_history_plot(history: History, vehicle: str, path: Path) -> int:
             ax.axvline(_when(i.t_unix), color="0.5", ls=":", lw=0.8)
         ax.grid(True, lw=0.3)
     axes[-1].set_xlabel("time [UTC]")
-    fig.suptitle(f"trim history of {vehicle}: W − B and centre of gravity (±1σ)")
+    fig.suptitle(f"trim history of {vehicle}: W − B and centre of gravity (±1σ)\n"
+                 "red dashed: watch alerts; grey dotted: ballast recorded", fontsize=10)
     fig.autofmt_xdate()
     fig.tight_layout()
     fig.savefig(path, dpi=90)
