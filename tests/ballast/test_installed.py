@@ -70,7 +70,7 @@ def test_ballast_no_longer_needed_is_removed(bluerov: Profile) -> None:
     assert p.changes == (Change("remove", LEAD, 2, "W-aft-ctr", None),)
     assert p.installed_after == () and p.added_mass_kg == pytest.approx(-0.4)
     check_final(bluerov, [], p)
-    assert p.pieces_handled == 2 < add_only.pieces_handled == 4
+    assert p.pieces_handled == 2 < add_only.pieces_handled
     assert "remove 2 × lead-200g from W-aft-ctr" in format_proposal(p)
 
 
@@ -87,7 +87,7 @@ def test_lead_is_moved_rather_than_added(bluerov: Profile) -> None:
     check_final(bluerov, payload, p)
     assert p.pieces_handled < add_only.pieces_handled
     text = format_proposal(p)
-    assert f"move 2 × {LEAD} from W-aft-ctr to {moves[0].to_slot}" in text
+    assert all(f"move {c.count} × {LEAD} from W-aft-ctr to {c.to_slot}" in text for c in moves)
     d = proposal_to_dict(p)
     assert d["changes"][0]["action"] == "move" and d["pieces_handled"] == p.pieces_handled
     assert d["installed_before"] == [{"slot": "W-aft-ctr", "piece": LEAD, "count": 2}]

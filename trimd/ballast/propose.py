@@ -8,10 +8,11 @@ the measurement determines, q = [W − B, W·r_g − B·r_b]:
 * ``general`` — ideal weights and floats, slot limits, buoyancy ≥ weight (eq. 3.6/3.7);
 * ``milp`` — the profile's real pieces, slot capacities, inventory counts, the
   net-buoyancy window; level within a tolerance with the fewest pieces, then the least
-  added mass (:mod:`trimd.ballast.lp`). It starts from the ballast installed (the
-  profile's ``ballast.installed``, or what ``trimd ballast apply`` recorded) and may
-  remove or move pieces: fewest pieces handled, a move counted once
-  (:mod:`trimd.ballast.changes` says what to do in words).
+  added mass (:mod:`trimd.ballast.lp`). The pieces aim inside the tolerance by the
+  estimate's 95 % interval of the trim, so that the TRUE vehicle ends within it. It
+  starts from the ballast installed (the profile's ``ballast.installed``, or what
+  ``trimd ballast apply`` recorded) and may remove or move pieces: fewest pieces
+  handled, a move counted once (:mod:`trimd.ballast.changes` says what to do in words).
 
 When the requirement cannot be met the proposal is the best achievable one (the window
 first, then the least residual moment) with ``feasible`` False and the limits that bind
@@ -63,6 +64,8 @@ FloatArray = NDArray[np.float64]
 METHODS = ("lp", "line", "general", "milp")
 #: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
 _EXACT_RAD = 1e-6
+#: Two-sided 95 % quantile of the normal distribution.
+_Z95 = 1.959964
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +137,20 @@ def _setup(method: str, profile: Profile, level_tol_deg: float,
     if method == "milp":
         return piece_items(profile, installed), level_tol_deg, profile.net_buoyancy_pct
     raise ValueError(f"unknown ballast method {method!r} (methods: {', '.join(METHODS)})")
+
+
+def _aim_deg(estimate: StaticEstimate, level_tol_deg: float) -> float:
+    """The passive roll and pitch [deg] the pieces should leave so that the true vehicle
+    is within ``level_tol_deg`` at 95 %: the tolerance less 1.96σ of the estimate's trim
+    (σ(W·y_g − B·y_b) and σ(W·x_g − B·x_b) over the stiffness W·z_g − B·z_b), at least 0
+    (then as level as the pieces allow). The estimate's error does not shrink with the
+    pieces, so a proposal that spends the whole tolerance on its discreteness leaves the
+    true vehicle beyond it about half the time the estimate is off by 1σ."""
+    k = float(estimate.q[3])
+    if level_tol_deg <= 0 or k <= 0:
+        return level_tol_deg
+    sigma = np.sqrt(np.clip(np.diag(estimate.q_cov)[1:3], 0.0, None)) / k
+    return max(0.0, level_tol_deg - _Z95 * math.degrees(float(sigma.max())))
 
 
 def _check_inputs(estimate: StaticEstimate, profile: Profile) -> None:
@@ -335,15 +352,25 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     note, amounts = "", None
     if method == "line":
         amounts, note = _line_amounts(estimate, profile, items)
-    if amounts is None:
-        prog = build_programme(estimate, profile, items, level_tol_deg=tol, window_pct=window)
+    if amounts is not None:
+        return _assess(method, estimate, profile, items, amounts, tol, window, mounted, note)
+    # aim inside the tolerance first; when the pieces cannot meet the tolerance that way
+    # (aiming at 0 leaves them only as level as the moment resolution), at the tolerance
+    best: Proposal | None = None
+    for target in dict.fromkeys((_aim_deg(estimate, tol), tol)):
+        prog = build_programme(estimate, profile, items, level_tol_deg=target,
+                               window_pct=window)
         sol = solve_programme(prog, node_limit=node_limit)
         if not sol.success:
-            return _assess(method, estimate, profile, items, sol.amounts, tol, window,
-                           mounted, f"{sol.message}; nothing proposed. ", success=False)
-        amounts = sol.amounts
-        note += f"{sol.note}. " if sol.note else ""
-    return _assess(method, estimate, profile, items, amounts, tol, window, mounted, note)
+            return best or _assess(method, estimate, profile, items, sol.amounts, tol, window,
+                                   mounted, f"{sol.message}; nothing proposed. ",
+                                   success=False)
+        best = _assess(method, estimate, profile, items, sol.amounts, tol, window, mounted,
+                       note + (f"{sol.note}. " if sol.note else ""))
+        if best.feasible:
+            break
+    assert best is not None
+    return best
 
 
 def _number(value: float) -> float | None:

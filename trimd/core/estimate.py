@@ -61,10 +61,11 @@ from numpy.typing import NDArray
 from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
-from trimd.core.model import restoring_matrix, thrust_configuration
+from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
 
-__all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs"]
+__all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs",
+           "thrust_curve_std"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -258,6 +259,16 @@ def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np
     return out
 
 
+def thrust_curve_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile
+                     ) -> FloatArray:
+    """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust curves' gain errors
+    alone (the profile's ``uncertainty_pct``): the part of its ± that no length of
+    collecting reduces. Zero for a hold without per-thruster thrust."""
+    forward, reverse = _thrust_gain_factors([hold], [rows], profile)[0]
+    std: FloatArray = np.sqrt((forward**2).sum(axis=1) + (reverse**2).sum(axis=1))
+    return std
+
+
 def _drift_moments(attitude: Sequence[tuple[float, float]],
                    used: Sequence[NDArray[np.bool_]], profile: Profile,
                    net_weight_N: float) -> list[FloatArray]:
@@ -327,8 +338,10 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
     # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift
     use_force = [lv or profile.holds_station or not any(level) for lv in level]
-    used = [rows & (_MOMENT_ROWS | f) for f in use_force]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
+    # rows that carry no information at a hold's attitude (X, Y, N at level) are left out
+    used = [rows & (_MOMENT_ROWS | f) & informative_rows(*a)
+            for a, f in zip(attitude, use_force, strict=True)]
     G = [restoring_matrix(*a) for a in attitude]
     _check_identifiable(holds, G, used)
     A = [Gk[r] for Gk, r in zip(G, used, strict=True)]
