@@ -220,3 +220,24 @@ def test_the_plot_draws_trims_watch_segments_and_alerts(tmp_path: Path) -> None:
         png = tmp_path / "h.png"
         assert write_history_plot(h, "rov", png) == 3
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
+
+
+def test_opening_waits_for_another_process_creating_the_file(tmp_path: Path) -> None:
+    """A new file still in rollback-journal mode, held exclusively by another connection
+    for a moment: opening it waits and switches it to WAL rather than failing."""
+    import threading
+
+    path = tmp_path / "h.db"
+    other = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+    other.execute("BEGIN EXCLUSIVE")
+    other.execute("CREATE TABLE scratch (x)")
+    releaser = threading.Timer(0.5, lambda: other.execute("COMMIT"))
+    releaser.start()
+    try:
+        with History(path) as h:
+            h.record_alert("rov", 1.0, {"text": "ok"})
+            assert len(h.alerts("rov")) == 1
+    finally:
+        releaser.join()
+        other.close()
+    assert sqlite3.connect(path).execute("PRAGMA journal_mode").fetchone()[0] == "wal"

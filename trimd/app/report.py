@@ -9,14 +9,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
+from trimd.ballast.verify import VERIFIED, Verification
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
 __all__ = ["NewWarnings", "describe_command", "format_estimate", "format_proposal",
-           "format_result"]
+           "format_result", "format_verification"]
 
 
 def format_estimate(est: StaticEstimate) -> str:
@@ -79,8 +82,25 @@ def _pieces_text(pieces: Sequence[InstalledPiece]) -> str:
     return "; ".join(f"{x.count} × {x.piece} in {x.slot}" for x in pieces) or "none"
 
 
+def format_verification(v: Verification) -> str:
+    """A readable table of a verify hold: measured, predicted and their difference."""
+    predicted = np.r_[-v.predicted.net_buoyancy_N, v.predicted.net_moment_Nm[:2]]
+    measured_std = np.sqrt(np.diag(v.measured.q_cov))[:3]
+    lines = [f"verify hold ({v.measured.samples} samples, {v.measured.t_start_s:.1f} – "
+             f"{v.measured.t_end_s:.1f} s)",
+             f"{'':<32}{'measured':>18}{'predicted':>12}{'difference':>20}"]
+    for name, m, m_std, p, d, d_std in zip(VERIFIED, v.measured.q[:3], measured_std, predicted,
+                                            v.difference, v.difference_std, strict=True):
+        lines.append(f"{name:<32}{m:+10.3f} ± {m_std:5.3f}{p:+12.3f}{d:+12.3f} ± {d_std:5.3f}")
+    lines.append(v.message)
+    return "\n".join(lines)
+
+
 def format_result(result: SessionResult) -> str | None:
-    """The estimate and proposal as the headless daemon prints them (None: no estimate)."""
+    """The estimate and proposal, or a verify hold's verification, as the headless daemon
+    prints them (None: neither)."""
+    if isinstance(result.verification, Verification):
+        return format_verification(result.verification)
     if result.estimate is None:
         return None
     text = format_estimate(result.estimate)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.connect import open_link
-from trimd.app.files import default_record_path
+from trimd.app.files import default_record_path, read_estimate, read_installed
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.installed import current_installed
@@ -24,12 +24,14 @@ from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.ballast.verify import verify_hold
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
+from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -49,6 +51,10 @@ def register(sub: Any) -> None:
     p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
                    "serial:<dev>[,baud] | replay:<path>")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--verify", metavar="TRIM.json",
+                   help="after installing the ballast of that trim (its trimd run --json "
+                   "output or report): one level hold that measures what the ballast left "
+                   "and compares it with the proposal's prediction")
     p.add_argument("--sysid", type=integer(1, 255), metavar="N",
                    help="mavlink: the vehicle's system id (the URL's ?sysid=N); default: "
                    "the first autopilot that is not a ground station")
@@ -93,8 +99,13 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=args.ballast)
 
+    procedure = None
+    if getattr(args, "verify", None):
+        trim, installed = read_estimate(args.verify), read_installed(args.verify, profile)
+        procedure = Procedure(profile, confirmed=args.yes,
+                              verify=lambda hold: verify_hold(hold, profile, trim, installed))
     return Session(link, profile, recorder=recorder, presenters=presenters,
-                   confirmed=args.yes, propose=propose)
+                   confirmed=args.yes, propose=propose, procedure=procedure)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:

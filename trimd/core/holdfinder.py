@@ -27,7 +27,7 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Attitude
 from trimd.core.settling import UNSTEADY_GRACE_S, HoldSettling
 
-__all__ = ["find_holds"]
+__all__ = ["find_holds", "find_segments"]
 
 FloatArray = NDArray[np.float64]
 
@@ -88,6 +88,43 @@ def _trend_rad(got: list[tuple[Attitude, int]], min_s: float) -> float:
     return float(np.max(np.abs(slope)) * max(t[-1] - t[0], min_s))
 
 
+def _plateau_samples(attitude: Sequence[Attitude], t_effort: FloatArray,
+                     tau_effort: FloatArray, profile: Profile
+                     ) -> list[tuple[float, float, list[tuple[Attitude, int]], bool]]:
+    """Per attitude plateau that passes the live test: its mean (φ, θ) [rad], the
+    collected samples with their effort index, and whether it ended before the samples
+    did (False: it may go on)."""
+    proc = profile.procedure
+    tol = math.radians(proc.attitude_tol_deg)
+    rule = StopRule.for_profile(profile)
+    out = []
+    for i, j, phi, theta in _plateaus(attitude, tol, proc.min_steady_s):
+        got = _collect(attitude[i:j], t_effort, tau_effort, phi, theta, profile, rule)
+        if len(got) < 2 or _trend_rad(got, proc.min_steady_s) > tol / 2:
+            continue
+        out.append((phi, theta, got, j < len(attitude)))
+    return out
+
+
+def _hold(got: list[tuple[Attitude, int]], tau_effort: FloatArray,
+          thrust: FloatArray | None, label: str) -> HoldSamples:
+    idx = np.array([i for _, i in got])
+    return HoldSamples(np.array([a.t_s for a, _ in got]), np.array([a.phi for a, _ in got]),
+                       np.array([a.theta for a, _ in got]), tau_effort[idx], label,
+                       thrust=None if thrust is None else thrust[idx])
+
+
+def find_segments(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
+                  profile: Profile, thrust: FloatArray | None = None
+                  ) -> list[tuple[HoldSamples, bool]]:
+    """Each steady plateau on its own (as :func:`find_holds` finds them, not merged by
+    attitude), in time order, with whether it ended before the samples did (a plateau
+    still going on at the last sample is not finished)."""
+    return [(_hold(got, tau_effort, thrust, f"segment {k + 1}"), ended)
+            for k, (_, _, got, ended) in enumerate(
+                _plateau_samples(attitude, t_effort, tau_effort, profile))]
+
+
 def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
                profile: Profile, thrust: FloatArray | None = None) -> list[HoldSamples]:
     """The steady holds in time-ordered ``attitude`` samples and thruster effort
@@ -96,26 +133,14 @@ def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: F
     attitude (within ``attitude_tol_deg``) are one hold. ``thrust`` (n, n_thrusters) [N],
     each thruster's thrust behind each effort sample, rides along into
     :attr:`HoldSamples.thrust` (the thrust curves' share of the ±)."""
-    proc = profile.procedure
-    tol = math.radians(proc.attitude_tol_deg)
-    rule = StopRule.for_profile(profile)
+    tol = math.radians(profile.procedure.attitude_tol_deg)
     groups: list[tuple[float, float, list[tuple[Attitude, int]]]] = []
-    for i, j, phi, theta in _plateaus(attitude, tol, proc.min_steady_s):
-        got = _collect(attitude[i:j], t_effort, tau_effort, phi, theta, profile, rule)
-        if len(got) < 2 or _trend_rad(got, proc.min_steady_s) > tol / 2:
-            continue
+    for phi, theta, got, _ in _plateau_samples(attitude, t_effort, tau_effort, profile):
         for g in groups:
             if abs(g[0] - phi) <= tol and abs(g[1] - theta) <= tol:
                 g[2].extend(got)
                 break
         else:
             groups.append((phi, theta, got))
-    holds = []
-    for k, (_, _, got) in enumerate(groups):
-        idx = np.array([i for _, i in got])
-        holds.append(HoldSamples(np.array([a.t_s for a, _ in got]),
-                                 np.array([a.phi for a, _ in got]),
-                                 np.array([a.theta for a, _ in got]), tau_effort[idx],
-                                 f"hold {k + 1}",
-                                 thrust=None if thrust is None else thrust[idx]))
-    return holds
+    return [_hold(got, tau_effort, thrust, f"hold {k + 1}")
+            for k, (_, _, got) in enumerate(groups)]

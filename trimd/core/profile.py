@@ -146,7 +146,10 @@ class Profile:
     ``holds_station``: the vehicle holds horizontal position during a hold (a position
     fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`).
     ``inventory`` counts the spare pieces on hand; ``installed`` is the ballast the
-    profile declares already mounted (``ballast.installed``)."""
+    profile declares already mounted (``ballast.installed``).
+    ``attitude_error_deg``: 1σ of the attitude reference's slow error in roll and pitch
+    [deg] (an AHRS at rest wanders by ≈ 0.1° over tens of seconds): constant over one hold,
+    so collecting does not average it out."""
 
     name: str
     source: str
@@ -169,6 +172,7 @@ class Profile:
     procedure: ProcedureLimits
     frame_config: int | None = None
     holds_station: bool = False
+    attitude_error_deg: float = 0.1
     installed: tuple[InstalledPiece, ...] = ()
 
     @property

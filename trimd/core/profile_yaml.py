@@ -119,7 +119,8 @@ _KNOWN_KEYS = {
     "name", "description", "mass_kg", "gravity_m_s2", "water_density_kg_m3", "buoyancy",
     "force_N", "volume_m3", "centre_m", "inertia_kg_m2", "added_mass", "damping", "linear",
     "quadratic", "nominal_voltage_V", "thrust_curves", "thrusters", "ballast", "slots",
-    "inventory", "holds", "procedure", "frame_config", "holds_station", "channel", "position_m",
+    "inventory", "holds", "procedure", "frame_config", "holds_station", "attitude_error_deg",
+    "channel", "position_m",
     "direction",
     "curve", "reversed", "tables", "voltage_V", "deadband_us", "pwm_us", "thrust_N",
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
@@ -341,6 +342,7 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
         net_buoyancy_pct=(window[0], window[1]), level_tol_deg=level_tol_deg,
         holds=tuple(holds), procedure=procedure,
         frame_config=frame, holds_station=holds_station,
+        attitude_error_deg=top.number("attitude_error_deg", 0.1, minimum=0.0),
     )
     top.done()
     return dataclasses.replace(profile, installed=profile.resolve_installed(

@@ -90,10 +90,13 @@ def connect(path: str | Path, *, upto: int = SCHEMA_VERSION) -> sqlite3.Connecti
     except (OSError, sqlite3.Error) as exc:
         raise DataError(f"{p}: cannot open the trim history ({exc})") from None
     try:
-        conn.execute("PRAGMA journal_mode = WAL")
+        conn.execute("PRAGMA journal_mode = WAL")  # waits for a lock as any statement
         conn.execute("PRAGMA foreign_keys = ON")
         conn.execute("PRAGMA synchronous = FULL")
         migrate(conn, upto)
+    except sqlite3.OperationalError as exc:
+        conn.close()
+        raise DataError(f"{p}: cannot open the trim history ({exc})") from None
     except sqlite3.DatabaseError as exc:
         conn.close()
         raise DataError(f"{p}: not a trim history ({exc})") from None

@@ -11,6 +11,8 @@ position contains commas (``payload=3.5@0.2,-0.1,0.05``): a comma-separated piec
     sim:payload=3.5@0.2,-0.1,0.05,noise=0,dvl=1
     sim:payload=0.4@W-aft-ctr,disturb=real,truth=perturbed,seed=7
     sim:disturb=real,ahrs_wander_deg=0.2
+    sim:pilot=dive,leak_N_min=0.5,leak_start_s=300
+    sim:pilot=dive,drop=lead-200g@W-aft-ctr@600
 
 Two preset keys set several fields at once, before the other keys whatever their order (so
 a key can change one field of a preset): ``disturb=real`` (:data:`DISTURB_REAL`, the slow
@@ -96,6 +98,15 @@ class SimConfig:
         direction [mm].
     thrust_err : each thruster's true thrust = (1 ± thrust_err)·profile curve, the sign
         drawn separately per thruster and per direction (forward, reverse) [fraction].
+
+    What happens during the dive (:mod:`trimd.drivers.sim.scenario`):
+
+    leak_N_min, leak_start_s, leak_at : water comes in at ``leak_N_min`` [N of weight per
+        minute] from ``leak_start_s`` [s] on, at ``leak_at`` (a slot or ``x,y,z`` [m];
+        "" the origin CG0).
+    drop : ballast pieces lost, ``PIECE@SLOT@T_S`` joined by ``+`` (PIECE an inventory
+        name or a mass in kg).
+    pilot : a scripted pilot on the sticks (``dive``; "" none).
     """
 
     payload: str = ""
@@ -143,6 +154,11 @@ class SimConfig:
     buoyancy_err: float = 0.0
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0
+    leak_N_min: float = 0.0
+    leak_start_s: float = 300.0
+    leak_at: str = ""
+    drop: str = ""
+    pilot: str = ""
 
 
 #: ``disturb=real``: what a real vehicle at rest in a pool or calm sea shows (ArduSub's AHRS

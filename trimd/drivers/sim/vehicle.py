@@ -31,6 +31,7 @@ from trimd.drivers.sim.controller import MODES, Controller
 from trimd.drivers.sim.disturbance import Disturbances
 from trimd.drivers.sim.dynamics import RigidBody, euler_from_quaternion, initial_state
 from trimd.drivers.sim.payload import MassProperties, PayloadItem, mass_properties, parse_payload
+from trimd.drivers.sim.scenario import Scenario
 from trimd.drivers.sim.sensors import Reading, Sensors
 from trimd.drivers.sim.thrusters import Mixer, ThrusterBank
 from trimd.drivers.sim.truth import implied_mass, passive_trim_deg, perturb_profile
@@ -97,7 +98,10 @@ class SimVehicle:
         self.profile = profile
         self.config = c
         self.true_profile, self.offset = perturb_profile(profile, c)
-        self.payload = parse_payload(c.payload, profile)
+        self.payload = self._own_payload = parse_payload(c.payload, profile)
+        self.scenario = Scenario(profile, c.leak_N_min, c.leak_start_s, c.leak_at, c.drop,
+                                 c.pilot)
+        self._steps_per_s = max(1, round(1.0 / c.dt_s))
         self.mass = mass_properties(self.true_profile, self.payload)
         self.body = RigidBody(self.true_profile, self.mass, damping=c.damping)
         self.voltage_V = c.voltage_V or profile.nominal_voltage_V
@@ -131,6 +135,12 @@ class SimVehicle:
         if d.active:
             d.step()
             self.controller.setpoint_offset = d.setpoint_rad
+        scenario = self.scenario
+        if scenario.changes_mass and self.steps % self._steps_per_s == 0:
+            self._change_payload(self._own_payload + scenario.payload(t))
+        sticks = scenario.sticks(t)
+        if sticks is not None:
+            self.controller.pilot = sticks
         self.reading = reading = sensors.read(t, x)
         if self.armed:
             mixer = self.mixer
@@ -139,6 +149,13 @@ class SimVehicle:
         self.tau = tau = self.thrusters.step(self.pwm_us, dt)
         self.x = self.body.rk4(x, tau, sensors.current(t), dt)
         self.steps += 1
+
+    def _change_payload(self, payload: tuple[PayloadItem, ...]) -> None:
+        """Fly with ``payload`` from now on (the state is kept)."""
+        if payload != self.payload:
+            self.payload = payload
+            self.mass = mass_properties(self.true_profile, payload)
+            self.body = RigidBody(self.true_profile, self.mass, damping=self.config.damping)
 
     def run_for(self, duration_s: float) -> None:
         """Advance by ``duration_s`` [s] of simulated time (whole steps)."""

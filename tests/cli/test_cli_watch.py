@@ -1,0 +1,62 @@
+"""``trimd watch``: the real ArduSub logs end with a verdict, a live simulated dive gives
+JSON lines, the plot is written, and usage mistakes are clear."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.helpers import ARDUSUB_LOGS
+from trimd.cli.main import main
+
+LOGS = ("mcqueen-small.tlog", "mcqueen-bad-crc.tlog", "mcqueen-small.BIN",
+        "gat-00000029_filtered.BIN")
+#: why each real log has no steady segment
+WHY = {"mcqueen-small.tlog": "modes seen: MANUAL", "mcqueen-bad-crc.tlog": "modes seen: MANUAL",
+       "mcqueen-small.BIN": "no thruster outputs",
+       "gat-00000029_filtered.BIN": "no stretch had attitude and thruster effort steady"}
+
+
+@pytest.mark.parametrize("name", LOGS)
+def test_real_logs_end_with_a_verdict(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["watch", str(ARDUSUB_LOGS / name), "--profile", "bluerov2-heavy"]) == 1
+    out = capsys.readouterr()
+    assert "Traceback" not in out.out + out.err
+    assert f"{name}: no steady segment: " in out.out and WHY[name] in out.out
+
+
+def test_json_verdict_and_plot_of_a_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                        ) -> None:
+    png = tmp_path / "watch.png"
+    log = ARDUSUB_LOGS / "gat-00000029_filtered.BIN"
+    assert main(["watch", str(log), "--profile", "bluerov2-heavy", "--json",
+                 "--plot", str(png)]) == 1
+    last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last["type"] == "verdict" and last["segments"] == 0 and last["alerts"] == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_live_simulated_dive_gives_json_segments(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["watch", "--link", "sim:pilot=dive,seed=5", "--profile", "bluerov2-heavy",
+                 "--json", "--duration", "300"]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    segments = [x for x in lines if x["type"] == "segment"]
+    assert len(segments) >= 2 and lines[-1]["type"] == "verdict"
+    s = segments[0]
+    assert s["net_moment_Nm"][2] is None and "not observable" in s["not_observable"]
+    assert s["net_force_std_N"] > 0 and s["baseline"]
+
+
+@pytest.mark.parametrize(("argv", "code", "words"), [
+    (["watch", "--profile", "bluerov2-heavy"], 2, "either --link"),
+    (["watch", "x.tlog", "--link", "sim", "--profile", "bluerov2-heavy"], 2, "either --link"),
+    (["watch", "--link", "mavlink:udpin:127.0.0.1:14999?pilot=always", "--profile",
+      "bluerov2-heavy"], 3, "sends no MANUAL_CONTROL"),
+    (["watch", "no-such.tlog", "--profile", "bluerov2-heavy"], 2, "no such file"),
+])
+def test_usage_mistakes(argv: list[str], code: int, words: str,
+                        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == code
+    assert words in capsys.readouterr().err

@@ -1,0 +1,166 @@
+"""``trimd watch``: the passive trim watch, live over a link or post-dive over logs.
+
+* ``trimd watch --link URL --profile P [--headless] [--json]`` reads the vehicle and
+  sends it nothing (no set-point, no mode change, no MANUAL_CONTROL; no confirmation is
+  needed). It runs until stopped (SIGINT, SIGTERM, SIGHUP) or ``--duration`` seconds of
+  sample time.
+* ``trimd watch LOG… --profile P [--plot FILE] [--json]`` reads each log (any log
+  ``trimd replay`` reads) on its own.
+
+Output: a line per steady segment and per alert, then the verdict; ``--json``: one JSON
+object per line (``type`` segment, alert or verdict). Exit codes: 0 a verdict with
+segments, 1 no steady segment, 2 usage or profile error, 3 link error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trimd.app.connect import open_link, parse_link_url
+from trimd.app.headless import stop_on_signals
+from trimd.app.watch import (
+    Record,
+    format_record,
+    verdict,
+    watch_link,
+    watch_log,
+    write_watch_plot,
+)
+from trimd.cli.argtypes import bounded
+from trimd.core.change import Baseline
+from trimd.core.errors import DataError, LinkError
+from trimd.core.estimate_json import estimate_from_dict
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.core.watch import FALSE_ALARMS_PER_H, MAX_SEGMENT_S, TrimWatch
+
+__all__ = ["register", "run"]
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "watch", help="watch the trim passively during ordinary operation",
+        description="Find the steady segments of ordinary operation (depth held, attitude "
+        "and thruster effort steady, not turning or translating), estimate W − B and the "
+        "net moments of each, and alert when they change. Never commands the vehicle.")
+    p.add_argument("logs", nargs="*", metavar="LOG", help="post-dive: .tlog or DataFlash "
+                   ".bin logs, each watched on its own")
+    p.add_argument("--link", help="live: sim[:opts] | mavlink:<conn> | serial:<dev>[,baud]")
+    p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--headless", action="store_true", help="no terminal UI (the live watch "
+                   "is headless for now)")
+    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    p.add_argument("--plot", metavar="FILE", help="PNG of W − B and the moments over time "
+                   "(with several logs: FILE-1.png, FILE-2.png, …)")
+    p.add_argument("--duration", type=bounded(0.0), metavar="S",
+                   help="live: stop after S seconds of sample time")
+    p.add_argument("--baseline", metavar="EST.json", help="compare with this estimate "
+                   "(trimd solve --json) instead of the first segments")
+    p.add_argument("--baseline-segments", type=int, default=3, metavar="N",
+                   help="level segments that form the baseline (default 3)")
+    p.add_argument("--max-segment", type=bounded(10.0), default=MAX_SEGMENT_S, metavar="S",
+                   help=f"longest segment [s] (default {MAX_SEGMENT_S:g})")
+    p.add_argument("--false-alarms-per-h", type=bounded(0.0), default=FALSE_ALARMS_PER_H,
+                   metavar="R", help="target false-alarm rate of the change test "
+                   f"(default {FALSE_ALARMS_PER_H:g} per hour)")
+    p.set_defaults(func=run)
+
+
+def _baseline(path: str | None) -> Baseline | None:
+    if path is None:
+        return None
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise DataError(f"--baseline {path}: {exc}") from None
+    est = estimate_from_dict(data, path)
+    return Baseline(est.q.copy(), np.diag(est.q_cov).copy(), None, f"the estimate in {path}")
+
+
+def _new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
+    kwargs = {"clock": clock} if clock is not None else {}
+    return TrimWatch(profile, baseline=_baseline(args.baseline),
+                     baseline_segments=args.baseline_segments, max_segment_s=args.max_segment,
+                     false_alarms_per_h=args.false_alarms_per_h, **kwargs)
+
+
+def _emitter(as_json: bool) -> Any:
+    def emit(r: Record) -> None:
+        print(json.dumps(r.to_dict()) if as_json else format_record(r), flush=True)
+    return emit
+
+
+def _finish(watch: TrimWatch, args: argparse.Namespace, source: str,
+            plot: str | None) -> int:
+    text = verdict(watch)
+    if args.json:
+        print(json.dumps({"type": "verdict", "source": source, "vehicle": watch.vehicle,
+                          "segments": len(watch.segments), "alerts": len(watch.alerts),
+                          "rejected": watch.rejected, "h_sigma": watch.h, "text": text}))
+    else:
+        print(f"{source}: {text}")
+    if plot:
+        print(f"plot: {write_watch_plot(watch, plot)}", file=sys.stderr)
+    return 0 if watch.segments else 1
+
+
+def _wall_clock() -> Any:
+    """Times of a MAVLink link (``time.monotonic()``) as UTC wall-clock time."""
+    offset = time.time() - time.monotonic()
+    return lambda t_s: datetime.fromtimestamp(offset + t_s, UTC).strftime("%H:%M:%S UTC")
+
+
+async def _live(args: argparse.Namespace, profile: Profile) -> int:
+    scheme, rest = parse_link_url(args.link)
+    if scheme == "replay":
+        raise LinkError("trimd watch reads logs directly: trimd watch LOG --profile P")
+    if scheme == "mavlink" and "pilot=always" in rest:
+        raise LinkError("trimd watch sends no MANUAL_CONTROL: drop pilot=always from the URL")
+    link = await open_link(args.link, profile)
+    watch = _new_watch(args, profile, _wall_clock() if scheme == "mavlink" else None)
+    stop = asyncio.Event()
+    stop_on_signals(lambda why: stop.set())
+    print(f"watching {link.description} (passive: trimd sends no command)", file=sys.stderr)
+    try:
+        await watch_link(link, watch, _emitter(args.json), until_s=args.duration, stop=stop)
+    finally:
+        await link.close()
+    return _finish(watch, args, link.description, args.plot)
+
+
+def _plot_path(plot: str | None, k: int, n: int) -> str | None:
+    if plot is None or n == 1:
+        return plot
+    p = Path(plot)
+    return str(p.with_name(f"{p.stem}-{k + 1}{p.suffix or '.png'}"))
+
+
+def run(args: argparse.Namespace) -> int:
+    if bool(args.logs) == bool(args.link):
+        print("trimd watch: give either --link URL (live) or LOG files (post-dive)",
+              file=sys.stderr)
+        return 2
+    profile = load_profile(args.profile)
+    if args.link:
+        if not args.headless and not args.json and sys.stdout.isatty():
+            print("trimd watch: the live watch has no terminal UI yet; running headless",
+                  file=sys.stderr)
+        return asyncio.run(_live(args, profile))
+    code = 0
+    for k, path in enumerate(args.logs):
+        if not Path(path).is_file():
+            raise DataError(f"{path}: no such file")
+        watch = _new_watch(args, profile)
+        for warning in watch_log(path, profile, watch, _emitter(args.json)):
+            print(f"trimd: warning: {warning}", file=sys.stderr)
+        code = max(code, _finish(watch, args, path, _plot_path(args.plot, k, len(args.logs))))
+    return code

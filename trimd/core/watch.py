@@ -1,0 +1,436 @@
+"""The passive trim watch: steady segments of ordinary operation, their estimates, alerts.
+
+:class:`TrimWatch` takes the samples of a link or a log in time order and never commands
+anything. Every :data:`TICK_S` of sample time it runs the trim procedure's own detector
+(:func:`trimd.core.holdfinder.find_segments`: attitude plateaus plus the live settling
+test) over the samples since its last cut, and turns each steady stretch into segments of
+at most ``max_segment_s``. A segment counts when, in addition,
+
+* the vehicle was armed in a depth-holding mode (:data:`DEPTH_HOLD_MODES`; all samples
+  count when the source reports no mode), the depth was held (its rate within
+  :data:`MAX_DEPTH_RATE_M_S`), and no pilot stick input (a
+  :class:`~trimd.core.samples.PilotInput`) came: for :data:`PILOT_QUIET_S` after the
+  depth moved or the sticks did, nothing counts, and the detector's stretch breaks there;
+* it was not turning: mean yaw rate within the procedure's ``rate_tol_deg_s``;
+* it was not translating: where a DVL reports, the mean horizontal speed is at most
+  :data:`MAX_SPEED_M_S`; always, the mean surge and sway force and yaw moment are within
+  the effort floor of the stop rule (half the net-buoyancy window; the stiffness times
+  the attitude tolerance) of what the restoring forces alone would need there — a
+  transit's drag or a turn shows as effort the restoring forces do not explain.
+
+Each segment is fitted on its own (:func:`trimd.core.segment.estimate_segment`). The
+first ``baseline_segments`` level segments (or a baseline passed in, e.g. the vehicle's
+last trim) form the baseline, and every later one goes through the change test
+(:class:`trimd.core.change.ChangeDetector`). Post-dive and live runs feed the same class,
+so they find the same segments.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from trimd.core.change import (
+    Baseline,
+    ChangeAlert,
+    ChangeDetector,
+    baseline_from_segments,
+    threshold_for,
+)
+from trimd.core.decision import StopRule
+from trimd.core.effort import thrust_at
+from trimd.core.errors import DataError, EstimationError
+from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.holdfinder import find_segments
+from trimd.core.model import restoring_matrix, thrust_configuration
+from trimd.core.profile import Profile
+from trimd.core.samples import (
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    PilotInput,
+    Sample,
+    Thrusters,
+    Velocity,
+)
+from trimd.core.segment import SegmentEstimate, estimate_segment, nominal_q
+from trimd.core.settling import WINDOW_S
+
+__all__ = ["DEPTH_HOLD_MODES", "TICK_S", "TrimWatch", "WatchAlert", "WatchSegment",
+           "alert_text"]
+
+#: ArduSub modes that hold depth (in STABILIZE the pilot's throttle, not the autopilot,
+#: sets the vertical thrust).
+DEPTH_HOLD_MODES = frozenset({"ALT_HOLD", "POSHOLD", "SURFTRAK", "GUIDED", "AUTO", "CIRCLE"})
+#: Health.detail of a log that does not record arming (then the mode alone decides).
+ARMED_NOT_LOGGED = "armed state not logged"
+#: Sample time between two runs of the detector [s].
+TICK_S = 10.0
+#: Attitude samples this long after pilot stick input do not count [s].
+PILOT_QUIET_S = 5.0
+#: Depth rate [m/s] over :data:`DEPTH_WINDOW_S` [s] beyond which the depth is not held
+#: (the pilot moves the depth target): nothing counts until :data:`PILOT_QUIET_S` after.
+MAX_DEPTH_RATE_M_S = 0.05
+DEPTH_WINDOW_S = 2.0
+#: Largest mean horizontal speed over ground of a steady segment, where a DVL tells [m/s].
+MAX_SPEED_M_S = 0.1
+#: Default longest segment [s]: a long hover is cut so that a change shows within it.
+MAX_SEGMENT_S = 60.0
+#: Left out of the end of a plateau the pilot ended [s]: the settling test notices a
+#: departure only after its grace time, and a pilot's throttle or stick starts gently.
+END_MARGIN_S = WINDOW_S
+#: Shortest segment [s] (a plateau's tail after its full pieces may be shorter).
+MIN_SEGMENT_S = 10.0
+#: Default target false-alarm rate [1/h] and the segment rate it is computed for [1/h].
+FALSE_ALARMS_PER_H = 0.01
+SEGMENTS_PER_H = 60.0
+
+
+@dataclass(frozen=True)
+class WatchSegment:
+    """A steady segment the watch found and its estimate (``index`` counts from 1);
+    ``baseline`` is True while it is one of the segments forming the baseline; ``full``,
+    at a tilted segment, the estimate of all four net quantities (weight and centre of
+    gravity) from it and the last level segment (:func:`trimd.core.estimate.
+    estimate_static`; it assumes the trim did not change between the two)."""
+
+    index: int
+    estimate: SegmentEstimate
+    baseline: bool
+    full: StaticEstimate | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: times [s], attitude [deg], q and its 1σ [N, N·m] (null where not
+        observable), covariances, which components the segment observed."""
+        e = self.estimate
+        std = e.q_std
+        return {"type": "segment", "index": self.index, "t_start_s": e.t_start_s,
+                "t_end_s": e.t_end_s, "roll_deg": e.roll_deg, "pitch_deg": e.pitch_deg,
+                "samples": e.samples, "baseline": self.baseline,
+                "net_force_N": _opt(e.q[0], e.observable[0]),
+                "net_force_std_N": _opt(std[0], e.observable[0]),
+                "net_moment_Nm": [_opt(e.q[i], e.observable[i]) for i in (1, 2, 3)],
+                "net_moment_std_Nm": [_opt(std[i], e.observable[i]) for i in (1, 2, 3)],
+                "observable": list(e.observable), "resolved": e.resolved,
+                "cov_net": e.q_cov.tolist(), "cov_net_noise": e.q_cov_noise.tolist(),
+                "not_observable": _unobservable(e),
+                "full": None if self.full is None else estimate_to_dict(self.full)}
+
+
+@dataclass(frozen=True)
+class WatchAlert:
+    """A change alert: the test's result and its text for people."""
+
+    alert: ChangeAlert
+    text: str
+
+    def to_dict(self) -> dict[str, Any]:
+        a = self.alert
+        return {"type": "alert", "quantity": _QUANTITY[a.component], "component": a.component,
+                "total": a.total, "total_std": a.total_std, "change": a.change,
+                "change_std": a.change_std,
+                "after_s": None if math.isnan(a.after_s) else a.after_s,
+                "since_s": a.since_s, "t_s": a.at_s, "segments": a.segments,
+                "statistic": a.statistic, "first": a.first, "text": self.text}
+
+
+_QUANTITY = ("net_force_N", "net_moment_x_Nm", "net_moment_y_Nm")
+#: per component: (increase, decrease, what may cause an increase, a decrease)
+_WORDS = (("heavier", "lighter", "water ingress? lost float?", "lost weight? trapped air?"),
+          ("nose-heavy", "tail-heavy", "weight forward, or a float lost forward?",
+           "weight aft, or a float lost aft?"),
+          ("starboard-heavy", "port-heavy", "weight to starboard, or a float lost there?",
+           "weight to port, or a float lost there?"))
+
+
+def _opt(v: float, ok: bool) -> float | None:
+    return float(v) if ok else None
+
+
+def _unobservable(e: SegmentEstimate) -> str:
+    if e.observable == (True, True, True, False):
+        return ("level: the moment about the vertical, W·z_g − B·z_b (the height of the "
+                "centre of gravity), is not observable")
+    names = ("W − B", "W·x_g − B·x_b", "W·y_g − B·y_b", "W·z_g − B·z_b")
+    missing = [n for n, ok in zip(names, e.observable, strict=True) if not ok]
+    return (f"at roll {e.roll_deg:.1f}°, pitch {e.pitch_deg:.1f}° one attitude cannot "
+            f"separate {', '.join(missing)}" if missing else "")
+
+
+def alert_text(a: ChangeAlert, clock: Callable[[float], str]) -> str:
+    """E.g. "heavier by 2.1 ± 0.3 N since t = 311–345 s (water ingress? lost float?)";
+    a later alert of the same quantity adds how much more since when."""
+    up, down, why_up, why_down = _WORDS[a.component]
+    unit = "N" if a.component == 0 else "N·m"
+    word, why = (up, why_up) if a.total > 0 else (down, why_down)
+    when = (f"since {clock(a.since_s)}" if math.isnan(a.after_s) or a.since_s - a.after_s < 1
+            else f"since between {clock(a.after_s)} and {clock(a.since_s)}")
+    text = f"{word} by {abs(a.total):.2f} ± {a.total_std:.2f} {unit}"
+    if a.first:
+        return f"{text} {when} ({why})"
+    return f"{text} ({a.change:+.2f} ± {a.change_std:.2f} {unit} {when}) ({why})"
+
+
+def _before(hold: HoldSamples, t_s: float) -> HoldSamples:
+    """The samples of ``hold`` up to ``t_s`` [s]."""
+    k = hold.t_s <= t_s
+    return HoldSamples(hold.t_s[k], hold.phi[k], hold.theta[k], hold.tau[k], hold.label,
+                       None if hold.thrust is None else hold.thrust[k])
+
+
+def _t_clock(t_s: float) -> str:
+    return f"t = {t_s:.0f} s"
+
+
+class TrimWatch:
+    """Feed samples in time order (:meth:`feed`), then :meth:`finish`; each returns the
+    new records (:class:`WatchSegment`, :class:`WatchAlert`). ``rejected`` counts the
+    steady stretches that did not count, by reason."""
+
+    def __init__(self, profile: Profile, *, baseline: Baseline | None = None,
+                 baseline_segments: int = 3, max_segment_s: float = MAX_SEGMENT_S,
+                 false_alarms_per_h: float = FALSE_ALARMS_PER_H,
+                 clock: Callable[[float], str] = _t_clock) -> None:
+        self.profile = profile
+        self.max_segment_s = max_segment_s
+        self.h = threshold_for(false_alarms_per_h, max(SEGMENTS_PER_H, 3600 / max_segment_s))
+        self.clock = clock
+        self.baseline_segments = baseline_segments
+        self.detector = ChangeDetector(baseline, self.h) if baseline is not None else None
+        self.segments: list[WatchSegment] = []
+        self.alerts: list[WatchAlert] = []
+        self.rejected: dict[str, int] = {}
+        #: what the source said about itself, for people: the vehicle (as the link names
+        #: it) and notes (a link that ended)
+        self.vehicle = ""
+        self.notes: list[str] = []
+        #: what was seen: modes (by name), attitude samples and how many counted,
+        #: thruster samples
+        self.modes_seen: set[str] = set()
+        self.attitude_samples = self.counted_samples = self.thruster_samples = 0
+        self._q_prior = baseline.q.copy() if baseline is not None else nominal_q(profile)
+        if not np.all(np.isfinite(self._q_prior)):
+            self._q_prior = np.where(np.isfinite(self._q_prior), self._q_prior,
+                                     nominal_q(profile))
+        self._T = thrust_configuration(profile.thrusters)
+        self._rule = StopRule.for_profile(profile)
+        #: runs of attitude samples that count, split where one did not (a break)
+        self._runs: list[list[Attitude]] = [[]]
+        self._depth: list[Depth] = []
+        self._yaw_rate: list[tuple[float, float]] = []
+        self._thr: list[Thrusters] = []
+        self._bat: list[Battery] = []
+        self._vel: list[Velocity] = []
+        self._quiet_until = -math.inf
+        self._state: Health | None = None
+        self._seen_health = False
+        self._emitted_until = -math.inf
+        self._next_tick = -math.inf
+        self._pending: list[SegmentEstimate] = []
+        self._last_level: HoldSamples | None = None
+
+    # ------------------------------------------------------------------ input
+    def feed(self, s: Sample) -> list[WatchSegment | WatchAlert]:
+        """One sample; the records it completes."""
+        if isinstance(s, Health):
+            self._state, self._seen_health = s, True
+            self.vehicle = s.vehicle or self.vehicle
+            if s.mode:
+                self.modes_seen.add(s.mode)
+        elif isinstance(s, PilotInput):
+            self._quiet_until = s.t_s + PILOT_QUIET_S
+        elif isinstance(s, Depth):
+            self._depth_moving(s)
+        elif isinstance(s, Thrusters):
+            self._thr.append(s)
+            self.thruster_samples += 1
+        elif isinstance(s, Battery):
+            self._bat.append(s)
+        elif isinstance(s, Velocity):
+            self._vel.append(s)
+        elif isinstance(s, Attitude):
+            self._yaw_rate.append((s.t_s, s.r))
+            self.attitude_samples += 1
+            if self._counts(s):
+                self._runs[-1].append(s)
+                self.counted_samples += 1
+            elif self._runs[-1]:
+                self._runs.append([])
+            if not math.isfinite(self._next_tick):
+                self._next_tick = s.t_s + TICK_S
+            elif s.t_s >= self._next_tick:
+                self._next_tick = s.t_s + TICK_S
+                return self._run(final=False)
+        return []
+
+    def finish(self) -> list[WatchSegment | WatchAlert]:
+        """The records of what is still buffered (the end of a log or of a live watch)."""
+        return self._run(final=True)
+
+    def _depth_moving(self, d: Depth) -> None:
+        """Track the depth rate over the last :data:`DEPTH_WINDOW_S`; while it exceeds
+        :data:`MAX_DEPTH_RATE_M_S` (the pilot moves the depth target), nothing counts."""
+        self._depth.append(d)
+        while self._depth[0].t_s < d.t_s - DEPTH_WINDOW_S:
+            self._depth.pop(0)
+        first = self._depth[0]
+        span = d.t_s - first.t_s
+        if span >= DEPTH_WINDOW_S / 2 and abs(d.depth_m - first.depth_m) > \
+                MAX_DEPTH_RATE_M_S * span:
+            self._quiet_until = d.t_s + PILOT_QUIET_S
+
+    def _counts(self, a: Attitude) -> bool:
+        if a.t_s < self._quiet_until:
+            return False
+        if not self._seen_health:
+            return True
+        st = self._state
+        return st is not None and st.mode in DEPTH_HOLD_MODES and (
+            st.armed or st.detail == ARMED_NOT_LOGGED)
+
+    # ------------------------------------------------------------------ detection
+    def _run(self, final: bool) -> list[WatchSegment | WatchAlert]:
+        """Run the detector over each buffered run; a run that a break ended, and every
+        plateau that ended, is emitted whole (less :data:`END_MARGIN_S`); the plateau that
+        may go on, in full pieces only."""
+        out: list[WatchSegment | WatchAlert] = []
+        open_start = None
+        if self._thr:
+            t = np.array([s.t_s for s in self._thr])
+            thrust, ok = thrust_at(self.profile, t, self._thr, self._bat)
+            tau = thrust[ok] @ self._T.T
+            for k, run in enumerate(self._runs):
+                last = k == len(self._runs) - 1
+                if len(run) < 2:
+                    continue
+                for hold, ended in find_segments(run, t[ok], tau, self.profile, thrust[ok]):
+                    closed = ended or not last
+                    if closed:  # the pilot ended it: leave out what the test saw late
+                        hold = _before(hold, float(hold.t_s[-1]) - END_MARGIN_S)
+                    for chunk in self._chunks(hold, complete_only=not (closed or final)):
+                        out.extend(self._segment(chunk))
+                    if not closed:
+                        open_start = float(hold.t_s[0])
+        self._cut(open_start)
+        return out
+
+    def _chunks(self, hold: HoldSamples, complete_only: bool) -> list[HoldSamples]:
+        """The hold's samples after what was already emitted, in pieces of at most
+        ``max_segment_s`` (equal pieces); while the plateau may go on, only full pieces of
+        ``max_segment_s``. Pieces shorter than :data:`MIN_SEGMENT_S` are left out."""
+        idx = np.flatnonzero(hold.t_s > self._emitted_until)
+        if len(idx) < 2:
+            return []
+        t = hold.t_s[idx]
+        span = float(t[-1] - t[0])
+        if complete_only:
+            n = math.floor(span / self.max_segment_s)
+            edges = t[0] + self.max_segment_s * np.arange(n + 1)
+        else:
+            n = max(1, math.ceil(span / self.max_segment_s - 1e-9))
+            edges = t[0] + span * np.arange(n + 1) / n
+            edges[-1] = np.nextafter(t[-1], math.inf)
+        chunks = []
+        for k in range(n):
+            sel = idx[(t >= edges[k]) & (t < edges[k + 1])]
+            if len(sel) < 2:
+                continue
+            self._emitted_until = float(hold.t_s[sel[-1]])
+            if hold.t_s[sel[-1]] - hold.t_s[sel[0]] < MIN_SEGMENT_S:
+                self.rejected["too short"] = self.rejected.get("too short", 0) + 1
+                continue
+            chunks.append(HoldSamples(hold.t_s[sel], hold.phi[sel], hold.theta[sel],
+                                      hold.tau[sel], "",
+                                      None if hold.thrust is None else hold.thrust[sel]))
+        return chunks
+
+    def _cut(self, open_start: float | None) -> None:
+        """Drop buffered samples the detector will not need again: every run a break
+        ended, and of the last run all but the stretch that may still become a plateau,
+        or the open plateau (re-settled before what is not yet emitted when it grows
+        long)."""
+        run = self._runs[-1]
+        self._runs = [run]
+        if not run:
+            return
+        lead = 2 * self.profile.procedure.min_steady_s + 2 * WINDOW_S
+        t_last = run[-1].t_s
+        if open_start is None:
+            cut = t_last - lead
+        elif t_last - open_start > 5 * self.max_segment_s:
+            cut = self._emitted_until - lead
+        else:
+            cut = open_start - lead
+        self._runs = [[a for a in run if a.t_s >= cut]]
+        keep_from = cut - 1.0
+        self._thr = [s for s in self._thr if s.t_s >= keep_from]
+        # the voltage is held: keep the last battery sample before the cut too
+        self._bat = ([b for b in self._bat if b.t_s < keep_from][-1:]
+                     + [b for b in self._bat if b.t_s >= keep_from])
+        self._vel = [v for v in self._vel if v.t_s >= keep_from]
+        self._yaw_rate = [r for r in self._yaw_rate if r[0] >= keep_from]
+
+    def _moving(self, hold: HoldSamples) -> str | None:
+        """Why the stretch is not a steady segment of a vehicle at rest (None: it is)."""
+        proc = self.profile.procedure
+        t0, t1 = hold.t_s[0], hold.t_s[-1]
+        r = [r for t, r in self._yaw_rate if t0 <= t <= t1]
+        if r and abs(float(np.mean(r))) > math.radians(proc.rate_tol_deg_s):
+            return "turning"
+        v = [(s.u, s.v) for s in self._vel if t0 <= s.t_s <= t1]
+        if v and float(np.hypot(*np.mean(v, axis=0))) > MAX_SPEED_M_S:
+            return "moving (DVL)"
+        phi, theta = float(np.mean(hold.phi)), float(np.mean(hold.theta))
+        expected = restoring_matrix(phi, theta) @ self._q_prior
+        excess = np.abs(hold.tau.mean(axis=0) - expected)
+        force = self._rule.buoyancy_half_window_N
+        moment = math.radians(proc.attitude_tol_deg) * self._rule.stiffness_prior_Nm
+        if excess[0] > force or excess[1] > force:
+            return "translating (surge or sway effort)"
+        if excess[5] > moment:
+            return "turning (yaw effort)"
+        return None
+
+    def _segment(self, hold: HoldSamples) -> list[WatchSegment | WatchAlert]:
+        why = self._moving(hold)
+        if why is not None:
+            self.rejected[why] = self.rejected.get(why, 0) + 1
+            return []
+        index = len(self.segments) + 1
+        named = HoldSamples(hold.t_s, hold.phi, hold.theta, hold.tau, f"segment {index}",
+                            hold.thrust)
+        try:
+            est = estimate_segment(named, self.profile, self._q_prior)
+        except (EstimationError, DataError) as exc:
+            key = f"not estimable ({exc})"
+            self.rejected[key] = self.rejected.get(key, 0) + 1
+            return []
+        level = all(est.observable[:3])
+        full = None
+        if level:
+            self._last_level = named
+        elif self._last_level is not None:
+            # a tilted segment with the last level one: two attitudes determine all four
+            with contextlib.suppress(EstimationError):
+                full = estimate_static([self._last_level, named], self.profile)
+        baseline = self.detector is None and level
+        seg = WatchSegment(index, est, baseline=baseline, full=full)
+        self.segments.append(seg)
+        out: list[WatchSegment | WatchAlert] = [seg]
+        if baseline:
+            self._pending.append(est)
+            if len(self._pending) >= self.baseline_segments:
+                self.detector = ChangeDetector(baseline_from_segments(self._pending), self.h)
+        elif self.detector is not None:
+            for a in self.detector.update(est):
+                alert = WatchAlert(a, alert_text(a, self.clock))
+                self.alerts.append(alert)
+                out.append(alert)
+        return out

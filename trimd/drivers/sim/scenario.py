@@ -1,0 +1,155 @@
+"""What happens to the simulated vehicle during a dive: a leak, a lost ballast piece, a pilot.
+
+Three ``sim:`` options (:class:`~trimd.drivers.sim.config.SimConfig`) script an ordinary
+dive for the passive watch (``trimd watch``), with nobody commanding through the link:
+
+* ``leak_N_min=0.5,leak_start_s=300`` — water comes in at 0.5 N of weight per minute
+  from 300 s of simulated time on, at ``leak_at`` (a slot name or ``x,y,z`` in metres,
+  body FRD; default the origin CG0). The housing's volume does not change, so the weight
+  adds to W alone.
+* ``drop=PIECE@SLOT@T_S`` — at ``T_S`` [s] a ballast piece of the profile's inventory
+  (``lead-200g``; or a mass in kg, ``0.2``) falls off ``SLOT``: its in-water weight (a
+  float's lift) is taken from the vehicle there. Several drops join with ``+``:
+  ``drop=lead-200g@W-aft-ctr@600+foam@F-front-port@900``.
+* ``pilot=dive`` — a scripted pilot flies the sticks as ArduSub's pilot input does in
+  ALT_HOLD (surge and sway to the thrusters, throttle moves the depth target, yaw the
+  heading target): a hover, a transit, a turn, a descent, a sideways move and an ascent,
+  each followed by a hover, repeated (:data:`DIVE`, one cycle ≈ 10 min).
+
+The weight changes are applied once per simulated second (a leak of 0.5 N/min steps by
+0.008 N), through the vehicle's mass properties (:mod:`trimd.drivers.sim.payload`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from trimd.core.errors import ProfileError
+from trimd.core.profile import Profile
+from trimd.drivers.sim.payload import PayloadItem, parse_payload
+
+__all__ = ["DIVE", "PILOT_SCRIPTS", "Drop", "Scenario", "parse_drops"]
+
+Sticks = tuple[float, float, float, float]
+#: The ``dive`` script: (duration [s], sticks (surge, sway, throttle up, yaw rate)).
+DIVE: tuple[tuple[float, Sticks], ...] = (
+    (90.0, (0.0, 0.0, 0.0, 0.0)),     # hover
+    (40.0, (0.4, 0.0, 0.0, 0.0)),     # transit forward
+    (90.0, (0.0, 0.0, 0.0, 0.0)),
+    (5.0, (0.0, 0.0, 0.0, 0.3)),      # turn ≈ 70° to starboard
+    (90.0, (0.0, 0.0, 0.0, 0.0)),
+    (8.0, (0.0, 0.0, -0.3, 0.0)),     # descend 1.2 m
+    (90.0, (0.0, 0.0, 0.0, 0.0)),
+    (20.0, (0.0, 0.4, 0.0, 0.0)),     # move to starboard
+    (90.0, (0.0, 0.0, 0.0, 0.0)),
+    (8.0, (0.0, 0.0, 0.3, 0.0)),      # ascend 1.2 m
+    (60.0, (0.0, 0.0, 0.0, 0.0)),
+)
+PILOT_SCRIPTS = {"dive": DIVE}
+
+
+@dataclass(frozen=True, slots=True)
+class Drop:
+    """A piece lost at ``t_s`` [s]: ``weight_N`` its in-water weight (negative: a float's
+    lift) at ``position_m`` (body FRD), ``label`` as written."""
+
+    t_s: float
+    weight_N: float
+    position_m: tuple[float, float, float]
+    label: str
+
+
+def parse_drops(text: str, profile: Profile) -> tuple[Drop, ...]:
+    """Parse ``PIECE@SLOT@T_S[+…]`` (module docstring).
+
+    Raises
+    ------
+    ProfileError : malformed, or a piece or slot the profile does not have.
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> d = parse_drops("0.5@W-aft-ctr@600", load_profile("bluerov2-heavy"))[0]
+    >>> d.t_s, round(d.weight_N, 3)
+    (600.0, 4.905)
+    """
+    out = []
+    for part in filter(None, (p.strip() for p in text.split("+"))):
+        fields = part.split("@")
+        if len(fields) != 3:
+            raise ProfileError(f"drop '{part}': expected PIECE@SLOT@T_S "
+                               "(e.g. lead-200g@W-aft-ctr@600)")
+        piece, slot, when = fields
+        try:
+            t_s = float(when)
+        except ValueError:
+            raise ProfileError(f"drop '{part}': the time {when!r} is not a number of "
+                               "seconds") from None
+        out.append(Drop(t_s, _in_water_weight(piece, profile, part),
+                        profile.slot(slot).position_m, part))
+    return tuple(out)
+
+
+def _in_water_weight(piece: str, profile: Profile, part: str) -> float:
+    g, rho = profile.gravity_m_s2, profile.water_density_kg_m3
+    for p in profile.inventory:
+        if p.name.lower() == piece.lower():
+            return p.mass_kg * g - rho * g * p.volume_m3
+    try:
+        kg = float(piece)
+    except ValueError:
+        names = ", ".join(p.name for p in profile.inventory) or "none"
+        raise ProfileError(f"drop '{part}': no piece '{piece}' in the inventory ({names}); "
+                           "or give its mass in kg") from None
+    return kg * g
+
+
+class Scenario:
+    """The leak, drops and pilot of one :class:`~trimd.drivers.sim.config.SimConfig`."""
+
+    def __init__(self, profile: Profile, leak_N_min: float, leak_start_s: float,
+                 leak_at: str, drop: str, pilot: str) -> None:
+        if leak_N_min < 0:
+            raise ProfileError(f"leak_N_min={leak_N_min:g}: a leak adds weight (≥ 0)")
+        self.leak_N_s = leak_N_min / 60
+        self.leak_start_s = leak_start_s
+        where = parse_payload(f"1@{leak_at}", profile)[0].position_m if leak_at else (
+            0.0, 0.0, 0.0)
+        self.leak_at = where
+        self.drops = parse_drops(drop, profile)
+        if pilot and pilot not in PILOT_SCRIPTS:
+            raise ProfileError(f"pilot={pilot}: known scripts: {', '.join(PILOT_SCRIPTS)}")
+        self.script = PILOT_SCRIPTS.get(pilot, ())
+        self._period = sum(d for d, _ in self.script)
+        self._g = profile.gravity_m_s2
+
+    @property
+    def changes_mass(self) -> bool:
+        return bool(self.leak_N_s or self.drops)
+
+    def leaked_N(self, t_s: float) -> float:
+        """Weight of the water in at ``t_s`` [N]."""
+        return self.leak_N_s * max(0.0, t_s - self.leak_start_s)
+
+    def payload(self, t_s: float) -> tuple[PayloadItem, ...]:
+        """What the scenario adds to the hidden payload at ``t_s``: the water (a weight),
+        each lost piece (its weight taken away as a lift, a lost float as a weight)."""
+        items = []
+        water = self.leaked_N(t_s)
+        if water > 0:
+            items.append(PayloadItem(water / self._g, self.leak_at, "leak"))
+        items += [PayloadItem(-d.weight_N / self._g, d.position_m, f"lost {d.label}")
+                  for d in self.drops if t_s >= d.t_s]
+        return tuple(items)
+
+    def sticks(self, t_s: float) -> Sticks | None:
+        """The scripted pilot's sticks at ``t_s`` (None: no script)."""
+        if not self.script:
+            return None
+        t = math.fmod(t_s, self._period)
+        for duration, sticks in self.script:
+            if t < duration:
+                return sticks
+            t -= duration
+        return self.script[-1][1]
