@@ -16,15 +16,22 @@ from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
 from trimd.identify.model import Statics, statics_from_estimate
 
-__all__ = ["default_record_path", "read_estimate", "read_installed", "read_statics"]
+__all__ = ["data_dir", "default_record_path", "read_estimate", "read_installed",
+           "read_statics"]
+
+
+def data_dir() -> Path:
+    """Where trimd keeps its data: ``$TRIMD_DATA_DIR``, else ``$XDG_DATA_HOME/trimd``, else
+    ``~/.local/share/trimd``."""
+    base = os.environ.get("TRIMD_DATA_DIR") or os.path.join(
+        os.environ.get("XDG_DATA_HOME") or os.path.expanduser("~/.local/share"), "trimd")
+    return Path(base)
 
 
 def default_record_path(profile: Profile) -> Path:
     """``<data dir>/sessions/YYYYmmdd-HHMMSS-<profile>.tlog``."""
-    base = os.environ.get("TRIMD_DATA_DIR") or os.path.join(
-        os.environ.get("XDG_DATA_HOME") or os.path.expanduser("~/.local/share"), "trimd")
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    return Path(base) / "sessions" / f"{stamp}-{profile.name}.tlog"
+    return data_dir() / "sessions" / f"{stamp}-{profile.name}.tlog"
 
 
 def _result_json(text: str, path: str | Path) -> object:

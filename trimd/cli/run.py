@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
@@ -17,12 +18,16 @@ from typing import Any
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path, read_estimate, read_installed
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
+from trimd.app.history import History
+from trimd.app.history.installed import current_installed
+from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.ballast.verify import verify_hold
 from trimd.cli.argtypes import integer
-from trimd.core.errors import ProfileError
+from trimd.cli.history_args import add_history_args, db_path, vehicle_of
+from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
@@ -72,6 +77,10 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions)")
     p.add_argument("--no-record", action="store_true", help="do not write a session log")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+    p.add_argument("--no-history", action="store_true", help="do not read the installed "
+                   "ballast from the trim history (the profile's is used) nor store the "
+                   "result in it")
+    add_history_args(p)
 
 
 def _exit_code(result: SessionResult) -> int:
@@ -129,6 +138,9 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
     profile = load_profile(args.profile)
+    if not args.no_history:  # proposals (here and in the TUI) start from what is installed
+        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
+        profile = dataclasses.replace(profile, installed=installed)
     tui = wants_tui(args)
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
@@ -143,7 +155,23 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
         print("\n" + truth_text)
     if result.log_path:
         print(f"session log: {result.log_path}", file=sys.stderr)
+    if not args.no_history and result.estimate is not None:
+        _store(args, profile, result)
     return _exit_code(result)
+
+
+def _store(args: argparse.Namespace, profile: Profile, result: SessionResult) -> None:
+    """Store the result in the trim history; a file that cannot take it is a warning (the
+    trim itself succeeded and was printed)."""
+    vehicle = vehicle_of(args, profile.name)
+    try:
+        with History(db_path(args)) as history:
+            record_result(history, vehicle, profile.name, result)
+    except DataError as exc:
+        print(f"trimd: warning: the trim was not stored in the history: {exc}",
+              file=sys.stderr)
+        return
+    print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:
