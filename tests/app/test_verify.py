@@ -128,3 +128,24 @@ def test_run_verify_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str],
     assert main(["run", "--link", link, "--profile", "sabertooth-dh2", "--headless", "--yes",
                  "--verify", str(no_proposal)]) == 2
     assert "no ballast proposal in it" in capsys.readouterr().err
+
+
+def test_run_verify_from_the_history(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                     sabertooth: Profile) -> None:
+    """``trimd run`` stores its trim; ``trimd run --verify`` (no file) verifies the last one
+    and stores the outcome, which ``trimd history --json`` lists."""
+    db = str(tmp_path / "trimd.db")
+    common = ["--profile", "sabertooth-dh2", "--headless", "--yes", "--json", "--no-record",
+              "--db", db]
+    assert main(["run", "--link", "sim:payload=10@AftSB", *common]) == 0
+    result = [json.loads(x) for x in capsys.readouterr().out.splitlines()][-1]
+    slots = tuple(SlotLoad(s["name"], tuple(s["position_m"]), 0, 0, 0, 0, s["net_down_N"])
+                  for s in result["proposal"]["slots"])
+    link = f"sim:payload=10@AftSB+{carried(slots, sabertooth.gravity_m_s2)}"
+    assert main(["run", "--link", link, "--verify", *common]) == 0
+    v = [json.loads(x) for x in capsys.readouterr().out.splitlines()][-1]
+    assert v["type"] == "verification" and v["as_predicted"], v
+    assert main(["history", "--db", db, "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    vehicle = listed["vehicles"][0]
+    assert len(vehicle["trims"]) == 1 and len(vehicle["verifications"]) == 1, vehicle

@@ -16,8 +16,8 @@ from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
 from trimd.identify.model import Statics, statics_from_estimate
 
-__all__ = ["data_dir", "default_record_path", "read_estimate", "read_installed",
-           "read_statics"]
+__all__ = ["data_dir", "default_record_path", "installed_from_json", "read_estimate",
+           "read_installed", "read_statics"]
 
 
 def data_dir() -> Path:
@@ -86,9 +86,15 @@ def read_installed(path: str | Path, profile: Profile) -> list[SlotLoad]:
     report or of the last ``result`` line of ``trimd run --json`` in ``path``. DataError
     naming the file when it holds no proposal or one for slots ``profile`` lacks."""
     try:
-        data = _result_json(Path(path).read_text(encoding="utf-8"), path)
+        text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"{path}: cannot read the trim ({exc.strerror})") from None
+    return installed_from_json(text, path, profile)
+
+
+def installed_from_json(text: str, path: str | Path, profile: Profile) -> list[SlotLoad]:
+    """:func:`read_installed` of a file's ``text`` (``path`` names it in errors)."""
+    data = _result_json(text, path)
     proposal = data.get("proposal") if isinstance(data, dict) else None
     if not isinstance(proposal, dict):
         raise DataError(f"{path}: no ballast proposal in it: give the output of the trim "
@@ -99,7 +105,8 @@ def read_installed(path: str | Path, profile: Profile) -> list[SlotLoad]:
                           float(s["weight_kg"]), float(s["float_kg"]), float(s["mass_kg"]),
                           float(s["mass_kg"]) * g - float(s["net_down_N"]),
                           float(s["net_down_N"]),
-                          tuple((str(k), int(n)) for k, n in s["pieces"].items()))
+                          tuple((str(k), int(n)) for k, n in s["pieces"].items()),
+                          tuple((str(k), int(n)) for k, n in s.get("removed", {}).items()))
                  for s in proposal["slots"]]
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataError(f"{path}: malformed proposal ({type(exc).__name__}: {exc})") from None
