@@ -333,3 +333,4 @@ def test_a_vehicle_without_pitch_actuation_measures_no_pitch_row(bluerov: Profil
                           replace(bluerov, holds_station=True), dofs=rows)
     assert "M" not in est.dofs_used
     np.testing.assert_allclose(est.r_g_m, r_g, atol=1e-6)
+
