@@ -4,7 +4,7 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
-the signal, its PID output is added on roll and pitch at every attitude sample) → done;
+the signal, its PID output on the latest attitude is added on roll and pitch) → done;
 ``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's own
 (:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
@@ -13,6 +13,13 @@ connected, no telemetry for ``link_timeout_s``, or no attitude or depth for as l
 the guard allows each), someone else flying it or a disarmed vehicle ends the
 experiment; so do a timeout and an internal error — every end after the first command
 sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
+
+Commands change only when a thruster sample arrives (at attitude samples while the vehicle
+reports no thruster outputs): the fit knows the thrust only from that record, and a
+command that acted between two of its samples (an attitude hold updated at 20 Hz beside
+thruster outputs at 10 Hz, the simulator's default) would be an input nobody recorded —
+with it, the BlueROV2 Heavy's rotational inertia sums came out 10–37 % off
+(docs/identification.md). The next thruster sample shows each command.
 """
 
 from __future__ import annotations
@@ -23,7 +30,7 @@ from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phas
 from trimd.core.guards import Guard
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample, Thrusters
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
@@ -88,6 +95,8 @@ class Excite:
         self._depth: float = math.nan
         self._depth_ref = math.nan
         self._attitude_seen = False
+        self._attitude: Attitude | None = None   # the latest
+        self._paced = False   # commands change at thruster samples (module docstring)
         self._last: tuple[float, ...] | None = None
         self._integral = {h.axis: 0.0 for h in signal.hold}
         self._t_hold = math.nan
@@ -145,9 +154,14 @@ class Excite:
             return []
         if isinstance(s, Attitude):
             self._attitude_seen = True
+            self._attitude = s
             if self.phase is Phase.COLLECT:
-                return self._play(s)
+                return [] if self._paced else self._play(s)
             return self._precheck()
+        if isinstance(s, Thrusters):
+            self._paced = True
+            if self.phase is Phase.COLLECT:
+                return self._play(self._attitude)
         return []
 
     def _precheck(self) -> list[Output]:

@@ -178,11 +178,11 @@ class StageFit:
         raise KeyError(name)
 
 
-def _bounds(name: str, h: float) -> tuple[float, float]:
+def _bounds(name: str, problem: Problem) -> tuple[float, float]:
     if name == LAG:
         return 0.0, 1.0
     if name == LEAD:
-        return 0.0, h
+        return 0.0, problem.lead_max
     if name.startswith("b_"):
         return -np.inf, np.inf
     k = HYDRO_NAMES.index(name)
@@ -192,7 +192,7 @@ def _bounds(name: str, h: float) -> tuple[float, float]:
 def _step(name: str, value: float, problem: Problem) -> float:
     """Signed finite-difference step: relative, towards the interior of the bounds."""
     if name in (LAG, LEAD):
-        upper = _bounds(name, problem.h)[1]
+        upper = _bounds(name, problem)[1]
         return -1e-5 if value + 1e-5 > upper else 1e-5
     if name.startswith("b_"):
         return 1e-7
@@ -378,7 +378,7 @@ def _solve(problem: Problem, theta: FloatArray, free: list[int], max_iter: int
     (:func:`trimd.identify.solve.levenberg_marquardt`): θ, the residuals and Jacobian at
     the optimum, and the simulations run."""
     names = [problem.names[i] for i in free]
-    lower, upper = np.array([_bounds(n, problem.h) for n in names]).T
+    lower, upper = np.array([_bounds(n, problem) for n in names]).T
 
     def full(x: FloatArray) -> FloatArray:
         t = theta.copy()

@@ -41,7 +41,7 @@ def with_estimated_velocity(experiments: Sequence[Experiment], values: Mapping[s
         if e.dvl:
             out.append(e)
             continue
-        z_dot = depth_rate(e.eta, e.h_s)
+        z_dot = depth_rate(e.eta, e.h_s, e.interval_s(2))
         nu = e.nu.copy()
         for _ in range(2):
             nu[:, :2] = _surge_sway(e, nu, values, mass_kg, q_rest)

@@ -92,7 +92,8 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
              ) -> list[Validation]:
     """Free-run simulation of each experiment with the parameter ``values`` (bias
     parameters are not carried over: another session has another gyro bias) from its
-    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe
+    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe,
+    at the samples of that output's own stream
     (without a DVL not u and v: :func:`trimd.identify.model.observed`), and which outputs
     the experiment excited. ``statics``: the mass and restoring terms (default: the profile's
     nominal vehicle)."""
@@ -109,8 +110,10 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
         y_hat = problem.simulate(theta)[:, 0, 0]
         y = problem.y[:, 0]
         names = tuple(STATE_NAMES[s] for s in st.outputs)
-        excited = tuple(bool(np.std(y[:, j]) >= MIN_OUTPUT_SPREAD[n])
-                        for j, n in enumerate(names))
-        out.append(Validation(e.label, names, tuple(float(v) for v in nrmse(y, y_hat)),
-                              e.t_s[1:], y, y_hat, excited))
+        # each output at the samples of its own stream only
+        own = [e.measured[1:, s] for s in st.outputs]
+        fits = tuple(float(nrmse(y[m, j], y_hat[m, j])) for j, m in enumerate(own))
+        excited = tuple(bool(np.std(y[m, j]) >= MIN_OUTPUT_SPREAD[n])
+                        for j, (n, m) in enumerate(zip(names, own, strict=True)))
+        out.append(Validation(e.label, names, fits, e.t_s[1:], y, y_hat, excited))
     return out
