@@ -51,7 +51,7 @@ MAX_AGE_S = {"thrusters": 0.5, "velocity": 0.5, "depth": 1.0}
 #: Window [s] of the Savitzky–Golay fit whose derivative is the depth rate without a DVL.
 DEPTH_WINDOW_S = 0.3
 #: ... spanning at least this many samples of the depth stream.
-DEPTH_WINDOW_SAMPLES = 4
+DEPTH_WINDOW_SAMPLES = 2
 #: Pieces shorter than this [s] are dropped.
 MIN_DURATION_S = 5.0
 

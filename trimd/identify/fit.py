@@ -72,7 +72,7 @@ FloatArray = NDArray[np.float64]
 #: moment counts as determined (negligible) even when its relative uncertainty is large.
 MIN_SHARE = 0.02
 #: Note of a parameter of surge or sway fitted from logs without body velocity.
-NEEDS_DVL = "needs a DVL: profile's value"
+NEEDS_DVL = "needs a DVL: profile's value kept (fitted only as the unmeasured motion)"
 #: Note of a parameter the data did not determine (:attr:`ParameterEstimate.determined`).
 NOT_DETERMINED = "not determined by the data"
 
@@ -125,7 +125,7 @@ class ParameterEstimate:
     @property
     def determined(self) -> bool:
         """Estimated, and determined by the data (a fragment may use it)."""
-        return self.free and self.note != NOT_DETERMINED
+        return self.free and self.note not in (NOT_DETERMINED, NEEDS_DVL)
 
 
 @dataclass(frozen=True, eq=False)
@@ -252,8 +252,9 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if not experiments:
         raise DataError("no experiment to fit")
     fixed_by = statics or statics_of_profile(profile)
+    recorded = experiments
     experiments = with_estimated_velocity(
-        experiments, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
+        recorded, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
         fixed_by.mass_kg, fixed_by.q_rest)
     excitation = excitation_of(experiments, profile, STAGES[stage], opts.min_excitation)
     missing = tuple(d for d in excitation if not d.excited)
@@ -262,14 +263,27 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
                               + not_excited_message(stage, missing))
     dvl = all(e.dvl for e in experiments)
     blind = () if dvl else tuple(d for d in STAGES[stage].dofs if d in DVL_DOFS)
-    st = observed(STAGES[stage], dvl).restricted(tuple(d.dof for d in excitation
-                                                       if d.excited))
-    if not st.dofs:
+    excited = tuple(d.dof for d in excitation if d.excited)
+    if not observed(STAGES[stage], dvl).restricted(excited).dofs:
         raise EstimationError(f"{stage}: nothing to identify: without a DVL the stage's "
                               "excited degrees of freedom are not observed")
+    # without a DVL surge and sway are still simulated (never compared): their parameters
+    # are nuisance parameters that carry the unmeasured u, v into the coupling terms
+    st = STAGES[stage].restricted(excited)
+    nuisance = frozenset(STAGES[stage].restricted(blind).free_names)
     problem, theta, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
     theta, std_of, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, share,
-                                                                   opts, stage)
+                                                                   opts, stage, nuisance)
+    if nuisance:
+        # once more from u, v, w estimated with the fitted surge and sway
+        fitted = dict(zip(problem.names, (float(v) for v in theta), strict=True))
+        experiments = with_estimated_velocity(recorded, fitted, fixed_by.mass_kg,
+                                              fixed_by.q_rest)
+        problem, _, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
+        theta = np.array([fitted[n] for n in problem.names])
+        theta, std_of, corr, rms, free, warnings, notes, more = _fit(
+            problem, theta, free, share, opts, stage, nuisance)
+        nfev += more
     if missing:
         warnings.insert(0, f"{stage}: " + not_excited_message(stage, missing))
         for n in STAGES[stage].restricted(tuple(d.dof for d in missing)).free_names:
@@ -278,7 +292,8 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if blind:
         needs = STAGES[stage].restricted(blind).free_names
         warnings.insert(0, f"{stage}: no body velocity (DVL) in these logs: "
-                        f"{', '.join(needs)} need a DVL and keep the profile's values")
+                        f"{', '.join(needs)} need a DVL (fitted only as the unmeasured "
+                        "surge and sway motion, the profile's values kept)")
         for n in needs:
             if n not in opts.fixed:
                 notes[n] = NEEDS_DVL
@@ -321,7 +336,7 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
 
 
 def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[str, float],
-         opts: FitOptions, stage: str
+         opts: FitOptions, stage: str, nuisance: frozenset[str] = frozenset()
          ) -> tuple[FloatArray, dict[str, float], FloatArray, float, list[int], list[str],
                     dict[str, str], int]:
     """Output-error fit, then hold the worst undetermined parameter at its estimate and
@@ -340,7 +355,8 @@ def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[st
         std, corr = jacobian_covariance(J, r)
         rms = float(np.sqrt(np.mean(r * r)))
         std_of |= {problem.names[i]: float(std[j]) for j, i in enumerate(free)}
-        j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std)
+        j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std,
+                                nuisance)
         if j < 0:
             break
         i = free[j]
@@ -355,17 +371,17 @@ def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[st
 
 
 def _worst_undetermined(problem: Problem, theta: FloatArray, free: Sequence[int],
-                        std: FloatArray, share: Mapping[str, float], max_rel_std: float
-                        ) -> int:
+                        std: FloatArray, share: Mapping[str, float], max_rel_std: float,
+                        nuisance: frozenset[str]) -> int:
     """Position in ``free`` of the hydrodynamic parameter with the largest relative
     standard deviation, if that exceeds ``max_rel_std``, among those that are not
     negligible (their uncertainty moves at least :data:`MIN_SHARE` of their DOF's force at
-    the typical motion); −1 if there is none."""
+    the typical motion) and not ``nuisance``; −1 if there is none."""
     candidates = []
     for j, i in enumerate(free):
         name = problem.names[i]
         sd = float(std[j]) if np.isfinite(std[j]) else np.inf
-        if name not in HYDRO_NAMES or sd * share[name] < MIN_SHARE:
+        if name not in HYDRO_NAMES or name in nuisance or sd * share[name] < MIN_SHARE:
             continue
         candidates.append((sd / abs(theta[i]) if theta[i] != 0 else np.inf, j))
     rel, j = max(candidates, default=(0.0, -1))

@@ -102,16 +102,20 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
     out = []
     for e in with_estimated_velocity(experiments, prior | dict(values), fixed_by.mass_kg,
                                      fixed_by.q_rest):
-        st = observed(STAGES[stage], e.dvl)
+        # without a DVL u and v are simulated (they drive the coupling terms) but
+        # never measured, so never judged
+        st = STAGES[stage]
         problem = Problem([e], st, fixed_by.mass_kg, fixed_by.q_rest, None,
                           np.ones(len(st.outputs)))
+        judged = [j for j, s in enumerate(st.outputs)
+                  if s in observed(st, e.dvl).states and e.measured[:, s].any()]
         theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
                           for n in problem.names])
-        y_hat = problem.simulate(theta)[:, 0, 0]
-        y = problem.y[:, 0]
-        names = tuple(STATE_NAMES[s] for s in st.outputs)
+        y_hat = problem.simulate(theta)[:, 0, 0][:, judged]
+        y = problem.y[:, 0][:, judged]
+        names = tuple(STATE_NAMES[st.outputs[j]] for j in judged)
         # each output at the samples of its own stream only
-        own = [e.measured[1:, s] for s in st.outputs]
+        own = [e.measured[1:, st.outputs[j]] for j in judged]
         fits = tuple(float(nrmse(y[m, j], y_hat[m, j])) for j, m in enumerate(own))
         excited = tuple(bool(np.std(y[m, j]) >= MIN_OUTPUT_SPREAD[n])
                         for j, (n, m) in enumerate(zip(names, own, strict=True)))
