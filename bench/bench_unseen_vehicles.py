@@ -36,7 +36,7 @@ import numpy as np
 from trimd.app.experiment import run_experiment
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
-from trimd.core.samples import Attitude, Sample, Velocity
+from trimd.core.samples import Sample, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
@@ -46,7 +46,7 @@ from trimd.identify.model import DVL_DOFS, HYDRO_NAMES, STAGES, prior_values
 from trimd.identify.signals import design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import validate
-from trimd.identify.vehicles import damping_force, perturbed
+from trimd.identify.vehicles import damping_force, perturbed, rates_reached
 
 N = int(os.environ.get("TRIMD_BENCH_MC_N", 10))
 #: "50": every stream at 50 Hz (the default); "sim": the simulator's default stream rates
@@ -74,24 +74,16 @@ def _record(truth: Profile, prior: Profile, stage: str, duration: float, seed: i
     return samples
 
 
-def reached(recordings: dict[str, tuple[list[Sample], list[Sample]]]) -> list[float]:
-    """Per DOF the 99th percentile of |ν_i| [m/s, rad/s] in the fitted recordings (which
-    carry the DVL's samples): the largest rate at which its damping is judged (module
-    docstring)."""
-    fitted = [s for fit, _ in recordings.values() for s in fit]
-    uvw = np.array([[s.u, s.v, s.w] for s in fitted if isinstance(s, Velocity)])
-    pqr = np.array([[s.p, s.q, s.r] for s in fitted if isinstance(s, Attitude)])
-    return [float(v) for part in (uvw, pqr) for v in np.percentile(np.abs(part), 99, axis=0)]
-
-
 def _judge(truth: Profile, prior: Profile, recordings: dict[str, tuple[list[Sample],
                                                                         list[Sample]]],
            dvl: bool) -> tuple[dict[str, float], dict[tuple[int, float], float], float, float,
-                               list[float]]:
+                               tuple[float, ...]]:
     """Fit and validate one vehicle: relative error per determined hydrodynamic parameter
     (the inertia sums as m + added mass for surge, sway and heave), damping force error
-    per (DOF, speed) at the lesser of the speed and the rate reached (:func:`reached`),
-    the worst excited NRMSE [%], the fit time [s] and the rates reached."""
+    per (DOF, speed) at the lesser of the speed and the rate reached
+    (:func:`trimd.identify.vehicles.rates_reached` of the fitted recordings, which carry
+    the DVL's samples), the worst excited NRMSE [%], the fit time [s] and the rates
+    reached."""
     def exps(samples: list[Sample]) -> list[Experiment]:
         kept = samples if dvl else [s for s in samples if not isinstance(s, Velocity)]
         return experiments_from_samples(kept, prior)
@@ -113,7 +105,7 @@ def _judge(truth: Profile, prior: Profile, recordings: dict[str, tuple[list[Samp
             if true[HYDRO_NAMES[k + d]]:
                 errors[HYDRO_NAMES[k + d]] = values[HYDRO_NAMES[k + d]] / true[
                     HYDRO_NAMES[k + d]] - 1
-    reach = reached(recordings)
+    reach = rates_reached(s for fit, _ in recordings.values() for s in fit)
     forces = {(d, v): damping_force(values, d, min(v, reach[d]))
               / damping_force(true, d, min(v, reach[d])) - 1 for d in dofs for v in SPEEDS}
     worst = 100.0
@@ -131,7 +123,7 @@ def _quantiles(x: Sequence[float]) -> str:
 
 
 def _report(label: str, results: list[tuple[dict[str, float], dict[tuple[int, float], float],
-                                            float, float, list[float]]]) -> None:
+                                            float, float, tuple[float, ...]]]) -> None:
     print(f"  {label}: {len(results)} vehicles, fit time per vehicle (three stages) "
           f"median {np.median([r[3] for r in results]):.1f} s")
     names = [n for n in HYDRO_NAMES if n in results[0][0]]

@@ -227,13 +227,14 @@ def _sampled(t_ref: FloatArray, t_src: FloatArray, h: float) -> NDArray[np.bool_
     return out
 
 
-def depth_rate(eta: FloatArray, h: float, depth_h_s: float = 0.0) -> FloatArray:
+def depth_rate(eta: FloatArray, h: float, depth_h_s: float = 0.0,
+               samples: int = DEPTH_WINDOW_SAMPLES) -> FloatArray:
     """ż [m/s, down] from the depth of ``eta`` (N, 6) on a grid of step ``h`` [s], the depth
     sensor sampling every ``depth_h_s`` [s] (0: every grid step): the derivative of a
-    Savitzky–Golay fit (quadratic) over :data:`DEPTH_WINDOW_S` and at least
-    :data:`DEPTH_WINDOW_SAMPLES` depth samples."""
+    Savitzky–Golay fit (quadratic) over :data:`DEPTH_WINDOW_S` and at least ``samples``
+    depth samples."""
     n = len(eta)
-    span = max(DEPTH_WINDOW_S, DEPTH_WINDOW_SAMPLES * depth_h_s)
+    span = max(DEPTH_WINDOW_S, samples * depth_h_s)
     window = min(max(5, 2 * round(0.5 * span / h) + 1), n - (n + 1) % 2)
     z_dot: FloatArray = savgol_filter(eta[:, 2], window, 2, deriv=1, delta=h)
     return z_dot

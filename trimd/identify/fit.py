@@ -272,8 +272,19 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     st = STAGES[stage].restricted(excited)
     nuisance = frozenset(STAGES[stage].restricted(blind).free_names)
     problem, theta, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
-    theta, std_of, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, share,
+    nfev = 0
+    if nuisance:
+        # first with surge and sway held at the profile's values (u, v from its model): a
+        # start near the answer for the other parameters (from the equation-error start
+        # alone the nuisance parameters can run off into a wrong minimum)
+        for n in nuisance:
+            theta[problem.index[n]] = prior[n]
+        theta, *_, nfev = _fit(problem, theta, [i for i in free
+                                                if problem.names[i] not in nuisance],
+                               share, opts, stage, nuisance)
+    theta, std_of, corr, rms, free, warnings, notes, more = _fit(problem, theta, free, share,
                                                                    opts, stage, nuisance)
+    nfev += more
     if nuisance:
         # once more from u, v, w estimated with the fitted surge and sway
         fitted = dict(zip(problem.names, (float(v) for v in theta), strict=True))
