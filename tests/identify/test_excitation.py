@@ -135,6 +135,19 @@ def test_the_hold_pushes_back_towards_level(bluerov: Profile) -> None:
     assert cmd.axes[:3] == base[:3] and cmd.axes[5] == base[5]
 
 
+def test_roll_and_pitch_doublets_ask_for_full_authority(sabertooth: Profile,
+                                                        bluerov: Profile) -> None:
+    """Whatever ``amplitude`` the velocity axes get, a tilt axis's doublets use what the
+    hold and the tilt limit allow: all of it on the metacentrically stiff Sabertooth
+    (which pitched too slowly for its gyro at 0.6), the hold's limit on the BlueROV2
+    Heavy."""
+    stiff = design_signal(sabertooth, "uvwpqr", duration_s=60.0, seed=0)
+    assert {d.axis: d.amplitude for d in stiff.axes if d.axis in (3, 4)} == {3: 1.0, 4: 1.0}
+    assert all(d.amplitude == pytest.approx(0.6) for d in stiff.axes if d.axis in (0, 1, 5))
+    held = design_signal(bluerov, "uvwpqr", duration_s=60.0, seed=0)
+    assert all(d.amplitude < 0.2 for d in held.axes if d.axis in (3, 4))
+
+
 def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:
     """Once the vehicle reports its thruster outputs, the hold's output goes out when a
     thruster sample arrives (from the latest attitude), never between two of them: the
