@@ -181,7 +181,8 @@ def test_without_a_dvl_heave_roll_pitch_and_yaw_are_identified(
         for speed in SPEEDS:
             error = damping_force(values, dof, speed) / damping_force(truth, dof, speed) - 1
             assert abs(error) < 0.15, (dof, speed, error)
-    assert not stage["parameters"]["X_u|u|"]["free"]
+    # surge is a nuisance of the fit (the unmeasured u): never reported as identified
+    assert stage["parameters"]["X_u|u|"]["note"].startswith("needs a DVL")
     assert [v for v in stage["validation"][0]["nrmse_pct"]] == ["z_dot", "q", "theta"]
     assert "need a DVL" in (out / "fragment.yaml").read_text(encoding="utf-8")
 
