@@ -111,16 +111,30 @@ def _fit_and_validate(truth: Profile, stage: str, fit_s: float, val_s: float,
     return fit, val
 
 
+def _fits_as_well_as_the_data_allow(fit: StageFit, val: list[Validation],
+                                    truth: Profile) -> None:
+    """Every held-out NRMSE ≥ 85 %, or within one point of what the true parameters (with
+    the fitted thrust timing) score on the same data: an output barely above the noise
+    (the Sabertooth's r in 30 s of uvwpqr: spread 0.021 rad/s, 84.9 % for the truth)
+    cannot score more."""
+    timing = {n: fit.values()[n] for n in ("T_thr", "T_lead")}
+    for v in val:
+        exp = experiments_from_samples(record(truth, truth, fit.stage, 30.0, 6), truth)
+        (best,) = validate(prior_values(truth) | timing, exp, truth, fit.stage)
+        for name, x, y in zip(v.outputs, v.nrmse, best.nrmse, strict=True):
+            assert x >= min(85.0, y - 1.0), (name, x, y)
+
+
 def test_uwq_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uwq", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
-    assert min(min(v.nrmse) for v in val) >= 85.0, [v.nrmse for v in val]
+    _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
 def test_uvwpqr_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uvwpqr", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
-    assert min(min(v.nrmse) for v in val) >= 85.0, [v.nrmse for v in val]
+    _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
 def test_bluerov_is_excited_within_the_envelope_and_identified(bluerov: Profile) -> None:
