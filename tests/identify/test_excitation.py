@@ -156,12 +156,17 @@ def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:
     e = Excite(bluerov, sig, confirmed=True)
     _ready(e)
     pwm = tuple(1500.0 for _ in bluerov.thrusters)
-    e.step(Thrusters(4.0, pwm))
+    e.step(Thrusters(3.9, pwm))
+    e.step(Thrusters(4.0, pwm))   # thruster outputs at 10 Hz
     tilted = Attitude(4.05, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0)
     assert not [o for o in e.step(tilted) if isinstance(o, OpenLoop)]
     cmd = [o for o in e.step(Thrusters(4.1, pwm)) if isinstance(o, OpenLoop)][-1]
     base = sig.at(4.1 - 2.0)
     assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]
+    # thruster outputs at 4 Hz are too slow for the hold's loop: back to attitude samples
+    e.step(Thrusters(4.35, pwm))
+    again = Attitude(4.4, math.radians(8.0), math.radians(-8.0), 0.0, 0.0, 0.0, 0.0)
+    assert [o for o in e.step(again) if isinstance(o, OpenLoop)]
 
 
 def test_a_depth_hold_only_where_the_stage_leaves_heave_alone(sabertooth: Profile) -> None:

@@ -15,7 +15,9 @@ experiment; so do a timeout and an internal error — every end after the first 
 sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
 
 Commands change only when a thruster sample arrives (at attitude samples while the vehicle
-reports no thruster outputs): the fit knows the thrust only from that record, and a
+reports no thruster outputs, or reports them less often than every
+:data:`MAX_PACED_INTERVAL_S`, too slow for the attitude hold's loop): the fit knows the
+thrust only from that record, and a
 command that acted between two of its samples (an attitude hold updated at 20 Hz beside
 thruster outputs at 10 Hz, the simulator's default) would be an input nobody recorded —
 with it, the BlueROV2 Heavy's rotational inertia sums came out 10–37 % off
@@ -34,7 +36,7 @@ from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sampl
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
-__all__ = ["STAGE_NOTICE", "Excite", "stage_of_notice"]
+__all__ = ["MAX_PACED_INTERVAL_S", "STAGE_NOTICE", "Excite", "stage_of_notice"]
 
 #: The words before the stage's name in the notice that starts an excitation.
 STAGE_NOTICE = "stage "
@@ -55,6 +57,10 @@ def stage_of_notice(text: str) -> str | None:
                         if a.strip() in tuple("XYZKMN")))
     return next((n for n, st in STAGES.items() if st.axes == axes), None)
 
+
+#: Longest interval [s] between thruster samples at which commands are paced by them (the
+#: attitude hold's loop, up to 4 rad/s, needs updates at 10 Hz or faster).
+MAX_PACED_INTERVAL_S = 0.11
 
 #: Telemetry seen for this long [s] before the experiment may start.
 PRECHECK_S = 2.0
@@ -97,6 +103,7 @@ class Excite:
         self._attitude_seen = False
         self._attitude: Attitude | None = None   # the latest
         self._paced = False   # commands change at thruster samples (module docstring)
+        self._t_thrusters = math.nan
         self._last: tuple[float, ...] | None = None
         self._integral = {h.axis: 0.0 for h in signal.hold}
         self._t_hold = math.nan
@@ -159,8 +166,9 @@ class Excite:
                 return [] if self._paced else self._play(s)
             return self._precheck()
         if isinstance(s, Thrusters):
-            self._paced = True
-            if self.phase is Phase.COLLECT:
+            self._paced = s.t_s - self._t_thrusters <= MAX_PACED_INTERVAL_S
+            self._t_thrusters = s.t_s
+            if self.phase is Phase.COLLECT and self._paced:
                 return self._play(self._attitude)
         return []
 
