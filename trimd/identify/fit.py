@@ -10,10 +10,12 @@ For one stage (:data:`trimd.identify.model.STAGES`) and one or more experiments:
    equation-error first pass (:func:`trimd.identify.start.equation_error_start`);
 2. an output-error fit with a bounded Levenberg–Marquardt least squares
    (:func:`trimd.identify.solve.levenberg_marquardt`; physical bounds: added masses ≥ 0,
-   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s) of the simulation
-   error over short segments, each started from the measured state (a stable
-   simulation-error objective that tolerates a poor start), all experiments in one cost,
-   each output weighted by the inverse of its spread; the simulation steps over
+   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s, lead over at most
+   a thruster interval plus a grid step) of the simulation error over short segments,
+   each started from the measured state (a stable simulation-error objective that
+   tolerates a poor start), all experiments in one cost, each output weighted by the
+   inverse of its spread and compared only at its own stream's samples
+   (``Experiment.fresh``); the simulation steps over
    ``FitOptions.step_s`` (two samples at 50 Hz) and its Jacobian is one batched simulation
    of every perturbed parameter vector;
 3. standard deviations and correlations from the Jacobian at the optimum
@@ -221,11 +223,15 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
               ) -> StageFit:
     """Identify the parameters of ``stage`` (module docstring).
 
-    Only the DOFs the data excited (:func:`excitation_of`) and the sensors observe are
-    fitted: without a DVL (an experiment whose ``dvl`` is False) not surge and sway, whose
-    parameters are noted :data:`NEEDS_DVL`, and u, v, w are estimated
-    (:func:`trimd.identify.nodvl.with_estimated_velocity`). The parameters of the others
-    keep the profile's values, and :attr:`StageFit.warnings` says so.
+    Only the DOFs the data excited (:func:`excitation_of`) are fitted. Without a DVL (an
+    experiment whose ``dvl`` is False) surge and sway are nuisance states: simulated,
+    never compared, their parameters fitted so that the unmeasured u, v that drive the
+    coupling terms of the observed DOFs owe nothing to the prior, but noted
+    :data:`NEEDS_DVL` and never reported as determined. That fit runs three times: with
+    surge and sway held at the profile's values (u, v and w from its model:
+    :func:`trimd.identify.nodvl.with_estimated_velocity`), with them free, and once more
+    from u, v, w re-estimated with the fitted surge and sway. The parameters of DOFs that
+    were not excited keep the profile's values, and :attr:`StageFit.warnings` says so.
 
     Parameters
     ----------
