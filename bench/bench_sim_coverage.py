@@ -104,6 +104,11 @@ def main() -> None:
         print("  " + " ".join(f"{n:>7s}" for n in ("", *NAMES)))
         print("  " + f"{'cover':>7s} " + " ".join(f"{c:7.0%}" for c in covered))
         print("  " + f"{'rms z':>7s} " + " ".join(f"{v:7.2f}" for v in rms))
+        errors = np.array([r.error for r in runs if r.error is not None]).reshape(-1, len(NAMES))
+        W = load_profile(name).weight_N
+        print(f"  rms error: W − B {np.sqrt(np.mean(errors[:, 0]**2)):.3f} N, net moments "
+              + ", ".join(f"{1e3 * np.sqrt(np.mean(errors[:, k]**2)) / W:.2f}" for k in (1, 2, 3))
+              + " mm-equivalent (error / nominal weight)")
         said, trim_rms, worst = trim_as_said(runs, load_profile(name).level_tol_deg)
         print(f"  proposal on the true vehicle: within the level tolerance or the predicted "
               f"trim ±95 % in {said:.0%}; rms z roll {trim_rms[0]:.2f}, pitch "
