@@ -57,7 +57,7 @@ def innovations(watch: TrimWatch) -> np.ndarray:
         for i in COMPONENTS:
             g = e.gain_sensitivity[i] - (b.gain_sensitivity[i] if b.gain_sensitivity is not None
                                          else 0.0)
-            var = e.q_cov_noise[i, i] + g @ g + b.var[i]
+            var = e.q_cov_noise[i, i] + watch.floor_var[i] + g @ g + b.var[i]
             row.append((e.q[i] - b.q[i]) / np.sqrt(var) if e.observable[i] else np.nan)
         rows.append(row)
     return np.array(rows)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import sys
 import time
 from datetime import UTC, datetime
@@ -145,6 +146,14 @@ def _plot_path(plot: str | None, k: int, n: int) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except BrokenPipeError:  # the reader went away (``| head``): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
     if bool(args.logs) == bool(args.link):
         print("trimd watch: give either --link URL (live) or LOG files (post-dive)",
               file=sys.stderr)
