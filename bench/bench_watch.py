@@ -77,7 +77,9 @@ def main() -> None:
         alarms += len(w.alerts)
         segments += len(w.segments)
         z.append(innovations(w))
+        suppressed = w.detector.suppressed if w.detector is not None else 0
         print(f"  seed {seed}: {len(w.segments)} segments, {len(w.alerts)} alert(s) "
+              f"({suppressed} crossing(s) too small to matter) "
               f"{[a.text for a in w.alerts]}, not counted {w.rejected}, h = {w.h:.2f} σ, "
               f"{time.perf_counter() - t0:.0f} s wall")
     zz = np.concatenate(z) if z else np.zeros((0, 3))

@@ -25,9 +25,11 @@ segment since the statistic last stood at 0 that is :data:`Z_START` σ off on it
 the alert's direction (the CUSUM's own restart point precedes a step by a few segments
 of noise; a most-likely step split would date a ramp, a leak, too late); the change is
 the weighted mean innovation of the segments from there on, with its ± (the segments'
-own variances, plus the baseline's once). After an alert the component is tested
-against the alerting segment's level, from 0 again (a leak that goes on alerts again as
-it grows); the total change stays against the baseline.
+own variances, plus the baseline's once). A change smaller than what matters
+(``relevance``: the watch uses, for the moments, what would tilt the vehicle at rest by
+half the profile's ``level_tol_deg``) restarts the test without an alert. After an
+alert the component is tested against the alerting segment's level, from 0 again (a leak
+that goes on alerts again as it grows); the total change stays against the baseline.
 """
 
 from __future__ import annotations
@@ -189,14 +191,21 @@ def _innovation(seg: SegmentEstimate, i: int, ref: _Reference, floor_var: float
 
 class ChangeDetector:
     """Feed :class:`SegmentEstimate` values in time order; get the alerts they raise.
+    ``floor_var`` (4,) is the wander between segments no segment sees [N², (N·m)²];
+    ``relevance`` (4,) the smallest change worth an alert [N, N·m]: a crossing of the
+    threshold by a smaller mean change restarts the test without an alert.
     After an alert the component is tested against the alerting segment's level (a
     change that goes on, a leak, alerts again as it grows); ``total`` stays against the
     baseline."""
 
     def __init__(self, baseline: Baseline, h: float, k: float = CUSUM_K,
-                 floor_var: FloatArray | None = None) -> None:
+                 floor_var: FloatArray | None = None,
+                 relevance: FloatArray | None = None) -> None:
         self.baseline, self.h, self.k = baseline, h, k
         self.floor_var = np.zeros(4) if floor_var is None else np.asarray(floor_var, float)
+        self.relevance = np.zeros(4) if relevance is None else np.asarray(relevance, float)
+        #: crossings of the threshold whose change was below ``relevance`` (no alert)
+        self.suppressed = 0
         b = baseline
         self._base = {i: _Reference(float(b.q[i]), float(b.var[i]), None if
                                     b.gain_sensitivity is None else b.gain_sensitivity[i])
@@ -229,6 +238,10 @@ class ChangeDetector:
             j, change, change_var = _step(run, 1.0 if up else -1.0, ref.var)
             after = (c.zero_up if up else c.zero_down) if j == 0 else run[j - 1][3]
             total, own_total = _innovation(seg, i, self._base[i], float(self.floor_var[i]))
+            if abs(change) < self.relevance[i]:  # significant, but too small to matter
+                self.suppressed += 1
+                self._cusum[i] = _Cusum(zero_up=seg.t_end_s, zero_down=seg.t_end_s)
+                continue
             alerts.append(ChangeAlert(
                 i, total, math.sqrt(own_total + self._base[i].var), change,
                 math.sqrt(change_var + ref.var), after, run[j][2], seg.t_end_s,

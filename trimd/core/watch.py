@@ -217,7 +217,12 @@ class TrimWatch:
         wander = self._rule_stiffness(profile) * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
         #: variance of each net quantity between segments that no segment sees [N², (N·m)²]
         self.floor_var = np.r_[0.0, wander**2, wander**2, wander**2]
-        self.detector = (ChangeDetector(baseline, self.h, floor_var=self.floor_var)
+        #: the smallest change worth an alert [N, N·m]: for the moments, what would tilt
+        #: the vehicle at rest by half the profile's level tolerance
+        tilt = self._rule_stiffness(profile) * math.radians(profile.level_tol_deg) / 2
+        self.relevance = np.r_[0.0, tilt, tilt, tilt]
+        self.detector = (ChangeDetector(baseline, self.h, floor_var=self.floor_var,
+                                        relevance=self.relevance)
                          if baseline is not None else None)
         self.segments: list[WatchSegment] = []
         self.alerts: list[WatchAlert] = []
@@ -448,7 +453,7 @@ class TrimWatch:
             if len(self._pending) >= self.baseline_segments:
                 self.detector = ChangeDetector(
                     baseline_from_segments(self._pending, self.floor_var), self.h,
-                    floor_var=self.floor_var)
+                    floor_var=self.floor_var, relevance=self.relevance)
         elif self.detector is not None:
             for a in self.detector.update(est):
                 alert = WatchAlert(a, alert_text(a, self.clock))
