@@ -25,8 +25,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
 from trimd.app.watch import (
@@ -39,7 +37,7 @@ from trimd.app.watch import (
 )
 from trimd.cli.argtypes import bounded
 from trimd.cli.run import wants_tui
-from trimd.core.change import Baseline
+from trimd.core.change import Baseline, baseline_from_estimate
 from trimd.core.errors import DataError, LinkError
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
@@ -85,8 +83,7 @@ def _baseline(path: str | None) -> Baseline | None:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise DataError(f"--baseline {path}: {exc}") from None
-    est = estimate_from_dict(data, path)
-    return Baseline(est.q.copy(), np.diag(est.q_cov).copy(), None, f"the estimate in {path}")
+    return baseline_from_estimate(estimate_from_dict(data, path), f"the estimate in {path}")
 
 
 def _new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:

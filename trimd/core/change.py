@@ -41,10 +41,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.core.estimate import StaticEstimate
 from trimd.core.segment import SegmentEstimate
 
 __all__ = ["COMPONENTS", "CUSUM_K", "Baseline", "ChangeAlert", "ChangeDetector",
-           "baseline_from_segments", "threshold_for"]
+           "baseline_from_estimate", "baseline_from_segments", "threshold_for"]
 
 FloatArray = NDArray[np.float64]
 #: CUSUM reference value k [σ]: half the shift it is tuned to.
@@ -108,6 +109,13 @@ def baseline_from_segments(segments: Sequence[SegmentEstimate],
         var[i] = float(np.sum(w**2 * v))
         gain[i] = sum(wk * s.gain_sensitivity[i] for wk, s in zip(w, use, strict=True))
     return Baseline(q, var, gain, f"the first {len(segments)} segments")
+
+
+def baseline_from_estimate(est: StaticEstimate, source: str) -> Baseline:
+    """A trim's estimate (e.g. the vehicle's last trim, from its history) as the baseline:
+    its q and the variances of its full ± (its gain exposure is not kept, so the test
+    counts each segment's own gain share in full: conservative)."""
+    return Baseline(est.q.copy(), np.diag(est.q_cov).copy(), None, source)
 
 
 @dataclass(frozen=True)
