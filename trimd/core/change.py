@@ -201,7 +201,8 @@ class ChangeDetector:
     """Feed :class:`SegmentEstimate` values in time order; get the alerts they raise.
     ``floor_var`` (4,) is the wander between segments no segment sees [N², (N·m)²];
     ``relevance`` (4,) the smallest change worth an alert [N, N·m]: a crossing of the
-    threshold by a smaller mean change restarts the test without an alert.
+    threshold by a smaller change (since the baseline, now; after an alert, the step
+    since it) restarts the test without an alert.
     After an alert the component is tested against the alerting segment's level (a
     change that goes on, a leak, alerts again as it grows); ``total`` stays against the
     baseline."""
@@ -246,7 +247,9 @@ class ChangeDetector:
             j, change, change_var = _step(run, 1.0 if up else -1.0, ref.var)
             after = (c.zero_up if up else c.zero_down) if j == 0 else run[j - 1][3]
             total, own_total = _innovation(seg, i, self._base[i], float(self.floor_var[i]))
-            if abs(change) < self.relevance[i]:  # significant, but too small to matter
+            # significant, but too small to matter: the change since the baseline for a
+            # first alert, the step since the last alert for a later one
+            if abs(total if i not in self._alerted else change) < self.relevance[i]:
                 self.suppressed += 1
                 self._cusum[i] = _Cusum(zero_up=seg.t_end_s, zero_down=seg.t_end_s)
                 continue

@@ -217,10 +217,12 @@ class TrimWatch:
         wander = self._rule_stiffness(profile) * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
         #: variance of each net quantity between segments that no segment sees [N², (N·m)²]
         self.floor_var = np.r_[0.0, wander**2, wander**2, wander**2]
-        #: the smallest change worth an alert [N, N·m]: for the moments, what would tilt
-        #: the vehicle at rest by half the profile's level tolerance
+        #: the smallest change worth an alert [N, N·m]: W − B by half what the ballast
+        #: proposal may leave (half the net-buoyancy window's half-width), a moment by what
+        #: would tilt the vehicle at rest by half the profile's level tolerance
+        rule = StopRule.for_profile(profile)
         tilt = self._rule_stiffness(profile) * math.radians(profile.level_tol_deg) / 2
-        self.relevance = np.r_[0.0, tilt, tilt, tilt]
+        self.relevance = np.r_[rule.buoyancy_half_window_N / 2, tilt, tilt, tilt]
         self.detector = (ChangeDetector(baseline, self.h, floor_var=self.floor_var,
                                         relevance=self.relevance)
                          if baseline is not None else None)
