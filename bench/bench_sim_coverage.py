@@ -20,13 +20,16 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tests.helpers import sim_trim
+from trimd.ballast.propose import Proposal
 from trimd.core.events import Phase
 from trimd.core.profile_yaml import load_profile
 
 #: (profile, hidden payload) of each coverage set
 CASES = (("bluerov2-heavy", "0.4@W-aft-stbd"), ("sabertooth-dh2", "10@AftSB"))
+FloatArray = NDArray[np.float64]
 NAMES = ("W − B", "x net", "y net", "z net", "m_ext", "x_g", "y_g", "z_g")
 Z95 = 1.959964
 
@@ -34,13 +37,16 @@ Z95 = 1.959964
 @dataclass(frozen=True)
 class Run:
     """One seeded trim: errors and σ of :data:`NAMES` (None when it did not end DONE),
-    its outcome and the simulated time it took [s]."""
+    its outcome and the simulated time it took [s]; ``trim``: the TRUE vehicle's roll and
+    pitch with the milp proposal on it, the proposal's predicted roll and pitch and their
+    1σ [deg]."""
 
     seed: int
     outcome: str
     sim_s: float
     error: tuple[float, ...] | None
     sigma: tuple[float, ...] | None
+    trim: tuple[float, ...] | None = None
 
 
 def run(profile_name: str, payload: str, seed: int, options: str) -> Run:
@@ -52,8 +58,23 @@ def run(profile_name: str, payload: str, seed: int, options: str) -> Run:
     m_ext, r_g = trial.implied_truth
     error = np.r_[est.q - trial.q_true, est.m_ext_kg - m_ext, est.r_g_m - r_g]
     sigma = np.r_[np.sqrt(np.diag(est.q_cov)), est.m_ext_std_kg, est.r_g_std_m]
+    proposal = trial.result.proposal
+    assert isinstance(proposal, Proposal)
+    trim = (*trial.trim_after_proposal_deg(), proposal.trim.roll_deg, proposal.trim.pitch_deg,
+            *proposal.trim_std_deg)
     return Run(seed, "done", trial.vehicle.t_s, tuple(map(float, error)),
-               tuple(map(float, sigma)))
+               tuple(map(float, sigma)), tuple(map(float, trim)))
+
+
+def trim_as_said(runs: list[Run], level_tol_deg: float) -> tuple[float, FloatArray, float]:
+    """Over the DONE runs: the share whose true trim is within ``level_tol_deg`` or within
+    the predicted trim ± its 95 % interval on both axes, the RMS of (true − predicted)/σ of
+    roll and pitch, and the largest true |roll| or |pitch| [deg]."""
+    t = np.array([r.trim for r in runs if r.trim is not None]).reshape(-1, 6)
+    after, predicted, sigma = t[:, :2], t[:, 2:4], t[:, 4:]
+    z = (after - predicted) / sigma
+    said = np.all((np.abs(after) <= level_tol_deg) | (np.abs(z) <= Z95), axis=1)
+    return float(said.mean()), np.sqrt(np.mean(z**2, axis=0)), float(np.abs(after).max())
 
 
 def coverage(runs: list[Run]) -> tuple[np.ndarray, np.ndarray, int]:
@@ -83,6 +104,15 @@ def main() -> None:
         print("  " + " ".join(f"{n:>7s}" for n in ("", *NAMES)))
         print("  " + f"{'cover':>7s} " + " ".join(f"{c:7.0%}" for c in covered))
         print("  " + f"{'rms z':>7s} " + " ".join(f"{v:7.2f}" for v in rms))
+        errors = np.array([r.error for r in runs if r.error is not None]).reshape(-1, len(NAMES))
+        W = load_profile(name).weight_N
+        print(f"  rms error: W − B {np.sqrt(np.mean(errors[:, 0]**2)):.3f} N, net moments "
+              + ", ".join(f"{1e3 * np.sqrt(np.mean(errors[:, k]**2)) / W:.2f}" for k in (1, 2, 3))
+              + " mm-equivalent (error / nominal weight)")
+        said, trim_rms, worst = trim_as_said(runs, load_profile(name).level_tol_deg)
+        print(f"  proposal on the true vehicle: within the level tolerance or the predicted "
+              f"trim ±95 % in {said:.0%}; rms z roll {trim_rms[0]:.2f}, pitch "
+              f"{trim_rms[1]:.2f}; worst |angle| {worst:.2f}°")
         failed = [f"seed {r.seed}: {r.outcome}" for r in runs if r.error is None]
         for line in failed[:3]:
             print(f"  failed {line[:110]}")

@@ -37,3 +37,17 @@ def test_heavy_intervals_cover_the_true_vehicle(bluerov: Profile) -> None:
     rms = np.sqrt(np.mean(np.square(z), axis=0))
     assert np.all(coverage >= 0.85), (coverage, rms)
     assert np.all((rms >= 0.6) & (rms <= 1.3)), (coverage, rms)
+
+
+def test_thrusters_idle_in_their_dead_band_leave_an_honest_sigma(bluerov: Profile) -> None:
+    """Seed 20 of the coverage bench: at the level hold the Heavy's horizontal thrusters
+    idle in their dead band, so τ_X, τ_Y and τ_N are exactly zero while the hold's pitch
+    is −0.09°. Counted, those rows ("(W − B)·sin θ = 0", without noise) pulled W − B
+    towards zero and the fit reported σ(W − B) = 4·10⁻⁵ N for a 0.27 N error. At level
+    they carry no information and are left out (``core.model.informative_rows``)."""
+    trim = sim_trim(bluerov, "0.4@W-aft-stbd", 20, "disturb=real,truth=perturbed")
+    est = trim.result.estimate
+    assert trim.result.phase is Phase.DONE and est is not None, trim.result.reason
+    sigma = np.sqrt(np.diag(est.q_cov))
+    assert sigma[0] > 0.05
+    assert np.all(np.abs(est.q - trim.q_true) <= 3 * sigma), (est.q - trim.q_true, sigma)

@@ -13,7 +13,7 @@ import yaml
 from tests.helpers import PROFILES
 from trimd.core.errors import ProfileError
 from trimd.core.model import thrust_configuration
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 
 SABERTOOTH = PROFILES / "sabertooth-dh2.yaml"
@@ -97,6 +97,21 @@ def test_bluerov_directions_follow_ardusub_factor_table(bluerov: Profile) -> Non
     (lambda d: d.update(holds=[{"roll_deg": 0, "pitch_deg": 0}] * 2),
      r"holds: expected at least two holds at different attitudes, one of them tilted"),
     (lambda d: d.update(holds=[{"roll_deg": 20, "pitch_deg": 20}]), r"holds: expected"),
+    (lambda d: d["ballast"].update(installed=[{"slot": "AftSBB", "piece": "lead-1kg",
+                                               "count": 1}]),
+     r"ballast\.installed\[0\]: no ballast slot 'AftSBB' \(did you mean 'AftSB'\?"),
+    (lambda d: d["ballast"].update(installed=[{"slot": "AftSB", "piece": "lead-1kgg",
+                                               "count": 1}]),
+     r"ballast\.installed\[0\]: no inventory piece 'lead-1kgg' \(did you mean 'lead-1kg'\?"),
+    (lambda d: d["ballast"].update(installed=[{"slot": "AftSB", "piece": "lead-1kg",
+                                               "count": 11}]),
+     r"ballast\.installed: slot AftSB takes 10 kg of weight; 11 kg installed"),
+    (lambda d: d["ballast"].update(installed=[{"slot": "AftSB", "piece": "lead-1kg",
+                                               "count": -1}]),
+     r"ballast\.installed\[0\]\.count: expected a number >= 0"),
+    (lambda d: d["ballast"].update(installed=[{"slot": "AftSB", "piece": "lead-1kg",
+                                               "cuont": 1}]),
+     r"ballast\.installed\[0\]\.count: missing \(required\); is 'cuont' a typo"),
 ])
 def test_errors_name_file_key_and_expectation(edit: Any, message: str) -> None:
     data = raw()
@@ -122,3 +137,13 @@ def test_thrust_given_in_kgf_is_converted(bluerov: Profile) -> None:
     table = bluerov.thrusters[0].curve.tables[1]
     assert table.voltage_V == 16.0
     assert table.thrust_N[-1] == pytest.approx(5.25 * 9.80665)
+
+
+def test_installed_ballast_is_read_merged_and_spelled_as_the_profile() -> None:
+    data = raw()
+    data["ballast"]["installed"] = [{"slot": "aftsb", "piece": "lead-1kg", "count": 2},
+                                    {"slot": "AftSB", "piece": "LEAD-1kg", "count": 1},
+                                    {"slot": "FrontP", "piece": "foam-2kg", "count": 0}]
+    profile = parse_profile(data, "vehicle.yaml")
+    assert profile.installed == (InstalledPiece("AftSB", "lead-1kg", 3),)
+    assert parse_profile(raw(), "vehicle.yaml").installed == ()

@@ -9,7 +9,15 @@ import pytest
 
 from trimd.core.events import Abort, Confirm, Phase, Tick
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Depth, Health, OpenLoop, PilotInput, Release
+from trimd.core.samples import (
+    Attitude,
+    Depth,
+    Health,
+    OpenLoop,
+    PilotInput,
+    Release,
+    Thrusters,
+)
 from trimd.identify.experiment import Excite
 from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values
 from trimd.identify.signals import axis_forces, design_signal
@@ -125,6 +133,40 @@ def test_the_hold_pushes_back_towards_level(bluerov: Profile) -> None:
     base = sig.at(4.1 - 2.0)
     assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]     # roll right → left, etc.
     assert cmd.axes[:3] == base[:3] and cmd.axes[5] == base[5]
+
+
+def test_roll_and_pitch_doublets_ask_for_full_authority(sabertooth: Profile,
+                                                        bluerov: Profile) -> None:
+    """Whatever ``amplitude`` the velocity axes get, a tilt axis's doublets use what the
+    hold and the tilt limit allow: all of it on the metacentrically stiff Sabertooth
+    (which pitched too slowly for its gyro at 0.6), the hold's limit on the BlueROV2
+    Heavy."""
+    stiff = design_signal(sabertooth, "uvwpqr", duration_s=60.0, seed=0)
+    assert {d.axis: d.amplitude for d in stiff.axes if d.axis in (3, 4)} == {3: 1.0, 4: 1.0}
+    assert all(d.amplitude == pytest.approx(0.6) for d in stiff.axes if d.axis in (0, 1, 5))
+    held = design_signal(bluerov, "uvwpqr", duration_s=60.0, seed=0)
+    assert all(d.amplitude < 0.2 for d in held.axes if d.axis in (3, 4))
+
+
+def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:
+    """Once the vehicle reports its thruster outputs, the hold's output goes out when a
+    thruster sample arrives (from the latest attitude), never between two of them: the
+    record the fit reads shows every command the vehicle acted on."""
+    sig = design_signal(bluerov, "uvr", duration_s=60.0, seed=0)
+    e = Excite(bluerov, sig, confirmed=True)
+    _ready(e)
+    pwm = tuple(1500.0 for _ in bluerov.thrusters)
+    e.step(Thrusters(3.9, pwm))
+    e.step(Thrusters(4.0, pwm))   # thruster outputs at 10 Hz
+    tilted = Attitude(4.05, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0)
+    assert not [o for o in e.step(tilted) if isinstance(o, OpenLoop)]
+    cmd = [o for o in e.step(Thrusters(4.1, pwm)) if isinstance(o, OpenLoop)][-1]
+    base = sig.at(4.1 - 2.0)
+    assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]
+    # thruster outputs at 4 Hz are too slow for the hold's loop: back to attitude samples
+    e.step(Thrusters(4.35, pwm))
+    again = Attitude(4.4, math.radians(8.0), math.radians(-8.0), 0.0, 0.0, 0.0, 0.0)
+    assert [o for o in e.step(again) if isinstance(o, OpenLoop)]
 
 
 def test_a_depth_hold_only_where_the_stage_leaves_heave_alone(sabertooth: Profile) -> None:

@@ -17,7 +17,7 @@ from trimd.app.experiment import run_experiment
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import parse_profile
-from trimd.core.samples import Attitude, Sample
+from trimd.core.samples import Attitude, Depth, Sample, Thrusters, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
@@ -29,7 +29,9 @@ from trimd.identify.model import (
     STAGES,
     lagged_thrust,
     prior_values,
+    restoring_vector,
 )
+from trimd.identify.problem import Problem
 from trimd.identify.report import profile_fragment
 from trimd.identify.signals import design_signal
 from trimd.identify.validation import Validation, nrmse, validate
@@ -109,16 +111,30 @@ def _fit_and_validate(truth: Profile, stage: str, fit_s: float, val_s: float,
     return fit, val
 
 
+def _fits_as_well_as_the_data_allow(fit: StageFit, val: list[Validation],
+                                    truth: Profile) -> None:
+    """Every held-out NRMSE ≥ 85 %, or within one point of what the true parameters (with
+    the fitted thrust timing) score on the same data: an output barely above the noise
+    (the Sabertooth's r in 30 s of uvwpqr: spread 0.021 rad/s, 84.9 % for the truth)
+    cannot score more."""
+    timing = {n: fit.values()[n] for n in ("T_thr", "T_lead")}
+    for v in val:
+        exp = experiments_from_samples(record(truth, truth, fit.stage, 30.0, 6), truth)
+        (best,) = validate(prior_values(truth) | timing, exp, truth, fit.stage)
+        for name, x, y in zip(v.outputs, v.nrmse, best.nrmse, strict=True):
+            assert x >= min(85.0, y - 1.0), (name, x, y)
+
+
 def test_uwq_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uwq", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
-    assert min(min(v.nrmse) for v in val) >= 85.0, [v.nrmse for v in val]
+    _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
 def test_uvwpqr_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uvwpqr", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
-    assert min(min(v.nrmse) for v in val) >= 85.0, [v.nrmse for v in val]
+    _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
 def test_bluerov_is_excited_within_the_envelope_and_identified(bluerov: Profile) -> None:
@@ -192,6 +208,49 @@ def test_lagged_thrust_is_the_exact_first_order_response() -> None:
     assert start[:, 0] == pytest.approx(expect, abs=1e-12)
     expect_mid = np.where(t + h / 2 >= switch, 1 - np.exp(-(t + h / 2 - switch) / T), 0.0)
     assert mid[:, 0] == pytest.approx(expect_mid, abs=1e-12)
+
+
+def test_a_lead_of_several_samples_shifts_the_switch_exactly() -> None:
+    """A thruster record at 10 Hz held onto a 20 Hz grid shows a command up to two steps
+    after it acted: a lead of 1.6 steps puts the switch 1.6 steps before the sample that
+    first shows it."""
+    h, T = 0.05, 0.1
+    tau = np.zeros((50, 6))
+    tau[10:, 0] = 1.0
+    start, mid = lagged_thrust(tau, T, h, 1.6 * h)
+    t = h * np.arange(50)
+    switch = t[10] - 1.6 * h
+    assert start[:, 0] == pytest.approx(
+        np.where(t >= switch, 1 - np.exp(-(t - switch) / T), 0.0), abs=1e-12)
+    assert mid[:, 0] == pytest.approx(
+        np.where(t + h / 2 >= switch, 1 - np.exp(-(t + h / 2 - switch) / T), 0.0), abs=1e-12)
+
+
+def test_slow_streams_are_compared_only_at_their_own_samples(sabertooth: Profile) -> None:
+    """Attitude at 20 Hz, thrusters at 10 Hz, DVL at 5 Hz: the velocity is interpolated
+    between the DVL's samples onto the grid, marked measured only at those samples, and
+    the fit's residuals of u, v, w count only them."""
+    t = np.arange(0.0, 20.0, 0.05)
+    samples: list[Sample] = [Attitude(float(x), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0) for x in t]
+    samples += [Thrusters(float(x), tuple(1500.0 + 100 * (k % 7 == 0) for _ in
+                                          sabertooth.thrusters))
+                for k, x in enumerate(t[::2])]
+    samples += [Velocity(float(x), float(np.sin(x)), 0.0, 0.0) for x in t[::4]]
+    samples += [Depth(float(x), 10.0) for x in t[::4]]
+    (e,) = experiments_from_samples(samples, sabertooth)
+    fresh = e.measured
+    assert fresh[:, 3:].all() and fresh[::4, :3].all() and not fresh[1::4, :3].any()
+    assert e.thruster_h_s == pytest.approx(0.1) and e.lead_max_s == pytest.approx(0.15)
+    between = e.t_s[1::4]
+    assert e.nu[1::4, 0] == pytest.approx(np.interp(between, t[::4], np.sin(t[::4])))
+    problem = Problem([e], STAGES["uvr"], sabertooth.mass_kg, restoring_vector(sabertooth),
+                      40, np.ones(3))
+    steps = problem.rows.shape[0] - 1
+    segments = problem.rows.shape[1]
+    measured_rows = e.measured[problem.rows[1:], 0].sum()
+    assert problem.n_residuals == 2 * measured_rows + steps * segments   # u, v; r always
+    assert len(problem.residuals(np.array([prior_values(sabertooth).get(n, 0.05)
+                                           for n in problem.names]))) == problem.n_residuals
 
 
 def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,

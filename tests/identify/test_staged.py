@@ -5,6 +5,7 @@ the fitted vehicle against the simulator's truth."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -27,19 +28,24 @@ from trimd.identify.model import STAGES, prior_values
 from trimd.identify.signals import design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import Validation, validate
-from trimd.identify.vehicles import damping_force, perturbed
+from trimd.identify.vehicles import damping_force, perturbed, rates_reached
 
 #: The issue's speeds at which damping forces are judged [m/s or rad/s].
 SPEEDS = (0.15, 0.4)
 
 
 def record(truth: Profile, prior: Profile, stage: str, duration: float, seed: int,
-           recorder: Any = None, dvl: bool = True) -> list[Sample]:
-    """An excitation of ``stage`` designed from ``prior`` on a simulated ``truth`` (50 Hz
-    streams, default noise) through Excite + Session, named as that stage."""
+           recorder: Any = None, dvl: bool = True, fast: bool = True) -> list[Sample]:
+    """An excitation of ``stage`` designed from ``prior`` on a simulated ``truth`` (every
+    stream at 50 Hz, or with ``fast`` False the simulator's default rates: attitude 20 Hz,
+    thrusters 10 Hz, DVL and depth 5 Hz; default noise) through Excite + Session, named as
+    that stage."""
     sig = design_signal(prior, stage, duration_s=duration, seed=seed, depth_excursion_m=20.0)
-    vehicle = SimVehicle(truth, SimConfig(seed=seed, dvl=dvl, depth_m=40.0, attitude_hz=50.0,
-                                           thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0))
+    config = SimConfig(seed=seed, dvl=dvl, depth_m=40.0)
+    if fast:
+        config = dataclasses.replace(config, attitude_hz=50.0, thrusters_hz=50.0,
+                                     velocity_hz=50.0, depth_hz=50.0)
+    vehicle = SimVehicle(truth, config)
     excite = Excite(prior, sig, confirmed=True, depth_excursion_m=20.0, stage=stage)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), prior, excite,
                                                  recorder=recorder))
@@ -175,35 +181,83 @@ def test_without_a_dvl_heave_roll_pitch_and_yaw_are_identified(
         for speed in SPEEDS:
             error = damping_force(values, dof, speed) / damping_force(truth, dof, speed) - 1
             assert abs(error) < 0.15, (dof, speed, error)
-    assert not stage["parameters"]["X_u|u|"]["free"]
-    assert [v for v in stage["validation"][0]["nrmse_pct"]] == ["w", "q", "theta"]
+    # surge is a nuisance of the fit (the unmeasured u): never reported as identified
+    assert stage["parameters"]["X_u|u|"]["note"].startswith("needs a DVL")
+    assert [v for v in stage["validation"][0]["nrmse_pct"]] == ["z_dot", "q", "theta"]
     assert "need a DVL" in (out / "fragment.yaml").read_text(encoding="utf-8")
 
 
-@pytest.mark.slow
-def test_without_a_dvl_the_surge_and_sway_model_is_what_limits_roll(
-        bluerov: Profile, unseen: Profile) -> None:
-    """Without a DVL, u and v come from the profile's surge and sway model
-    (trimd.identify.nodvl). Given that model right (the unseen vehicle's surge and sway,
-    the shipped profile elsewhere), an uvwpqr recording without body velocity gives heave,
-    roll, pitch and yaw as well as with a DVL: inertia sums within 5 %, damping forces
-    within 10 %."""
-    import dataclasses
+@pytest.fixture(scope="module")
+def default_rates(bluerov: Profile, unseen: Profile
+                  ) -> dict[str, tuple[list[Sample], list[Sample]]]:
+    """The unseen BlueROV2 Heavy recorded at the simulator's default stream rates, with a
+    DVL: per stage 3 min to fit and 1 min held out."""
+    return {st: (record(unseen, bluerov, st, 180.0, 90 + k, fast=False),
+                 record(unseen, bluerov, st, 60.0, 95 + k, fast=False))
+            for k, st in enumerate(STAGES)}
 
-    def pick(own: tuple[float, ...], other: tuple[float, ...]) -> Any:
-        return tuple(other[i] if i < 2 else own[i] for i in range(6))
 
-    prior = dataclasses.replace(
-        bluerov, added_mass=pick(bluerov.added_mass, unseen.added_mass),
-        linear_damping=pick(bluerov.linear_damping, unseen.linear_damping),
-        quadratic_damping=pick(bluerov.quadratic_damping, unseen.quadratic_damping))
-    samples = record(unseen, bluerov, "uvwpqr", 180.0, 80, dvl=False)
-    fit = fit_stages({"uvwpqr": experiments_from_samples(samples, prior)}, prior)[0]
-    values, truth = fit.values(), prior_values(unseen)
-    assert {n for n in fit.free_names if n.startswith(("X_", "Y_"))} == set()
-    for dof in (2, 3, 4, 5):
-        name = list(truth)[dof]
-        assert abs(values[name] / truth[name] - 1) < 0.05, (name, values[name], truth[name])
-        for speed in SPEEDS:
-            error = damping_force(values, dof, speed) / damping_force(truth, dof, speed) - 1
+def _judge_dofs(recordings: dict[str, tuple[list[Sample], list[Sample]]], prior: Profile,
+                truth: Profile, dofs: tuple[int, ...], dvl: bool) -> None:
+    """Staged fit from ``prior``: every inertia sum of ``dofs`` within 5 % of the truth,
+    every damping force within 10 % at 0.15 and 0.4 (or the rate the experiments
+    reached), every excited held-out NRMSE ≥ 90 %."""
+    def exps(samples: list[Sample]) -> list[Any]:
+        kept = samples if dvl else [s for s in samples if not isinstance(s, Velocity)]
+        return experiments_from_samples(kept, prior)
+
+    fits = fit_stages({st: exps(fit) for st, (fit, _) in recordings.items()}, prior)
+    values = prior_values(prior)
+    for f in reversed(fits):
+        values |= {p.name: p.value for p in f.parameters if p.determined}
+    true = prior_values(truth)
+    reach = rates_reached(s for fit, _ in recordings.values() for s in fit)
+    for dof in dofs:
+        name = list(true)[dof]
+        rigid = truth.mass_kg if dof < 3 else 0.0
+        assert abs((values[name] + rigid) / (true[name] + rigid) - 1) < 0.05, (
+            name, values[name], true[name])
+        for speed in (min(v, reach[dof]) for v in SPEEDS):
+            error = damping_force(values, dof, speed) / damping_force(true, dof, speed) - 1
             assert abs(error) < 0.10, (dof, speed, error)
+    for f in fits:
+        for v in validate(f.values(), exps(recordings[f.stage][1]), prior, f.stage):
+            assert v.worst() is None or v.worst() >= 90.0, (f.stage, v.describe())
+
+
+@pytest.mark.slow
+def test_at_the_default_stream_rates_an_unseen_vehicle_is_recovered(
+        bluerov: Profile, unseen: Profile,
+        default_rates: dict[str, tuple[list[Sample], list[Sample]]]) -> None:
+    """Attitude at 20 Hz, thrusters at 10 Hz, DVL and depth at 5 Hz: each output compared
+    at its own stream's samples, the thruster lead free over a thruster interval, and the
+    excitation's commands changing only at thruster samples recover the unseen vehicle as
+    at 50 Hz (before: rotational inertia sums 10–37 % off, NRMSE 42–53 %)."""
+    _judge_dofs(default_rates, bluerov, unseen, tuple(range(6)), dvl=True)
+
+
+@pytest.mark.slow
+def test_without_a_dvl_heave_and_rotation_do_not_lean_on_the_surge_and_sway_prior(
+        bluerov: Profile, unseen: Profile,
+        default_rates: dict[str, tuple[list[Sample], list[Sample]]]) -> None:
+    """The same recordings without body velocity, fitted from the shipped profile whose
+    surge and sway are off the truth: heave, roll, pitch and yaw meet the targets. Surge
+    and sway are nuisance states of the fit (trimd.identify.fit); with u and v from the
+    prior's surge and sway model the Monte Carlo's roll damping came out a median 92 % off
+    (docs/identification.md)."""
+    prior, truth = prior_values(bluerov), prior_values(unseen)
+    assert max(abs(prior[n] / truth[n] - 1) for n in ("X_udot", "Y_vdot", "X_u|u|", "Y_v|v|")
+               if truth[n]) > 0.2
+    _judge_dofs(default_rates, bluerov, unseen, (2, 3, 4, 5), dvl=False)
+
+
+@pytest.mark.slow
+def test_the_sabertooth_pitches_fast_enough_to_identify_pitch(sabertooth: Profile) -> None:
+    """An unseen Sabertooth at the simulator's default rates, uwq: the full-authority pitch
+    doublets reach rates where the gyro resolves q, so the pitch inertia sum is within
+    5 %, the pitch damping within 10 % over the rates reached and the held-out NRMSE of q
+    at least 90 % (with the pitch doublets at the velocity axes' amplitude 0.6: 87 %)."""
+    truth = perturbed(sabertooth, np.random.default_rng(1000), name="unseen-sabertooth")
+    recordings = {"uwq": (record(truth, sabertooth, "uwq", 240.0, 1, fast=False),
+                          record(truth, sabertooth, "uwq", 60.0, 6, fast=False))}
+    _judge_dofs(recordings, sabertooth, truth, (4,), dvl=True)

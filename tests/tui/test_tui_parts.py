@@ -14,7 +14,7 @@ from tests.ballast.test_ballast_degenerate import CASES, with_net
 from tests.helpers import equilibrium_holds, payload_truth
 from trimd.ballast.propose import propose_ballast
 from trimd.core.estimate import estimate_static
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.samples import Attitude, Depth, Health, HoldAttitude, Release
 from trimd.tui.plot import Series, braille_plot
 from trimd.tui.report import Report, save_report
@@ -136,6 +136,18 @@ def test_result_panel_says_when_the_passive_trim_is_undefined(sabertooth: Profil
     assert not proposal.trim.stable
     text = "\n".join(line.plain for line in ResultPanel(sabertooth)._footer(proposal, 80))
     assert "passive trim undefined: no static stability" in text and "nan" not in text
+
+
+def test_result_panel_shows_pieces_taken_out(bluerov: Profile) -> None:
+    """Lead left aft on the nominal vehicle: the proposal takes it out, and says so."""
+    installed = (InstalledPiece("W-aft-ctr", "lead-200g", 2),)
+    lead = bluerov.piece("lead-200g")
+    net_kg = 2 * (lead.mass_kg - bluerov.water_density_kg_m3 * lead.volume_m3)
+    W, r_g = payload_truth(bluerov, net_kg, np.array(bluerov.slot("W-aft-ctr").position_m))
+    est = estimate_static(equilibrium_holds(bluerov, W, r_g), bluerov)
+    proposal = propose_ballast(est, bluerov, installed=installed)
+    text = "\n".join(line.plain for line in ResultPanel(bluerov)._footer(proposal, 80))
+    assert "W-aft-ctr -0.40 kg" in text and "−2×lead-200g" in text
 
 
 @pytest.mark.asyncio

@@ -9,27 +9,34 @@ import os
 import time
 from pathlib import Path
 
+from trimd.ballast.check import SlotLoad
 from trimd.core.errors import DataError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
 from trimd.identify.model import Statics, statics_from_estimate
 
-__all__ = ["default_record_path", "read_estimate", "read_statics"]
+__all__ = ["data_dir", "default_record_path", "installed_from_json", "read_estimate",
+           "read_installed", "read_statics"]
+
+
+def data_dir() -> Path:
+    """Where trimd keeps its data: ``$TRIMD_DATA_DIR``, else ``$XDG_DATA_HOME/trimd``, else
+    ``~/.local/share/trimd``."""
+    base = os.environ.get("TRIMD_DATA_DIR") or os.path.join(
+        os.environ.get("XDG_DATA_HOME") or os.path.expanduser("~/.local/share"), "trimd")
+    return Path(base)
 
 
 def default_record_path(profile: Profile) -> Path:
     """``<data dir>/sessions/YYYYmmdd-HHMMSS-<profile>.tlog``."""
-    base = os.environ.get("TRIMD_DATA_DIR") or os.path.join(
-        os.environ.get("XDG_DATA_HOME") or os.path.expanduser("~/.local/share"), "trimd")
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    return Path(base) / "sessions" / f"{stamp}-{profile.name}.tlog"
+    return data_dir() / "sessions" / f"{stamp}-{profile.name}.tlog"
 
 
-def _estimate_json(text: str, path: str | Path) -> object:
-    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
-    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
-    of ``trimd run --json``."""
+def _result_json(text: str, path: str | Path) -> object:
+    """The JSON object in ``text``: the file itself, or the last ``result`` line of
+    ``trimd run --json``."""
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -43,6 +50,14 @@ def _estimate_json(text: str, path: str | Path) -> object:
         if not results:
             raise DataError(f"{path}: no result line (trimd run --json)") from None
         data = results[-1]
+    return data
+
+
+def _estimate_json(text: str, path: str | Path) -> object:
+    """The estimate's JSON object in ``text``: the file itself (``trimd solve --json``),
+    its ``estimate`` member (``trimd run``'s report), or that of the last ``result`` line
+    of ``trimd run --json``."""
+    data = _result_json(text, path)
     if isinstance(data, dict) and "weight_N" not in data and "estimate" in data:
         if data["estimate"] is None:
             raise DataError(f"{path}: that session produced no estimate")
@@ -64,6 +79,42 @@ def read_estimate(path: str | Path) -> StaticEstimate:
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise DataError(f"{path}: malformed estimate ({type(exc).__name__}: {exc}); expected "
                         "the output of trimd solve --json") from None
+
+
+def read_installed(path: str | Path, profile: Profile) -> list[SlotLoad]:
+    """The ballast a trim proposed, as installed: the ``proposal`` of ``trimd run``'s
+    report or of the last ``result`` line of ``trimd run --json`` in ``path``. DataError
+    naming the file when it holds no proposal or one for slots ``profile`` lacks."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the trim ({exc.strerror})") from None
+    return installed_from_json(text, path, profile)
+
+
+def installed_from_json(text: str, path: str | Path, profile: Profile) -> list[SlotLoad]:
+    """:func:`read_installed` of a file's ``text`` (``path`` names it in errors)."""
+    data = _result_json(text, path)
+    proposal = data.get("proposal") if isinstance(data, dict) else None
+    if not isinstance(proposal, dict):
+        raise DataError(f"{path}: no ballast proposal in it: give the output of the trim "
+                        "whose ballast was installed (trimd run --json, or its report)")
+    g, slots = profile.gravity_m_s2, {s.name for s in profile.slots}
+    try:
+        loads = [SlotLoad(s["name"], tuple(map(float, s["position_m"])),  # type: ignore[arg-type]
+                          float(s["weight_kg"]), float(s["float_kg"]), float(s["mass_kg"]),
+                          float(s["mass_kg"]) * g - float(s["net_down_N"]),
+                          float(s["net_down_N"]),
+                          tuple((str(k), int(n)) for k, n in s["pieces"].items()),
+                          tuple((str(k), int(n)) for k, n in s.get("removed", {}).items()))
+                 for s in proposal["slots"]]
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise DataError(f"{path}: malformed proposal ({type(exc).__name__}: {exc})") from None
+    unknown = sorted({ld.name for ld in loads} - slots)
+    if unknown:
+        raise DataError(f"{path}: the proposal uses slots {unknown} that profile "
+                        f"'{profile.name}' does not have: wrong profile?")
+    return loads
 
 
 def read_statics(path: str) -> Statics:

@@ -12,9 +12,16 @@ import sys
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from trimd.app.report import NewWarnings, describe_command, format_estimate, format_proposal
+from trimd.app.report import (
+    NewWarnings,
+    describe_command,
+    format_estimate,
+    format_proposal,
+    format_verification,
+)
 from trimd.app.session import Session
 from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Notice, Output, Phase, Progress
@@ -47,6 +54,11 @@ class HeadlessPresenter:
         if isinstance(out, Notice):
             if out.result is not None:
                 self._result(out.result.estimate, out.result.proposal)
+                return
+            if isinstance(out.verification, Verification):
+                self._emit(format_verification(out.verification),
+                           {"type": "verification", "t_s": t,
+                            **verification_to_dict(out.verification)})
                 return
             phase = out.phase.value if out.phase is not None else None
             self._emit(f"[{t:8.1f} s] {out.kind + ': ' if out.kind != 'state' else ''}"

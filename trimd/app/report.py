@@ -7,14 +7,19 @@ Lengths are shown in millimetres, angles in degrees; ± is one standard deviatio
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+
+import numpy as np
 
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
+from trimd.ballast.verify import VERIFIED, Verification
 from trimd.core.estimate import StaticEstimate
+from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
 __all__ = ["NewWarnings", "describe_command", "format_estimate", "format_proposal",
-           "format_result"]
+           "format_result", "format_verification"]
 
 
 def format_estimate(est: StaticEstimate) -> str:
@@ -48,11 +53,18 @@ def format_proposal(p: Proposal) -> str:
              f"{'net down N':>12}  pieces"]
     for s in p.slots:
         if s.mass_kg or s.buoyancy_N:
-            pieces = ", ".join(f"{n} × {name}" for name, n in s.pieces)
+            pieces = ", ".join([*(f"+{n} × {name}" if s.removed else f"{n} × {name}"
+                                  for name, n in s.pieces),
+                                *(f"−{n} × {name}" for name, n in s.removed)])
             lines.append(f"{s.name:<14}{s.position_m[0]:8.3f}{s.position_m[1]:8.3f}"
                          f"{s.position_m[2]:8.3f}{s.weight_kg:11.3f}{s.float_kg:11.3f}"
                          f"{s.net_down_N:12.2f}  {pieces}")
     t = p.trim
+    if p.installed or any(s.removed for s in p.slots):
+        lines += [f"installed before  {_pieces_text(p.installed)}",
+                  *(f"  {c.text}" for c in p.changes),
+                  f"installed after   {_pieces_text(p.installed_after)}",
+                  f"pieces handled    {p.pieces_handled} (a move counts once)"]
     lines += [
         f"added mass        {p.added_mass_kg:.3f} kg",
         f"net buoyancy      {t.net_buoyancy_N:+.2f} ± {t.net_buoyancy_std_N:.2f} N "
@@ -66,8 +78,29 @@ def format_proposal(p: Proposal) -> str:
     return "\n".join(lines)
 
 
+def _pieces_text(pieces: Sequence[InstalledPiece]) -> str:
+    return "; ".join(f"{x.count} × {x.piece} in {x.slot}" for x in pieces) or "none"
+
+
+def format_verification(v: Verification) -> str:
+    """A readable table of a verify hold: measured, predicted and their difference."""
+    predicted = np.r_[-v.predicted.net_buoyancy_N, v.predicted.net_moment_Nm[:2]]
+    measured_std = np.sqrt(np.diag(v.measured.q_cov))[:3]
+    lines = [f"verify hold ({v.measured.samples} samples, {v.measured.t_start_s:.1f} – "
+             f"{v.measured.t_end_s:.1f} s)",
+             f"{'':<32}{'measured':>18}{'predicted':>12}{'difference':>20}"]
+    for name, m, m_std, p, d, d_std in zip(VERIFIED, v.measured.q[:3], measured_std, predicted,
+                                            v.difference, v.difference_std, strict=True):
+        lines.append(f"{name:<32}{m:+10.3f} ± {m_std:5.3f}{p:+12.3f}{d:+12.3f} ± {d_std:5.3f}")
+    lines.append(v.message)
+    return "\n".join(lines)
+
+
 def format_result(result: SessionResult) -> str | None:
-    """The estimate and proposal as the headless daemon prints them (None: no estimate)."""
+    """The estimate and proposal, or a verify hold's verification, as the headless daemon
+    prints them (None: neither)."""
+    if isinstance(result.verification, Verification):
+        return format_verification(result.verification)
     if result.estimate is None:
         return None
     text = format_estimate(result.estimate)

@@ -113,7 +113,7 @@ class Machine(Protocol):
 @dataclass(frozen=True)
 class SessionResult:
     """How the session ended (``cause`` as :attr:`Procedure.cause`), its estimate and
-    proposal (when done) and the log path."""
+    proposal (when done), the log path, and a verify hold's verification."""
 
     phase: Phase
     reason: str
@@ -121,6 +121,7 @@ class SessionResult:
     estimate: StaticEstimate | None
     proposal: object | None
     log_path: str | None
+    verification: object | None = None
 
 
 class Session:
@@ -181,7 +182,8 @@ class Session:
                 self.recorder.close()
         p = self.procedure
         return SessionResult(p.phase, p.reason, p.cause, p.estimate, p.proposal,
-                             self.recorder.path if self.recorder else None)
+                             self.recorder.path if self.recorder else None,
+                             getattr(p, "verification", None))
 
     async def _loop(self) -> None:
         samples: AsyncIterator[Sample] = self.link.samples()

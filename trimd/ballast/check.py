@@ -42,17 +42,20 @@ MIN_GM_M = 1e-9
 
 @dataclass(frozen=True)
 class SlotLoad:
-    """What a proposal adds at one ballast slot.
+    """What a proposal changes at one ballast slot: what it adds, less what it takes out
+    of the ballast installed there (the measured q includes the installed ballast, so q
+    plus the changes is the final configuration).
 
     Attributes
     ----------
     name, position_m : the slot and its position [m], body FRD.
-    weight_kg : mass of the weights added [kg].
-    float_kg : lift of the floats added, in water [kgf].
-    mass_kg : dry mass of everything added, floats included [kg].
-    buoyancy_N : buoyancy of everything added, weights included [N].
+    weight_kg : mass of the weights added [kg] (net of those removed: may be negative).
+    float_kg : lift of the floats added, in water [kgf] (net, as weight_kg).
+    mass_kg : dry mass of everything added, floats included [kg] (net).
+    buoyancy_N : buoyancy of everything added, weights included [N] (net).
     net_down_N : its weight minus its buoyancy, in water [N] (negative: lift).
-    pieces : (inventory piece name, count) pairs; empty for ideal (continuous) ballast.
+    pieces : (inventory piece name, count) pairs added; empty for ideal (continuous) ballast.
+    removed : (inventory piece name, count) pairs taken out of the installed ballast.
     """
 
     name: str
@@ -63,6 +66,7 @@ class SlotLoad:
     buoyancy_N: float
     net_down_N: float
     pieces: tuple[tuple[str, int], ...] = ()
+    removed: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,7 +138,9 @@ def equilibrium_attitude(m: FloatArray, min_mz_Nm: float = 0.0
 
 def check_trim(estimate: StaticEstimate, loads: Sequence[SlotLoad],
                gravity_m_s2: float) -> Trim:
-    """Combined weight, buoyancy, centres and passive attitude with ``loads`` added.
+    """Combined weight, buoyancy, centres and passive attitude with ``loads`` added: the
+    final configuration (the estimate already includes the ballast installed when it was
+    measured; a load's removals are negative).
 
     The attitude and its uncertainty come from the net quantities q and their
     covariance alone; the centres use the estimate's W, B and r_b for reporting.

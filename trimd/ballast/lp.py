@@ -14,6 +14,17 @@ net moment W·r_g − B·r_b of the estimate, the rows are
 * capacity: per slot, Σ kilograms of weight ≤ max_weight_kg and Σ kgf of lift ≤ max_float_kg;
 * inventory: Σ pieces of a kind ≤ its count.
 
+Ballast already installed (``Profile.installed``, or what ``trimd ballast apply``
+recorded): the measured q includes it, so the programme has, besides a column of pieces
+added per slot and kind, a column of pieces removed per installed slot and kind
+(0 ≤ removed ≤ installed) whose every coefficient is the negative of an added piece's:
+removing a piece takes its force, moment and slot use away. Capacity rows count what is
+installed; the inventory row of a kind is Σ added − Σ removed ≤ the spare pieces (a piece
+taken out of one slot can go into another: a move). The piece count of the objective is
+then the number of handling operations Σ_kind max(added, removed), a move (one removal
+and one addition of the same kind) counted once, through one auxiliary column per kind
+(``h_k ≥ added_k``, ``h_k ≥ removed_k``); the mass term is the net dry mass added.
+
 The ballast objective is kg of weight + kgf of lift for ideal ballast, and for pieces
 the count plus their dry mass scaled below one piece (fewest pieces, then least mass).
 It is first minimised with the slacks held at zero, one solve when the requirement can
@@ -48,7 +59,7 @@ from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, linprog, mi
 
 from trimd.ballast.check import MIN_GM_M
 from trimd.core.estimate import StaticEstimate
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 
 __all__ = ["Item", "Programme", "Solution", "build_programme", "ideal_items",
            "moment_resolution", "piece_items", "solve_programme"]
@@ -79,7 +90,9 @@ class Item:
     mass_kg, buoyancy_N : dry mass [kg] and buoyancy [N] of one unit.
     capacity_kg : what one unit uses of the slot: kg of weight, or kgf of lift.
     cost_kg : what one unit adds to the last objective [kg].
-    count : pieces on hand; None for ideal ballast (a continuous amount).
+    count : pieces on hand (for a removal: pieces installed there); None for ideal
+        ballast (a continuous amount).
+    removal : the column takes installed pieces out (every coefficient negated).
     """
 
     slot: int
@@ -90,6 +103,12 @@ class Item:
     capacity_kg: float
     cost_kg: float
     count: int | None = None
+    removal: bool = False
+
+    @property
+    def sign(self) -> float:
+        """+1 for ballast put in, −1 for installed ballast taken out."""
+        return -1.0 if self.removal else 1.0
 
 
 def ideal_items(profile: Profile, *, floats: bool) -> list[Item]:
@@ -103,18 +122,29 @@ def ideal_items(profile: Profile, *, floats: bool) -> list[Item]:
     return items
 
 
-def piece_items(profile: Profile) -> list[Item]:
-    """Every inventory piece at every slot with room for at least one of it."""
+def piece_items(profile: Profile, installed: Sequence[InstalledPiece] = ()) -> list[Item]:
+    """Every inventory piece at every slot with room for at least one of it, then a
+    removal column for every slot and kind in ``installed`` (names as the profile spells
+    them: :meth:`Profile.resolve_installed`). A kind can be added up to its spare count
+    plus what is installed of it anywhere (moved)."""
     g, rho = profile.gravity_m_s2, profile.water_density_kg_m3
+    mounted = {p.name: sum(x.count for x in installed if x.piece == p.name)
+               for p in profile.inventory}
     items = []
     for i, s in enumerate(profile.slots):
         for p in profile.inventory:
-            buoyancy = rho * g * p.volume_m3
-            use = p.mass_kg if p.kind == "weight" else buoyancy / g - p.mass_kg
+            use = p.capacity_kg(rho)
             room = s.max_weight_kg if p.kind == "weight" else s.max_float_kg
-            if p.count > 0 and use <= room:
-                items.append(Item(i, p.kind, p.name, p.mass_kg, buoyancy, use, p.mass_kg,
-                                  p.count))
+            available = p.count + mounted[p.name]
+            if available > 0 and use <= room:
+                items.append(Item(i, p.kind, p.name, p.mass_kg, rho * g * p.volume_m3, use,
+                                  p.mass_kg, available))
+    slots = [s.name for s in profile.slots]
+    for x in installed:
+        p = profile.piece(x.piece)
+        items.append(Item(slots.index(x.slot), p.kind, p.name, p.mass_kg,
+                          rho * g * p.volume_m3, p.capacity_kg(rho), p.mass_kg, x.count,
+                          removal=True))
     return items
 
 
@@ -151,7 +181,8 @@ class Solution:
 
 def _moment_arms(items: Sequence[Item], profile: Profile) -> tuple[FloatArray, FloatArray]:
     """Net downward force of one unit of every item [N] and its slot position [m]."""
-    f = np.array([it.mass_kg * profile.gravity_m_s2 - it.buoyancy_N for it in items])
+    f = np.array([it.sign * (it.mass_kg * profile.gravity_m_s2 - it.buoyancy_N)
+                  for it in items])
     r = np.array([profile.slots[it.slot].position_m for it in items]).reshape(-1, 3)
     return f, r
 
@@ -187,8 +218,8 @@ def _levelable(estimate: StaticEstimate, items: Sequence[Item], profile: Profile
 def _window_rows(items: Sequence[Item], profile: Profile, estimate: StaticEstimate,
                  window_pct: tuple[float, float]) -> tuple[list[FloatArray], list[float]]:
     g = profile.gravity_m_s2
-    f = np.array([it.mass_kg * g - it.buoyancy_N for it in items])
-    w = np.array([it.mass_kg * g for it in items])
+    f, _ = _moment_arms(items, profile)
+    w = np.array([it.sign * it.mass_kg * g for it in items])
     lo, hi = window_pct[0] / 100.0, window_pct[1] / 100.0
     W, q0 = estimate.weight_N, float(estimate.q[0])
     rows = [np.r_[lo * w + f, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0]]
@@ -204,13 +235,15 @@ def _limit_rows(items: Sequence[Item], profile: Profile
     rows, rhs = [], []
     for i, s in enumerate(profile.slots):
         for kind, room in (("weight", s.max_weight_kg), ("float", s.max_float_kg)):
-            use = np.array([it.capacity_kg if (it.slot, it.kind) == (i, kind) else 0.0
-                            for it in items])
+            use = np.array([it.sign * it.capacity_kg if (it.slot, it.kind) == (i, kind)
+                            else 0.0 for it in items])
             if np.any(use):
+                installed = sum(it.capacity_kg * (it.count or 0) for it in items
+                                if it.removal and (it.slot, it.kind) == (i, kind))
                 rows.append(np.r_[use, np.zeros(_N_SLACK)])
-                rhs.append(room)
+                rhs.append(room - installed)
     for p in profile.inventory:
-        mine = np.array([1.0 if it.piece == p.name else 0.0 for it in items])
+        mine = np.array([it.sign if it.piece == p.name else 0.0 for it in items])
         if np.any(mine):
             rows.append(np.r_[mine, np.zeros(_N_SLACK)])
             rhs.append(float(p.count))
@@ -223,6 +256,8 @@ def _unit_limit(item: Item, profile: Profile) -> float:
     room = s.max_weight_kg if item.kind == "weight" else s.max_float_kg
     if item.count is None:
         return room / item.capacity_kg
+    if item.removal:
+        return float(item.count)
     return float(min(item.count, math.floor(room / item.capacity_kg + 1e-9)))
 
 
@@ -245,14 +280,44 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
                   resolution, resolution]
     slack = np.zeros((_N_SLACK, n + _N_SLACK))
     slack[:, n:] = np.eye(_N_SLACK)
-    cost = np.r_[[it.cost_kg for it in items], np.zeros(_N_SLACK)]
+    mass = np.r_[[it.sign * it.cost_kg for it in items], np.zeros(_N_SLACK)]
+    cost = mass
     if np.any(integer):
         # fewest pieces, then least mass: the mass term stays below one piece
-        cost = integer + cost / (1.0 + float(cost[:n] @ upper[:n]))
-    objectives = (("net-buoyancy window", slack[2] + slack[3]),
-                  ("level", slack[0] + slack[1]), ("ballast", cost))
-    return Programme(tuple(items), np.array(rows, dtype=float).reshape(-1, n + _N_SLACK),
-                     np.array(rhs, dtype=float), upper, integer, objectives, levelable)
+        scale = 1.0 + float(np.abs(mass[:n]) @ upper[:n])
+        cost = (0.0 if any(it.removal for it in items) else integer) + mass / scale
+    A = np.array(rows, dtype=float).reshape(-1, n + _N_SLACK)
+    b = np.array(rhs, dtype=float)
+    objectives = [("net-buoyancy window", slack[2] + slack[3]),
+                  ("level", slack[0] + slack[1]), ("ballast", cost)]
+    if any(it.removal for it in items):
+        A, b, upper, integer, objectives = _with_handling(items, A, b, upper, integer,
+                                                          objectives)
+    return Programme(tuple(items), A, b, upper, integer, tuple(objectives), levelable)
+
+
+def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: FloatArray,
+                   integer: NDArray[np.int_], objectives: list[tuple[str, FloatArray]]
+                   ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int_],
+                              list[tuple[str, FloatArray]]]:
+    """Append one handling column h_k per piece kind, h_k ≥ Σ added and h_k ≥ Σ removed
+    of kind k, and count Σ h_k in the ballast objective: pieces handled, a move once."""
+    kinds = sorted({it.piece for it in items if it.piece is not None})
+    n, k = len(items), len(kinds)
+    rows = []
+    for j, kind in enumerate(kinds):
+        for removal in (False, True):
+            row = np.zeros(n + _N_SLACK + k)
+            row[:n] = [1.0 if (it.piece, it.removal) == (kind, removal) else 0.0
+                       for it in items]
+            row[n + _N_SLACK + j] = -1.0
+            rows.append(row)
+    A = np.vstack([np.hstack([A, np.zeros((A.shape[0], k))]), *rows])
+    b = np.r_[b, np.zeros(len(rows))]
+    handled = [(name, np.r_[c, np.ones(k) if name == "ballast" else np.zeros(k)])
+               for name, c in objectives]
+    return (A, b, np.r_[upper, np.full(k, math.inf)], np.r_[integer, np.zeros(k, dtype=int)],
+            handled)
 
 
 def _solve_stage(c: FloatArray, A: FloatArray, b: FloatArray, upper: FloatArray,
@@ -317,7 +382,7 @@ def solve_programme(prog: Programme, *, relax: bool = False,
     note = ""
     strict_nodes = min(STRICT_NODES, node_limit)
     if prog.levelable:
-        strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK)]
+        strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK), prog.upper[n + _N_SLACK:]]
         exact = _solve_stages(prog, strict, prog.objectives[-1:], integer, strict_nodes)
         if exact.success:
             return exact

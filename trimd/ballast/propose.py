@@ -8,7 +8,11 @@ the measurement determines, q = [W − B, W·r_g − B·r_b]:
 * ``general`` — ideal weights and floats, slot limits, buoyancy ≥ weight (eq. 3.6/3.7);
 * ``milp`` — the profile's real pieces, slot capacities, inventory counts, the
   net-buoyancy window; level within a tolerance with the fewest pieces, then the least
-  added mass (:mod:`trimd.ballast.lp`).
+  added mass (:mod:`trimd.ballast.lp`). The pieces aim inside the tolerance by the
+  estimate's 95 % interval of the trim, so that the TRUE vehicle ends within it. It
+  starts from the ballast installed (the profile's ``ballast.installed``, or what
+  ``trimd ballast apply`` recorded) and may remove or move pieces: fewest pieces
+  handled, a move counted once (:mod:`trimd.ballast.changes` says what to do in words).
 
 When the requirement cannot be met the proposal is the best achievable one (the window
 first, then the least residual moment) with ``feasible`` False and the limits that bind
@@ -23,12 +27,14 @@ and the message says so.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.ballast.changes import Change, ballast_changes, installed_after
 from trimd.ballast.check import SlotLoad, Trim, check_trim
 from trimd.ballast.line import line_split
 from trimd.ballast.lp import (
@@ -43,7 +49,7 @@ from trimd.ballast.lp import (
 from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import covariance_problem
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 
 __all__ = [
     "METHODS",
@@ -58,6 +64,8 @@ FloatArray = NDArray[np.float64]
 METHODS = ("lp", "line", "general", "milp")
 #: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
 _EXACT_RAD = 1e-6
+#: Two-sided 95 % quantile of the normal distribution.
+_Z95 = 1.959964
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,6 +85,8 @@ class Proposal:
     trim : the vehicle with the ballast added (combined W, B, centres, passive attitude).
     level_tol_deg : the level requirement (0: exactly level).
     window_pct : the enforced net-buoyancy window [% of weight], None when not enforced.
+    installed : the ballast on the vehicle when it was measured (``milp`` starts from it;
+        the other methods only add).
     """
 
     method: str
@@ -88,11 +98,27 @@ class Proposal:
     trim: Trim
     level_tol_deg: float
     window_pct: tuple[float, float] | None
+    installed: tuple[InstalledPiece, ...] = ()
 
     @property
     def added_mass_kg(self) -> float:
-        """Dry mass of everything added [kg]."""
+        """Dry mass of everything added less everything removed [kg]."""
         return sum(s.mass_kg for s in self.slots)
+
+    @property
+    def changes(self) -> tuple[Change, ...]:
+        """What to move, remove and add, in that order."""
+        return ballast_changes(self.slots)
+
+    @property
+    def pieces_handled(self) -> int:
+        """Pieces the operator handles: each moved, removed or added piece once."""
+        return sum(c.count for c in self.changes)
+
+    @property
+    def installed_after(self) -> tuple[InstalledPiece, ...]:
+        """The ballast on the vehicle once the proposal is carried out."""
+        return installed_after(self.installed, self.slots)
 
     @property
     def trim_std_deg(self) -> tuple[float, float]:
@@ -100,7 +126,8 @@ class Proposal:
         return (self.trim.roll_std_deg, self.trim.pitch_std_deg)
 
 
-def _setup(method: str, profile: Profile, level_tol_deg: float
+def _setup(method: str, profile: Profile, level_tol_deg: float,
+           installed: Sequence[InstalledPiece]
            ) -> tuple[list[Item], float, tuple[float, float] | None]:
     """Items, level tolerance [deg] and net-buoyancy window [%] of a method."""
     if method in ("lp", "line"):
@@ -108,8 +135,22 @@ def _setup(method: str, profile: Profile, level_tol_deg: float
     if method == "general":
         return ideal_items(profile, floats=True), 0.0, (0.0, math.inf)
     if method == "milp":
-        return piece_items(profile), level_tol_deg, profile.net_buoyancy_pct
+        return piece_items(profile, installed), level_tol_deg, profile.net_buoyancy_pct
     raise ValueError(f"unknown ballast method {method!r} (methods: {', '.join(METHODS)})")
+
+
+def _aim_deg(estimate: StaticEstimate, level_tol_deg: float) -> float:
+    """The passive roll and pitch [deg] the pieces should leave so that the true vehicle
+    is within ``level_tol_deg`` at 95 %: the tolerance less 1.96σ of the estimate's trim
+    (σ(W·y_g − B·y_b) and σ(W·x_g − B·x_b) over the stiffness W·z_g − B·z_b), at least 0
+    (then as level as the pieces allow). The estimate's error does not shrink with the
+    pieces, so a proposal that spends the whole tolerance on its discreteness leaves the
+    true vehicle beyond it about half the time the estimate is off by 1σ."""
+    k = float(estimate.q[3])
+    if level_tol_deg <= 0 or k <= 0:
+        return level_tol_deg
+    sigma = np.sqrt(np.clip(np.diag(estimate.q_cov)[1:3], 0.0, None)) / k
+    return max(0.0, level_tol_deg - _Z95 * math.degrees(float(sigma.max())))
 
 
 def _check_inputs(estimate: StaticEstimate, profile: Profile) -> None:
@@ -159,7 +200,8 @@ def _slot_loads(profile: Profile, items: list[Item], amounts: FloatArray
     g = profile.gravity_m_s2
     loads = []
     for i, s in enumerate(profile.slots):
-        mine = [(it, float(u)) for it, u in zip(items, amounts, strict=True) if it.slot == i]
+        mine = [(it, it.sign * float(u)) for it, u in zip(items, amounts, strict=True)
+                if it.slot == i]
         mass = sum(it.mass_kg * u for it, u in mine)
         buoyancy = sum(it.buoyancy_N * u for it, u in mine)
         loads.append(SlotLoad(
@@ -168,7 +210,9 @@ def _slot_loads(profile: Profile, items: list[Item], amounts: FloatArray
             float_kg=sum(it.capacity_kg * u for it, u in mine if it.kind == "float"),
             mass_kg=mass, buoyancy_N=buoyancy, net_down_N=mass * g - buoyancy,
             pieces=tuple((it.piece, round(u)) for it, u in mine
-                         if it.piece is not None and u > 0)))
+                         if it.piece is not None and u > 0),
+            removed=tuple((it.piece, round(-u)) for it, u in mine
+                          if it.piece is not None and u < 0)))
     return tuple(loads)
 
 
@@ -183,10 +227,13 @@ def _active_limits(profile: Profile, items: list[Item], amounts: FloatArray) -> 
             if not mine:
                 continue
             step = min(it.capacity_kg if it.count is not None else 1e-6 for it, _ in mine)
-            if room - sum(it.capacity_kg * u for it, u in mine) < step - 1e-9:
+            installed = sum(it.capacity_kg * (it.count or 0) for it, _ in mine if it.removal)
+            if room - installed - sum(it.sign * it.capacity_kg * u for it, u in mine) < (
+                    step - 1e-9):
                 out.append(f"{s.name} {kind} capacity ({room:g} {unit})")
     for p in profile.inventory:
-        used = sum(u for it, u in zip(items, amounts, strict=True) if it.piece == p.name)
+        used = sum(it.sign * u for it, u in zip(items, amounts, strict=True)
+                   if it.piece == p.name)
         if p.count > 0 and used >= p.count:
             out.append(f"inventory: all {p.count} × {p.name} used")
     return out
@@ -237,7 +284,8 @@ def _attitude_text(trim: Trim) -> str:
 
 def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list[Item],
             amounts: FloatArray, level_tol_deg: float, window: tuple[float, float] | None,
-            note: str = "", success: bool = True) -> Proposal:
+            installed: tuple[InstalledPiece, ...], note: str = "", success: bool = True
+            ) -> Proposal:
     """Physics check, feasibility, binding limits and the message of a proposal."""
     loads = _slot_loads(profile, items, amounts)
     trim = check_trim(estimate, loads, profile.gravity_m_s2)
@@ -261,12 +309,12 @@ def _assess(method: str, estimate: StaticEstimate, profile: Profile, items: list
         message = (f"{note}{method}: cannot meet {' and '.join(unmet) or 'the requirement'}; "
                    f"best achievable: {result}; limited by: {'; '.join(binding)}")
     return Proposal(method, success, feasible, message, tuple(binding), loads, trim,
-                    level_tol_deg, window)
+                    level_tol_deg, window, installed)
 
 
 def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "milp", *,
-                    level_tol_deg: float | None = None, node_limit: int = STAGE_NODES
-                    ) -> Proposal:
+                    level_tol_deg: float | None = None, node_limit: int = STAGE_NODES,
+                    installed: Sequence[InstalledPiece] | None = None) -> Proposal:
     """Propose ballast for ``estimate`` on ``profile`` by ``method`` (see :data:`METHODS`).
 
     Parameters
@@ -279,6 +327,9 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     node_limit : the integer solver's branch-and-bound budget per stage; when reached, the
         best solution found is proposed and the message says so (nothing is proposed if
         none was found). A node budget, not a time limit: the same proposal on any machine.
+    installed : the ballast on the vehicle when the estimate was measured (default: the
+        profile's ``ballast.installed``); ``milp`` may remove or move it, the continuous
+        methods only add.
 
     Returns
     -------
@@ -290,23 +341,36 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     ------
     ValueError : unknown method.  DataError : non-finite estimate, weight ≤ 0, or a
         covariance that is not symmetric positive semi-definite.
-    ProfileError : the estimate was made with another profile's buoyancy or gravity.
+    ProfileError : the estimate was made with another profile's buoyancy or gravity, or
+        ``installed`` names a slot or piece the profile does not have.
     """
+    mounted = profile.resolve_installed(profile.installed if installed is None
+                                        else installed, "installed ballast")
     items, tol, window = _setup(method, profile, profile.level_tol_deg
-                                if level_tol_deg is None else level_tol_deg)
+                                if level_tol_deg is None else level_tol_deg, mounted)
     _check_inputs(estimate, profile)
     note, amounts = "", None
     if method == "line":
         amounts, note = _line_amounts(estimate, profile, items)
-    if amounts is None:
-        prog = build_programme(estimate, profile, items, level_tol_deg=tol, window_pct=window)
+    if amounts is not None:
+        return _assess(method, estimate, profile, items, amounts, tol, window, mounted, note)
+    # aim inside the tolerance first; when the pieces cannot meet the tolerance that way
+    # (aiming at 0 leaves them only as level as the moment resolution), at the tolerance
+    best: Proposal | None = None
+    for target in dict.fromkeys((_aim_deg(estimate, tol), tol)):
+        prog = build_programme(estimate, profile, items, level_tol_deg=target,
+                               window_pct=window)
         sol = solve_programme(prog, node_limit=node_limit)
         if not sol.success:
-            return _assess(method, estimate, profile, items, sol.amounts, tol, window,
-                           f"{sol.message}; nothing proposed. ", success=False)
-        amounts = sol.amounts
-        note += f"{sol.note}. " if sol.note else ""
-    return _assess(method, estimate, profile, items, amounts, tol, window, note)
+            return best or _assess(method, estimate, profile, items, sol.amounts, tol, window,
+                                   mounted, f"{sol.message}; nothing proposed. ",
+                                   success=False)
+        best = _assess(method, estimate, profile, items, sol.amounts, tol, window, mounted,
+                       note + (f"{sol.note}. " if sol.note else ""))
+        if best.feasible:
+            break
+    assert best is not None
+    return best
 
 
 def _number(value: float) -> float | None:
@@ -314,10 +378,16 @@ def _number(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def _pieces(pieces: Sequence[InstalledPiece]) -> list[dict[str, Any]]:
+    return [{"slot": x.slot, "piece": x.piece, "count": x.count} for x in pieces]
+
+
 def proposal_to_dict(p: Proposal) -> dict[str, Any]:
     """JSON-ready dict (the ``trimd ballast --json`` shape; units in the key names).
 
-    ``predicted_trim_std_deg`` is [roll, pitch] 1σ; ``pieces`` maps piece name to count.
+    ``predicted_trim_std_deg`` is [roll, pitch] 1σ; a slot's ``pieces`` maps piece name to
+    the count added, ``removed`` to the count taken out; ``changes`` says what to move,
+    remove and add; ``installed_before``/``installed_after`` are the configurations.
     A number that is undefined (the passive trim of a vehicle without static stability)
     or unbounded (the window's upper edge for ``general``) is None (JSON ``null``): the
     dict never holds NaN or infinity.
@@ -327,8 +397,14 @@ def proposal_to_dict(p: Proposal) -> dict[str, Any]:
         "method": p.method,
         "slots": [{"name": s.name, "position_m": list(s.position_m), "weight_kg": s.weight_kg,
                    "float_kg": s.float_kg, "mass_kg": s.mass_kg, "pieces": dict(s.pieces),
-                   "net_down_N": s.net_down_N} for s in p.slots],
+                   "removed": dict(s.removed), "net_down_N": s.net_down_N} for s in p.slots],
         "added_mass_kg": p.added_mass_kg,
+        "changes": [{"action": c.action, "piece": c.piece, "count": c.count,
+                     "from_slot": c.from_slot, "to_slot": c.to_slot, "text": c.text}
+                    for c in p.changes],
+        "pieces_handled": p.pieces_handled,
+        "installed_before": _pieces(p.installed),
+        "installed_after": _pieces(p.installed_after),
         "net_buoyancy_N": t.net_buoyancy_N,
         "net_buoyancy_pct": t.net_buoyancy_pct,
         "net_buoyancy_std_N": t.net_buoyancy_std_N,

@@ -12,13 +12,13 @@ import sys
 from collections.abc import Sequence
 
 from trimd import __version__
-from trimd.cli import ballast, identify, inspect, replay, run, sim, solve, watch
+from trimd.cli import ballast, history, identify, inspect, replay, run, sim, solve, watch
 from trimd.core.errors import LinkError, TrimdError
 
 __all__ = ["main"]
 
 #: Modules that provide sub-commands, in the order ``trimd --help`` lists them.
-COMMANDS = (run, watch, replay, solve, ballast, sim, inspect, identify)
+COMMANDS = (run, watch, replay, solve, ballast, history, sim, inspect, identify)
 
 
 def build_parser() -> argparse.ArgumentParser:

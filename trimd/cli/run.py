@@ -10,26 +10,44 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
+import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from trimd.app.connect import open_link
-from trimd.app.files import default_record_path
+from trimd.app.files import (
+    default_record_path,
+    installed_from_json,
+    read_estimate,
+    read_installed,
+)
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
+from trimd.app.history import History
+from trimd.app.history.installed import current_installed
+from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
+from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.ballast.verify import verify_hold
 from trimd.cli.argtypes import integer
-from trimd.core.errors import ProfileError
+from trimd.cli.history_args import add_history_args, db_path, vehicle_of
+from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
+from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["register", "run", "run_demo", "wants_tui"]
+
+#: ``--verify`` without a file: the vehicle's last trim in the history.
+LAST_TRIM = "<last trim>"
 
 
 DEMO_PROFILE = "sabertooth-dh2"
@@ -44,6 +62,11 @@ def register(sub: Any) -> None:
     p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
                    "serial:<dev>[,baud] | replay:<path>")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
+    p.add_argument("--verify", metavar="TRIM.json", nargs="?", const=LAST_TRIM,
+                   help="after installing the ballast of a trim (its trimd run --json output "
+                   "or report; alone: the vehicle's last trim in the history): one level "
+                   "hold that measures what the ballast left and compares it with the "
+                   "proposal's prediction")
     p.add_argument("--sysid", type=integer(1, 255), metavar="N",
                    help="mavlink: the vehicle's system id (the URL's ?sysid=N); default: "
                    "the first autopilot that is not a ground station")
@@ -66,6 +89,10 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "file in $TRIMD_DATA_DIR or ~/.local/share/trimd/sessions)")
     p.add_argument("--no-record", action="store_true", help="do not write a session log")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
+    p.add_argument("--no-history", action="store_true", help="do not read the installed "
+                   "ballast from the trim history (the profile's is used) nor store the "
+                   "result in it")
+    add_history_args(p)
 
 
 def _exit_code(result: SessionResult) -> int:
@@ -84,8 +111,31 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=args.ballast)
 
+    procedure = None
+    if getattr(args, "verify", None):
+        trim, installed = _trim_to_verify(args, profile)
+        procedure = Procedure(profile, confirmed=args.yes,
+                              verify=lambda hold: verify_hold(hold, profile, trim, installed))
     return Session(link, profile, recorder=recorder, presenters=presenters,
-                   confirmed=args.yes, propose=propose)
+                   confirmed=args.yes, propose=propose, procedure=procedure)
+
+
+def _trim_to_verify(args: argparse.Namespace, profile: Profile
+                    ) -> tuple[StaticEstimate, list[SlotLoad]]:
+    """The estimate and proposed ballast a verify hold checks: from ``--verify FILE``, or
+    (``--verify`` alone) the vehicle's last trim in the history."""
+    if args.verify != LAST_TRIM:
+        return read_estimate(args.verify), read_installed(args.verify, profile)
+    vehicle = vehicle_of(args, profile.name)
+    with History(db_path(args)) as history:
+        trims = [t for t in history.trims(vehicle) if t.proposal is not None]
+        where = history.path
+    if not trims:
+        raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
+                        "the trim to verify (--verify TRIM.json)")
+    record = json.dumps({"estimate": trims[-1].estimate, "proposal": trims[-1].proposal})
+    return (estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
+            installed_from_json(record, f"the trim of {vehicle}", profile))
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
@@ -118,6 +168,9 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
     profile = load_profile(args.profile)
+    if not args.no_history:  # proposals (here and in the TUI) start from what is installed
+        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
+        profile = dataclasses.replace(profile, installed=installed)
     tui = wants_tui(args)
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
@@ -132,7 +185,23 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
         print("\n" + truth_text)
     if result.log_path:
         print(f"session log: {result.log_path}", file=sys.stderr)
+    if not args.no_history and (result.estimate is not None or result.verification):
+        _store(args, profile, result)
     return _exit_code(result)
+
+
+def _store(args: argparse.Namespace, profile: Profile, result: SessionResult) -> None:
+    """Store the result in the trim history; a file that cannot take it is a warning (the
+    trim itself succeeded and was printed)."""
+    vehicle = vehicle_of(args, profile.name)
+    try:
+        with History(db_path(args)) as history:
+            record_result(history, vehicle, profile.name, result)
+    except DataError as exc:
+        print(f"trimd: warning: the trim was not stored in the history: {exc}",
+              file=sys.stderr)
+        return
+    print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:

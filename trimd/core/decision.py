@@ -29,30 +29,24 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.estimate import HoldSamples, StaticEstimate, thrust_curve_std
 from trimd.core.longrun import mean_covariance
-from trimd.core.model import restoring_matrix
+from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
 
-__all__ = ["LOOK_GROWTH", "STIFFNESS_TOLERANCE", "StopRule", "informative_rows"]
+__all__ = ["LOOK_GROWTH", "STIFFNESS_TOLERANCE", "StopRule"]
 
 FloatArray = NDArray[np.float64]
 #: Each look comes this many times later (in collection time) than the one before.
 LOOK_GROWTH = 1.5
 #: The stiffness must be known to this share of its value.
 STIFFNESS_TOLERANCE = 0.1
+#: Collecting also stops when the noise part of a σ is at most this share of the part that
+#: collecting does not reduce (thrust curves, drift model): the ± is then within 12 % of
+#: what any length of collecting could give.
+NOISE_SHARE = 0.5
 #: The chance that the decision is wrong, over all looks together.
 ALPHA = 0.05
-#: A row of G(φ, θ) with no coefficient above this carries no information.
-INFORMATIVE = 0.05
-
-
-def informative_rows(phi: float, theta: float) -> NDArray[np.bool_]:
-    """The rows of g(η) = τ that depend on q at (``phi``, ``theta``) [rad]: at level Z, K
-    and M (X, Y and the yaw moment N carry nothing there)."""
-    return np.asarray(np.abs(restoring_matrix(phi, theta)).max(axis=1) > INFORMATIVE, bool)
-
-
 @dataclass(frozen=True)
 class StopRule:
     """The stop rule for one profile.
@@ -63,12 +57,14 @@ class StopRule:
     buoyancy_half_window_N : half the width of the net-buoyancy window [N].
     stiffness_prior_Nm : the profile's W·z_g − B·z_b with z_g = 0 [N·m/rad].
     looks_s : collection times [s] at which the rule is checked.
+    profile : the vehicle (its thrust curves' uncertainty).
     """
 
     level_tol_rad: float
     buoyancy_half_window_N: float
     stiffness_prior_Nm: float
     looks_s: tuple[float, ...]
+    profile: Profile
 
     @classmethod
     def for_profile(cls, profile: Profile) -> StopRule:
@@ -81,7 +77,7 @@ class StopRule:
         low, high = profile.net_buoyancy_pct
         return cls(math.radians(profile.level_tol_deg),
                    (high - low) / 200 * profile.weight_N,
-                   -profile.buoyancy_N * profile.r_b_m[2], tuple(looks))
+                   -profile.buoyancy_N * profile.r_b_m[2], tuple(looks), profile)
 
     @property
     def z(self) -> float:
@@ -109,14 +105,18 @@ class StopRule:
         e = hold.tau - np.einsum("nij,j->ni", restoring_matrix(hold.phi, hold.theta), q)
         mean = mean_covariance(e[:, rows])
         sigma = np.sqrt(np.diag(mean.cov))
-        return mean.resolved and bool(np.all(sigma <= self.row_limits()[rows]))
+        # a row whose noise is already well below its thrust curves' share is as known
+        # as collecting can make it (as in estimate_decided)
+        limits = np.maximum(self.row_limits()[rows],
+                            NOISE_SHARE * thrust_curve_std(hold, rows, self.profile))
+        return mean.resolved and bool(np.all(sigma <= limits))
 
     def estimate_decided(self, est: StaticEstimate) -> bool:
         """Are the proposal's level, its net buoyancy and the stiffness known well enough?
         Judged on the part of the ± that collecting reduces (noise, wander): each must be
-        within its limit, or already below the systematic part (thrust curves, drift
-        model), which stays whatever the hold's length — collecting on would then shrink
-        the reported ± by less than a factor √2."""
+        within its limit, or already at most :data:`NOISE_SHARE` of the systematic part
+        (thrust curves, drift model), which stays whatever the hold's length — collecting
+        on would then shrink the reported ± by at most 11 %."""
         total = np.diag(est.q_cov)
         noise = total if est.q_cov_noise is None else np.diag(est.q_cov_noise)
         k = float(est.q[3])
@@ -124,7 +124,8 @@ class StopRule:
             return False
         limits = np.r_[self.buoyancy_half_window_N, self.level_tol_rad * k,
                        self.level_tol_rad * k, STIFFNESS_TOLERANCE * k] / self.z
-        return bool(np.all((np.sqrt(noise) <= limits) | (noise <= total - noise)))
+        return bool(np.all((np.sqrt(noise) <= limits)
+                           | (noise <= NOISE_SHARE**2 * (total - noise))))
 
     def effort_floor(self, attitude_tol_rad: float, phi: float, theta: float) -> FloatArray:
         """Effort drift [N, N·m per row of τ] too small to matter while settling at

@@ -61,10 +61,16 @@ from numpy.typing import NDArray
 from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
-from trimd.core.model import restoring_matrix, thrust_configuration
+from trimd.core.model import (
+    informative_rows,
+    restoring_matrix,
+    restoring_matrix_jacobian,
+    thrust_configuration,
+)
 from trimd.core.profile import Profile
 
-__all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "estimate_static", "measurable_dofs"]
+__all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "attitude_error_factors",
+           "estimate_static", "measurable_dofs", "thrust_curve_std"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -258,6 +264,31 @@ def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np
     return out
 
 
+def thrust_curve_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile
+                     ) -> FloatArray:
+    """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust curves' gain errors
+    alone (the profile's ``uncertainty_pct``): the part of its ± that no length of
+    collecting reduces. Zero for a hold without per-thruster thrust."""
+    forward, reverse = _thrust_gain_factors([hold], [rows], profile)[0]
+    std: FloatArray = np.sqrt((forward**2).sum(axis=1) + (reverse**2).sum(axis=1))
+    return std
+
+
+def attitude_error_factors(attitude: Sequence[tuple[float, float]],
+                           used: Sequence[NDArray[np.bool_]], profile: Profile,
+                           q: FloatArray) -> list[FloatArray]:
+    """Per hold, how its mean τ (the rows used) moves with a 1σ error of the attitude
+    reference in roll and in pitch (the profile's ``attitude_error_deg``), shape
+    (rows, 2) [N, N·m]: ∂G/∂(φ, θ)·q·σ. Independent between holds, and not reduced by
+    collecting (an AHRS wanders over tens of seconds, longer than a hold)."""
+    sigma = math.radians(profile.attitude_error_deg)
+    out = []
+    for (phi, theta), r in zip(attitude, used, strict=True):
+        dG = restoring_matrix_jacobian(phi, theta)  # (6, 4, 2)
+        out.append(np.einsum("ijk,j->ik", dG, q)[r] * sigma)
+    return out
+
+
 def _drift_moments(attitude: Sequence[tuple[float, float]],
                    used: Sequence[NDArray[np.bool_]], profile: Profile,
                    net_weight_N: float) -> list[FloatArray]:
@@ -327,8 +358,10 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
     # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift
     use_force = [lv or profile.holds_station or not any(level) for lv in level]
-    used = [rows & (_MOMENT_ROWS | f) for f in use_force]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
+    # rows that carry no information at a hold's attitude (X, Y, N at level) are left out
+    used = [rows & (_MOMENT_ROWS | f) & informative_rows(*a)
+            for a, f in zip(attitude, use_force, strict=True)]
     G = [restoring_matrix(*a) for a in attitude]
     _check_identifiable(holds, G, used)
     A = [Gk[r] for Gk, r in zip(G, used, strict=True)]
@@ -344,9 +377,11 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):
         drift = _drift_moments(attitude, used, profile, float(q[0]))
+        tilt = attitude_error_factors(attitude, used, profile, q)
         means = _residual_means(holds, used, q)
         var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)
-               + (DRIFT_MODEL_ERROR * d)**2 for m, g, d in zip(means, gains, drift, strict=True)]
+               + (DRIFT_MODEL_ERROR * d)**2 + (e**2).sum(axis=1)
+               for m, g, d, e in zip(means, gains, drift, tilt, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
@@ -368,6 +403,10 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     U_drift = sum(((Ak.T * w**2) @ (DRIFT_MODEL_ERROR * d) for Ak, w, d in
                    zip(A, weights, drift, strict=True)), np.zeros(4))
     meat = meat + np.outer(U_drift, U_drift)
+    # the attitude reference's slow error, one per hold
+    for Ak, w, e in zip(A, weights, tilt, strict=True):
+        U = (Ak.T * w**2) @ e
+        meat = meat + U @ U.T
     q_cov = H_inv @ meat @ H_inv
 
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)

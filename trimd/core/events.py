@@ -79,7 +79,9 @@ class TrimResult:
 class Notice:
     """Something for the presenters: ``kind`` is state, info, warning or result.
 
-    ``phase`` is the phase a state notice enters; ``result`` rides on the result notice.
+    ``phase`` is the phase a state notice enters; ``result`` rides on the result notice
+    of a trim, ``verification`` on that of a verify hold (the verifier's value: a
+    :class:`trimd.ballast.verify.Verification` in the application).
     """
 
     t_s: float
@@ -87,6 +89,7 @@ class Notice:
     text: str
     phase: Phase | None = None
     result: TrimResult | None = None
+    verification: object | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,6 +14,8 @@ from numpy.typing import ArrayLike, NDArray
 from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
 
 __all__ = [
+    "INFORMATIVE",
+    "informative_rows",
     "pwm_from_thrust",
     "quaternion_from_euler",
     "restoring_forces",
@@ -60,6 +62,18 @@ def restoring_matrix(phi: ArrayLike, theta: ArrayLike) -> FloatArray:
         [zero, -ct * sp, -st, zero],
     ]
     return np.moveaxis(np.array(rows, dtype=float), (0, 1), (-2, -1))
+
+
+#: A row of G(φ, θ) with no coefficient above this carries no information.
+INFORMATIVE = 0.05
+
+
+def informative_rows(phi: float, theta: float) -> NDArray[np.bool_]:
+    """The rows of g(η) = τ that depend on q at (``phi``, ``theta``) [rad]: at level Z, K
+    and M (X, Y and the yaw moment N carry nothing there: their coefficients are the sine
+    of a tilt of noise size, and a thruster idle in its dead band makes their τ exactly
+    zero, so such a row would claim a precision it does not have)."""
+    return np.asarray(np.abs(restoring_matrix(phi, theta)).max(axis=1) > INFORMATIVE, bool)
 
 
 def restoring_matrix_jacobian(phi: ArrayLike, theta: ArrayLike) -> FloatArray:

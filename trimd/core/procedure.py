@@ -87,16 +87,23 @@ class Procedure:
     profile : holds, limits and timeouts (sample time) and the thruster model.
     confirmed : True when the operator confirmed up front (``--yes``).
     propose : called with the final estimate; its result rides on the result notice.
+    verify : makes this a verify hold (after ballasting): only the profile's first hold
+        (level), collected until its own rows are known, then ``verify`` is called with
+        its samples instead of estimating; its result rides on the result notice.
 
     The safety rules (:class:`trimd.core.guards.Guard`) are checked on every sample and
     Tick; whatever ends the procedure after the first command sends a Release.
     """
 
     def __init__(self, profile: Profile, *, confirmed: bool = False,
-                 propose: Callable[[StaticEstimate], object] | None = None) -> None:
+                 propose: Callable[[StaticEstimate], object] | None = None,
+                 verify: Callable[[HoldSamples], object] | None = None) -> None:
         self.profile = profile
         self.proc = profile.procedure
         self.propose = propose
+        self.verify = verify
+        self.holds = profile.holds[:1] if verify else profile.holds
+        self.verification: object | None = None
         self.phase = Phase.CONNECT
         self.reason = ""
         self.cause = Cause.NONE
@@ -142,7 +149,7 @@ class Procedure:
         elif self.phase in (Phase.COLLECT, Phase.DONE):
             settled = 1.0
         return Progress(
-            t_s=self._t, phase=self.phase, hold=max(k, 0), holds=len(self.profile.holds),
+            t_s=self._t, phase=self.phase, hold=max(k, 0), holds=len(self.holds),
             setpoint_deg=(math.degrees(hold.phi), math.degrees(hold.theta)) if hold else None,
             settled_fraction=settled, samples=len(hold.t) if hold else 0,
             time_left_s=self._time_left(), message=self.reason)
@@ -233,7 +240,7 @@ class Procedure:
         if self._confirmed:
             return self._start_holds()
         return self._enter(Phase.CONFIRM, "ready: confirm to let trimd command the vehicle "
-                                          f"({len(self.profile.holds)} holds)")
+                                          f"({len(self.holds)} holds)")
 
     def _precheck_problems(self) -> list[str]:
         """What keeps trimd from commanding now: telemetry rates, arming, mode, depth."""
@@ -275,7 +282,7 @@ class Procedure:
 
     def _next_hold(self) -> list[Output]:
         k = len(self._holds)
-        sp = self.profile.holds[k]
+        sp = self.holds[k]
         phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
         self._holds.append(_Hold(phi, theta))
         self._settling = HoldSettling(self.proc, phi, theta, self.rule.effort_floor(
@@ -284,7 +291,7 @@ class Procedure:
         self.guard.start(self._t, self._depth.depth_m if self._depth else math.nan,
                          "the hold's start depth")
         out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
-        return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.profile.holds)}: roll "
+        return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.holds)}: roll "
                                  f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
 
     def _maybe_next_hold(self) -> list[Output]:
@@ -312,7 +319,7 @@ class Procedure:
                               "window were not reached at 95 % in collect_max_s; using what "
                               f"was collected ({len(hold.t)} samples): the ± says how well "
                               "the proposal is known"))
-        if len(self._holds) < len(self.profile.holds):
+        if len(self._holds) < len(self.holds):
             return out + self._next_hold()
         return out + self._solve()
 
@@ -320,7 +327,7 @@ class Procedure:
         """Is what the operator acts on known well enough (:class:`StopRule`)? Before the
         last hold: this hold's mean effort on the rows that carry information at its
         attitude (at level: Z, K and M); at the last: the estimate."""
-        if len(self._holds) < len(self.profile.holds):
+        if len(self._holds) < len(self.holds) or self.verify:
             hold = self._holds[-1]
             return self.rule.hold_decided(hold.samples(""), hold.phi, hold.theta)
         try:
@@ -330,6 +337,8 @@ class Procedure:
         return self.rule.estimate_decided(est)
 
     def _solve(self) -> list[Output]:
+        if self.verify:
+            return self._verify(self.verify)
         try:
             self.estimate = estimate_static(self._hold_samples(), self.profile)
         except EstimationError as exc:
@@ -338,6 +347,15 @@ class Procedure:
         out = self._finish(Phase.DONE, "trim estimate ready")
         out.append(Notice(self._t, "result", "estimate",
                           result=TrimResult(self.estimate, self.proposal)))
+        return out
+
+    def _verify(self, verify: Callable[[HoldSamples], object]) -> list[Output]:
+        try:
+            self.verification = verify(self._hold_samples()[0])
+        except EstimationError as exc:
+            return self._finish(Phase.FAILED, f"cannot verify: {exc}", cause=Cause.ESTIMATION)
+        out = self._finish(Phase.DONE, "verify hold done")
+        out.append(Notice(self._t, "result", "verification", verification=self.verification))
         return out
 
     # ---------------------------------------------------------------- helpers

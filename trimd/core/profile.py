@@ -9,6 +9,8 @@ what was expected. Parsing and loading YAML: :mod:`trimd.core.profile_yaml`.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -18,6 +20,7 @@ __all__ = [
     "BallastPiece",
     "BallastSlot",
     "HoldSetpoint",
+    "InstalledPiece",
     "ProcedureLimits",
     "Profile",
     "ThrustCurve",
@@ -96,6 +99,22 @@ class BallastPiece:
     volume_m3: float
     count: int
 
+    def capacity_kg(self, water_density_kg_m3: float) -> float:
+        """What one piece uses of a slot: its mass [kg] for a weight, its lift [kgf] for a
+        float."""
+        lift = water_density_kg_m3 * self.volume_m3 - self.mass_kg
+        return self.mass_kg if self.kind == "weight" else lift
+
+
+@dataclass(frozen=True, slots=True)
+class InstalledPiece:
+    """``count`` pieces of inventory kind ``piece`` mounted in ``slot`` (ballast already on
+    the vehicle: the net quantities a trim measures include it)."""
+
+    slot: str
+    piece: str
+    count: int
+
 
 @dataclass(frozen=True, slots=True)
 class HoldSetpoint:
@@ -125,7 +144,12 @@ class Profile:
     """A validated vehicle profile. Units: kg, m, N, s; frames: body FRD, world NED.
 
     ``holds_station``: the vehicle holds horizontal position during a hold (a position
-    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`)."""
+    fix); otherwise it keeps depth and drifts at a tilt (:mod:`trimd.core.drift`).
+    ``inventory`` counts the spare pieces on hand; ``installed`` is the ballast the
+    profile declares already mounted (``ballast.installed``).
+    ``attitude_error_deg``: 1σ of the attitude reference's slow error in roll and pitch
+    [deg] (an AHRS at rest wanders by ≈ 0.1° over tens of seconds): constant over one hold,
+    so collecting does not average it out."""
 
     name: str
     source: str
@@ -148,6 +172,8 @@ class Profile:
     procedure: ProcedureLimits
     frame_config: int | None = None
     holds_station: bool = False
+    attitude_error_deg: float = 0.1
+    installed: tuple[InstalledPiece, ...] = ()
 
     @property
     def weight_N(self) -> float:
@@ -161,3 +187,54 @@ class Profile:
                 return s
         names = ", ".join(s.name for s in self.slots) or "none"
         raise ProfileError(f"{self.source}: no ballast slot '{name}' (slots: {names})")
+
+    def piece(self, name: str) -> BallastPiece:
+        """The inventory piece called ``name``; ProfileError listing the pieces if none."""
+        for p in self.inventory:
+            if p.name.lower() == name.lower():
+                return p
+        names = ", ".join(p.name for p in self.inventory) or "none"
+        raise ProfileError(f"{self.source}: no inventory piece '{name}' (pieces: {names})")
+
+    def resolve_installed(self, pieces: Sequence[InstalledPiece], where: str
+                          ) -> tuple[InstalledPiece, ...]:
+        """``pieces`` checked against this profile: slot and piece names known (spelled as
+        the profile spells them), whole counts ≥ 0, weights only in slots that take weight
+        and floats only where floats go, each slot within its capacity. Pieces of the same
+        kind in the same slot are merged and zero counts dropped. ``where`` names the list
+        in every error (``ballast.installed``, ``the history``, ``--set``).
+        """
+        merged: dict[tuple[str, str], int] = {}
+        for i, item in enumerate(pieces):
+            here = f"{self.source}: {where}[{i}]"
+            slot = _named(self.slots, item.slot, "ballast slot", here)
+            piece = _named(self.inventory, item.piece, "inventory piece", here)
+            if isinstance(item.count, bool) or item.count != int(item.count) or item.count < 0:
+                raise ProfileError(f"{here}: count: expected a whole number >= 0, got "
+                                   f"{item.count!r}")
+            merged[(slot.name, piece.name)] = merged.get((slot.name, piece.name), 0) + int(
+                item.count)
+        out = tuple(InstalledPiece(s, p, n) for (s, p), n in merged.items() if n > 0)
+        for slot in self.slots:
+            for kind, room, unit in (("weight", slot.max_weight_kg, "kg"),
+                                     ("float", slot.max_float_kg, "kgf")):
+                used = sum(n * self.piece(p).capacity_kg(self.water_density_kg_m3)
+                           for s, p, n in ((x.slot, x.piece, x.count) for x in out)
+                           if s == slot.name and self.piece(p).kind == kind)
+                if used > room + 1e-9:
+                    raise ProfileError(f"{self.source}: {where}: slot {slot.name} takes "
+                                       f"{room:g} {unit} of {kind}; {used:g} {unit} installed")
+        return out
+
+
+def _named(things: Sequence[BallastSlot] | Sequence[BallastPiece], name: str, what: str,
+           where: str) -> BallastSlot | BallastPiece:
+    """The slot or piece called ``name`` (any case); ProfileError with the nearest name."""
+    for t in things:
+        if t.name.lower() == str(name).lower():
+            return t
+    names = [t.name for t in things]
+    near = difflib.get_close_matches(str(name), names, n=1)
+    hint = f"did you mean '{near[0]}'? " if near else ""
+    raise ProfileError(f"{where}: no {what} '{name}' ({hint}{what}s: "
+                       f"{', '.join(names) or 'none'})")

@@ -7,6 +7,7 @@ data, found by name through :mod:`importlib.resources`.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import itertools
 import math
@@ -22,6 +23,7 @@ from trimd.core.profile import (
     BallastPiece,
     BallastSlot,
     HoldSetpoint,
+    InstalledPiece,
     ProcedureLimits,
     Profile,
     ThrustCurve,
@@ -117,7 +119,8 @@ _KNOWN_KEYS = {
     "name", "description", "mass_kg", "gravity_m_s2", "water_density_kg_m3", "buoyancy",
     "force_N", "volume_m3", "centre_m", "inertia_kg_m2", "added_mass", "damping", "linear",
     "quadratic", "nominal_voltage_V", "thrust_curves", "thrusters", "ballast", "slots",
-    "inventory", "holds", "procedure", "frame_config", "holds_station", "channel", "position_m",
+    "inventory", "holds", "procedure", "frame_config", "holds_station", "attitude_error_deg",
+    "channel", "position_m",
     "direction",
     "curve", "reversed", "tables", "voltage_V", "deadband_us", "pwm_us", "thrust_N",
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
@@ -125,6 +128,7 @@ _KNOWN_KEYS = {
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
     "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct",
     *RETIRED_PROCEDURE_KEYS,
+    "installed", "slot", "piece",
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
 }
 
@@ -301,6 +305,7 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
         raise ballast.fail("net_buoyancy_pct", f"expected [low, high] with 0 <= low <= high, "
                                                f"got {list(window)}")
     level_tol_deg = ballast.number("level_tol_deg", 0.5, positive=True)
+    installed = [_installed(i) for i in ballast.items("installed", [])]
     ballast.done()
 
     procedure = _procedure(top.child("procedure"))
@@ -337,9 +342,21 @@ def parse_profile(data: Any, source: str = "<profile>") -> Profile:
         net_buoyancy_pct=(window[0], window[1]), level_tol_deg=level_tol_deg,
         holds=tuple(holds), procedure=procedure,
         frame_config=frame, holds_station=holds_station,
+        attitude_error_deg=top.number("attitude_error_deg", 0.1, minimum=0.0),
     )
     top.done()
-    return profile
+    return dataclasses.replace(profile, installed=profile.resolve_installed(
+        installed, "ballast.installed"))
+
+
+def _installed(node: _Node) -> InstalledPiece:
+    """One ``ballast.installed`` entry (names are checked against the profile later)."""
+    count = node.number("count", minimum=0)
+    if count != int(count):
+        raise node.fail("count", f"expected a whole number, got {count}")
+    item = InstalledPiece(node.text("slot"), node.text("piece"), int(count))
+    node.done()
+    return item
 
 
 def shipped_profiles() -> list[str]:

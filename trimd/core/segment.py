@@ -18,7 +18,8 @@ directions the segment observes: q = q_prior + V_o·x, V_o the right singular ve
 the rows used with a relative singular value of at least 0.02; the unobservable part
 stays at ``q_prior`` and is flagged (:attr:`SegmentEstimate.observable`). The ± is the
 same: the long-run covariance of the per-sample residual (noise and wander), the thrust
-curves' gain errors and, at a tilt without station keeping, the drift's Munk moment.
+curves' gain errors, the attitude reference's slow error (the profile's
+``attitude_error_deg``) and, at a tilt without station keeping, the drift's Munk moment.
 The gain errors are kept apart (:attr:`SegmentEstimate.gain_sensitivity`): they are the
 same at every segment of one vehicle, so a change test compares segments through the
 *difference* of their exposures, not the sum.
@@ -40,10 +41,11 @@ from trimd.core.estimate import (
     _drift_moments,
     _is_level,
     _thrust_gain_factors,
+    attitude_error_factors,
     measurable_dofs,
 )
 from trimd.core.longrun import mean_covariance
-from trimd.core.model import restoring_matrix
+from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
 
 __all__ = ["Q_NAMES", "SegmentEstimate", "estimate_segment", "nominal_q"]
@@ -132,8 +134,10 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
         raise EstimationError(f"segment {h.label!r} contains NaN or infinite values")
     prior = nominal_q(profile) if q_prior is None else np.asarray(q_prior, float)
     rows = np.array(measurable_dofs(profile), bool)
-    used = rows & (_MOMENT_ROWS | (_is_level(h) or profile.holds_station))
     phi, theta = float(np.mean(h.phi)), float(np.mean(h.theta))
+    # as in estimate_static: rows without information at this attitude are left out
+    used = (rows & (_MOMENT_ROWS | (_is_level(h) or profile.holds_station))
+            & informative_rows(phi, theta))
     A = restoring_matrix(phi, theta)[used]
     _, s, vt = np.linalg.svd(A, full_matrices=False)
     r = int(np.sum(s >= _MIN_RELATIVE_SINGULAR * s[0]))
@@ -153,14 +157,16 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
         e = h.tau[:, used] - np.einsum("nij,j->ni",
                                        restoring_matrix(h.phi, h.theta)[:, used], q)
         mc = mean_covariance(e)
+        tilt = attitude_error_factors([(phi, theta)], [used], profile, q)[0]
         var = (np.diag(mc.cov) + (forward**2).sum(axis=1) + (reverse**2).sum(axis=1)
-               + (DRIFT_MODEL_ERROR * drift)**2)
+               + (DRIFT_MODEL_ERROR * drift)**2 + (tilt**2).sum(axis=1))
         weights = 1 / np.sqrt(np.maximum(var, 1e-12 * max(float(var.max()), 1e-300)))
     J = V_o @ L  # q = prior + J·(τ̄ − drift − A·prior)
     noise = J @ mc.cov @ J.T
     gain = np.concatenate([J @ forward, J @ reverse], axis=1)
     d = J @ (DRIFT_MODEL_ERROR * drift)
-    cov = noise + gain @ gain.T + np.outer(d, d)
+    reference = J @ tilt
+    cov = noise + gain @ gain.T + np.outer(d, d) + reference @ reference.T
     return SegmentEstimate(h.label, float(h.t_s[0]), float(h.t_s[-1]), float(np.degrees(phi)),
                            float(np.degrees(theta)), len(h.phi), q, cov, noise, gain,
                            observable, bool(mc.resolved))

@@ -4,7 +4,7 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
-the signal, its PID output is added on roll and pitch at every attitude sample) → done;
+the signal, its PID output on the latest attitude is added on roll and pitch) → done;
 ``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's own
 (:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
@@ -13,6 +13,15 @@ connected, no telemetry for ``link_timeout_s``, or no attitude or depth for as l
 the guard allows each), someone else flying it or a disarmed vehicle ends the
 experiment; so do a timeout and an internal error — every end after the first command
 sends :class:`~trimd.core.samples.Release`. Time is the samples' own.
+
+Commands change only when a thruster sample arrives (at attitude samples while the vehicle
+reports no thruster outputs, or reports them less often than every
+:data:`MAX_PACED_INTERVAL_S`, too slow for the attitude hold's loop): the fit knows the
+thrust only from that record, and a
+command that acted between two of its samples (an attitude hold updated at 20 Hz beside
+thruster outputs at 10 Hz, the simulator's default) would be an input nobody recorded —
+with it, the BlueROV2 Heavy's rotational inertia sums came out 10–37 % off
+(docs/identification.md). The next thruster sample shows each command.
 """
 
 from __future__ import annotations
@@ -23,11 +32,11 @@ from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phas
 from trimd.core.guards import Guard
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample, Thrusters
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
-__all__ = ["STAGE_NOTICE", "Excite", "stage_of_notice"]
+__all__ = ["MAX_PACED_INTERVAL_S", "STAGE_NOTICE", "Excite", "stage_of_notice"]
 
 #: The words before the stage's name in the notice that starts an excitation.
 STAGE_NOTICE = "stage "
@@ -48,6 +57,10 @@ def stage_of_notice(text: str) -> str | None:
                         if a.strip() in tuple("XYZKMN")))
     return next((n for n, st in STAGES.items() if st.axes == axes), None)
 
+
+#: Longest interval [s] between thruster samples at which commands are paced by them (the
+#: attitude hold's loop, up to 4 rad/s, needs updates at 10 Hz or faster).
+MAX_PACED_INTERVAL_S = 0.11
 
 #: Telemetry seen for this long [s] before the experiment may start.
 PRECHECK_S = 2.0
@@ -88,6 +101,9 @@ class Excite:
         self._depth: float = math.nan
         self._depth_ref = math.nan
         self._attitude_seen = False
+        self._attitude: Attitude | None = None   # the latest
+        self._paced = False   # commands change at thruster samples (module docstring)
+        self._t_thrusters = math.nan
         self._last: tuple[float, ...] | None = None
         self._integral = {h.axis: 0.0 for h in signal.hold}
         self._t_hold = math.nan
@@ -145,9 +161,15 @@ class Excite:
             return []
         if isinstance(s, Attitude):
             self._attitude_seen = True
+            self._attitude = s
             if self.phase is Phase.COLLECT:
-                return self._play(s)
+                return [] if self._paced else self._play(s)
             return self._precheck()
+        if isinstance(s, Thrusters):
+            self._paced = s.t_s - self._t_thrusters <= MAX_PACED_INTERVAL_S
+            self._t_thrusters = s.t_s
+            if self.phase is Phase.COLLECT and self._paced:
+                return self._play(self._attitude)
         return []
 
     def _precheck(self) -> list[Output]:

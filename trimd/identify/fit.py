@@ -10,10 +10,12 @@ For one stage (:data:`trimd.identify.model.STAGES`) and one or more experiments:
    equation-error first pass (:func:`trimd.identify.start.equation_error_start`);
 2. an output-error fit with a bounded Levenberg–Marquardt least squares
    (:func:`trimd.identify.solve.levenberg_marquardt`; physical bounds: added masses ≥ 0,
-   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s) of the simulation
-   error over short segments, each started from the measured state (a stable
-   simulation-error objective that tolerates a poor start), all experiments in one cost,
-   each output weighted by the inverse of its spread; the simulation steps over
+   inertia sums > 0, damping derivatives ≤ 0, thruster lag in [0, 1] s, lead over at most
+   a thruster interval plus a grid step) of the simulation error over short segments,
+   each started from the measured state (a stable simulation-error objective that
+   tolerates a poor start), all experiments in one cost, each output weighted by the
+   inverse of its spread and compared only at its own stream's samples
+   (``Experiment.fresh``); the simulation steps over
    ``FitOptions.step_s`` (two samples at 50 Hz) and its Jacobian is one batched simulation
    of every perturbed parameter vector;
 3. standard deviations and correlations from the Jacobian at the optimum
@@ -72,7 +74,7 @@ FloatArray = NDArray[np.float64]
 #: moment counts as determined (negligible) even when its relative uncertainty is large.
 MIN_SHARE = 0.02
 #: Note of a parameter of surge or sway fitted from logs without body velocity.
-NEEDS_DVL = "needs a DVL: profile's value"
+NEEDS_DVL = "needs a DVL: profile's value kept (fitted only as the unmeasured motion)"
 #: Note of a parameter the data did not determine (:attr:`ParameterEstimate.determined`).
 NOT_DETERMINED = "not determined by the data"
 
@@ -125,7 +127,7 @@ class ParameterEstimate:
     @property
     def determined(self) -> bool:
         """Estimated, and determined by the data (a fragment may use it)."""
-        return self.free and self.note != NOT_DETERMINED
+        return self.free and self.note not in (NOT_DETERMINED, NEEDS_DVL)
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,11 +180,11 @@ class StageFit:
         raise KeyError(name)
 
 
-def _bounds(name: str, h: float) -> tuple[float, float]:
+def _bounds(name: str, problem: Problem) -> tuple[float, float]:
     if name == LAG:
         return 0.0, 1.0
     if name == LEAD:
-        return 0.0, h
+        return 0.0, problem.lead_max
     if name.startswith("b_"):
         return -np.inf, np.inf
     k = HYDRO_NAMES.index(name)
@@ -192,7 +194,7 @@ def _bounds(name: str, h: float) -> tuple[float, float]:
 def _step(name: str, value: float, problem: Problem) -> float:
     """Signed finite-difference step: relative, towards the interior of the bounds."""
     if name in (LAG, LEAD):
-        upper = _bounds(name, problem.h)[1]
+        upper = _bounds(name, problem)[1]
         return -1e-5 if value + 1e-5 > upper else 1e-5
     if name.startswith("b_"):
         return 1e-7
@@ -221,11 +223,15 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
               ) -> StageFit:
     """Identify the parameters of ``stage`` (module docstring).
 
-    Only the DOFs the data excited (:func:`excitation_of`) and the sensors observe are
-    fitted: without a DVL (an experiment whose ``dvl`` is False) not surge and sway, whose
-    parameters are noted :data:`NEEDS_DVL`, and u, v, w are estimated
-    (:func:`trimd.identify.nodvl.with_estimated_velocity`). The parameters of the others
-    keep the profile's values, and :attr:`StageFit.warnings` says so.
+    Only the DOFs the data excited (:func:`excitation_of`) are fitted. Without a DVL (an
+    experiment whose ``dvl`` is False) surge and sway are nuisance states: simulated,
+    never compared, their parameters fitted so that the unmeasured u, v that drive the
+    coupling terms of the observed DOFs owe nothing to the prior, but noted
+    :data:`NEEDS_DVL` and never reported as determined. That fit runs three times: with
+    surge and sway held at the profile's values (u, v and w from its model:
+    :func:`trimd.identify.nodvl.with_estimated_velocity`), with them free, and once more
+    from u, v, w re-estimated with the fitted surge and sway. The parameters of DOFs that
+    were not excited keep the profile's values, and :attr:`StageFit.warnings` says so.
 
     Parameters
     ----------
@@ -252,8 +258,9 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if not experiments:
         raise DataError("no experiment to fit")
     fixed_by = statics or statics_of_profile(profile)
+    recorded = experiments
     experiments = with_estimated_velocity(
-        experiments, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
+        recorded, prior_values(profile) | {LAG: opts.lag_s} | dict(opts.fixed),
         fixed_by.mass_kg, fixed_by.q_rest)
     excitation = excitation_of(experiments, profile, STAGES[stage], opts.min_excitation)
     missing = tuple(d for d in excitation if not d.excited)
@@ -262,14 +269,38 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
                               + not_excited_message(stage, missing))
     dvl = all(e.dvl for e in experiments)
     blind = () if dvl else tuple(d for d in STAGES[stage].dofs if d in DVL_DOFS)
-    st = observed(STAGES[stage], dvl).restricted(tuple(d.dof for d in excitation
-                                                       if d.excited))
-    if not st.dofs:
+    excited = tuple(d.dof for d in excitation if d.excited)
+    if not observed(STAGES[stage], dvl).restricted(excited).dofs:
         raise EstimationError(f"{stage}: nothing to identify: without a DVL the stage's "
                               "excited degrees of freedom are not observed")
+    # without a DVL surge and sway are still simulated (never compared): their parameters
+    # are nuisance parameters that carry the unmeasured u, v into the coupling terms
+    st = STAGES[stage].restricted(excited)
+    nuisance = frozenset(STAGES[stage].restricted(blind).free_names)
     problem, theta, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
-    theta, std_of, corr, rms, free, warnings, notes, nfev = _fit(problem, theta, free, share,
-                                                                   opts, stage)
+    nfev = 0
+    if nuisance:
+        # first with surge and sway held at the profile's values (u, v from its model): a
+        # start near the answer for the other parameters (from the equation-error start
+        # alone the nuisance parameters can run off into a wrong minimum)
+        for n in nuisance:
+            theta[problem.index[n]] = prior[n]
+        theta, *_, nfev = _fit(problem, theta, [i for i in free
+                                                if problem.names[i] not in nuisance],
+                               share, opts, stage, nuisance)
+    theta, std_of, corr, rms, free, warnings, notes, more = _fit(problem, theta, free, share,
+                                                                   opts, stage, nuisance)
+    nfev += more
+    if nuisance:
+        # once more from u, v, w estimated with the fitted surge and sway
+        fitted = dict(zip(problem.names, (float(v) for v in theta), strict=True))
+        experiments = with_estimated_velocity(recorded, fitted, fixed_by.mass_kg,
+                                              fixed_by.q_rest)
+        problem, _, free, prior, share = _setup(experiments, profile, st, opts, fixed_by)
+        theta = np.array([fitted[n] for n in problem.names])
+        theta, std_of, corr, rms, free, warnings, notes, more = _fit(
+            problem, theta, free, share, opts, stage, nuisance)
+        nfev += more
     if missing:
         warnings.insert(0, f"{stage}: " + not_excited_message(stage, missing))
         for n in STAGES[stage].restricted(tuple(d.dof for d in missing)).free_names:
@@ -278,7 +309,8 @@ def fit_stage(experiments: Sequence[Experiment], profile: Profile, stage: str,
     if blind:
         needs = STAGES[stage].restricted(blind).free_names
         warnings.insert(0, f"{stage}: no body velocity (DVL) in these logs: "
-                        f"{', '.join(needs)} need a DVL and keep the profile's values")
+                        f"{', '.join(needs)} need a DVL (fitted only as the unmeasured "
+                        "surge and sway motion, the profile's values kept)")
         for n in needs:
             if n not in opts.fixed:
                 notes[n] = NEEDS_DVL
@@ -321,7 +353,7 @@ def _setup(experiments: Sequence[Experiment], profile: Profile, st: Stage,
 
 
 def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[str, float],
-         opts: FitOptions, stage: str
+         opts: FitOptions, stage: str, nuisance: frozenset[str] = frozenset()
          ) -> tuple[FloatArray, dict[str, float], FloatArray, float, list[int], list[str],
                     dict[str, str], int]:
     """Output-error fit, then hold the worst undetermined parameter at its estimate and
@@ -340,7 +372,8 @@ def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[st
         std, corr = jacobian_covariance(J, r)
         rms = float(np.sqrt(np.mean(r * r)))
         std_of |= {problem.names[i]: float(std[j]) for j, i in enumerate(free)}
-        j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std)
+        j = _worst_undetermined(problem, theta, free, std, share, opts.max_rel_std,
+                                nuisance)
         if j < 0:
             break
         i = free[j]
@@ -355,17 +388,17 @@ def _fit(problem: Problem, theta: FloatArray, free: list[int], share: Mapping[st
 
 
 def _worst_undetermined(problem: Problem, theta: FloatArray, free: Sequence[int],
-                        std: FloatArray, share: Mapping[str, float], max_rel_std: float
-                        ) -> int:
+                        std: FloatArray, share: Mapping[str, float], max_rel_std: float,
+                        nuisance: frozenset[str]) -> int:
     """Position in ``free`` of the hydrodynamic parameter with the largest relative
     standard deviation, if that exceeds ``max_rel_std``, among those that are not
     negligible (their uncertainty moves at least :data:`MIN_SHARE` of their DOF's force at
-    the typical motion); −1 if there is none."""
+    the typical motion) and not ``nuisance``; −1 if there is none."""
     candidates = []
     for j, i in enumerate(free):
         name = problem.names[i]
         sd = float(std[j]) if np.isfinite(std[j]) else np.inf
-        if name not in HYDRO_NAMES or sd * share[name] < MIN_SHARE:
+        if name not in HYDRO_NAMES or name in nuisance or sd * share[name] < MIN_SHARE:
             continue
         candidates.append((sd / abs(theta[i]) if theta[i] != 0 else np.inf, j))
     rel, j = max(candidates, default=(0.0, -1))
@@ -378,7 +411,7 @@ def _solve(problem: Problem, theta: FloatArray, free: list[int], max_iter: int
     (:func:`trimd.identify.solve.levenberg_marquardt`): θ, the residuals and Jacobian at
     the optimum, and the simulations run."""
     names = [problem.names[i] for i in free]
-    lower, upper = np.array([_bounds(n, problem.h) for n in names]).T
+    lower, upper = np.array([_bounds(n, problem) for n in names]).T
 
     def full(x: FloatArray) -> FloatArray:
         t = theta.copy()

@@ -179,7 +179,8 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
     its sample until ``lead_s`` before the next.
 
     A sampled thruster output says what the thrusters were commanded at that instant; when
-    the command changed is known only to within the sample interval, and telemetry streams
+    the command changed is known only to within the thruster record's sample interval
+    (which may span several samples of the grid it is held onto), and telemetry streams
     have their own latencies. The default lead h/2 (the change in the middle of the
     interval before the sample that first shows it) makes a uniformly distributed timing
     error zero on average; the fit can estimate the lead (``T_lead``).
@@ -190,13 +191,19 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
         settled on τ[0].
     T_s : lag time constant [s] (0: no lag).
     h : sample interval [s].
-    lead_s : how long before its sample a command acts [s], in [0, h]; default h/2.
+    lead_s : how long before its sample a command acts [s], ≥ 0 (whole samples shift the
+        record; the last command holds at the end); default h/2.
 
     Returns
     -------
     start, mid : lagged τ at t_k and at t_k + h/2 (exact), each (N, 6).
     """
-    c = 0.5 * h if lead_s is None else min(max(lead_s, 0.0), h)
+    lead = 0.5 * h if lead_s is None else max(lead_s, 0.0)
+    shift = min(int(lead / h), len(tau) - 1)
+    c = min(lead - shift * h, h)
+    tau = np.asarray(tau, float)
+    if shift:
+        tau = np.concatenate([tau[shift:], np.repeat(tau[-1:], shift, axis=0)])
 
     def decay(dt: float) -> float:   # after dt ≥ 0 [s]
         dt = max(dt, 0.0)
@@ -204,7 +211,6 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
 
     sw, half, rest = decay(h - c), decay(0.5 * h), decay(c)
     after = decay(c - 0.5 * h)
-    tau = np.asarray(tau, float)
     nxt = np.concatenate([tau[1:], tau[-1:]])
     # τ[k] until t_{k+1} − c, then τ[k + 1]: start[k+1] = a·start[k] + b0·τ[k+1] + b1·τ[k]
     # (a + b0 + b1 = 1: settled on τ[0] at the start)

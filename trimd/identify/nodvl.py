@@ -1,4 +1,4 @@
-"""Experiments without a DVL: surge and sway velocities from the prior's model, heave from
+"""Experiments without a DVL: surge and sway velocities from a surge and sway model, heave from
 the depth rate.
 
 Without body velocity the gyro and attitude still observe roll, pitch and yaw, and the
@@ -6,10 +6,12 @@ depth sensor heave — but the coupling terms of those DOFs (the Munk moment
 (M_w − M_u)·u·w, the Coriolis forces) and the depth rate itself
 (ż = −sin θ·u + cos θ·sin φ·v + cos θ·cos φ·w) involve surge and sway. Their velocities
 are estimated by simulating surge and sway alone from the commanded thrust with the
-profile's parameters (a free run from rest; the other states measured), and the heave
+given parameters (a free run from rest; the other states measured), and the heave
 velocity is then w = (ż + sin θ·u − cos θ·sin φ·v)/(cos θ·cos φ); twice, so that w and
-u, v agree. The surge and sway parameters themselves are not identified (they need a
-DVL): an error in them enters the other DOFs only through these coupling terms.
+u, v agree. The fit (:func:`trimd.identify.fit.fit_stage`) calls it first with the
+profile's surge and sway, then with the ones it fitted as nuisance parameters: these
+estimates start each simulated segment and give the heave velocity, the fit's own
+simulation of surge and sway carries u, v into the coupling terms.
 
 Pure computation: no I/O, no clock.
 """
@@ -41,7 +43,7 @@ def with_estimated_velocity(experiments: Sequence[Experiment], values: Mapping[s
         if e.dvl:
             out.append(e)
             continue
-        z_dot = depth_rate(e.eta, e.h_s)
+        z_dot = depth_rate(e.eta, e.h_s, e.interval_s(2))
         nu = e.nu.copy()
         for _ in range(2):
             nu[:, :2] = _surge_sway(e, nu, values, mass_kg, q_rest)

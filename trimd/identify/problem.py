@@ -1,6 +1,10 @@
 """The least-squares problem of one stage: experiments cut into segments, named parameters,
 weighted simulation residuals and their finite-difference Jacobian in one batched run.
 
+Each output is compared only at the samples of its own stream (``Experiment.fresh``: a
+DVL at 5 Hz beside attitude at 20 Hz is compared every fourth step, never at its
+interpolated values between).
+
 Parameter vector (all named; each free or fixed): the 18 hydrodynamic parameters of
 :data:`trimd.identify.model.HYDRO_NAMES`, the thruster lag ``T_thr`` [s], the lead of the
 thruster record over the motion record ``T_lead`` [s], and per
@@ -94,12 +98,17 @@ class Problem:
         x = np.concatenate([e.x for e in experiments])
         self.exo = x[self.rows]                                              # (L+1, K, 8)
         self.y = self.exo[1:][..., list(stage.outputs)]                      # (L, K, n_out)
+        fresh = np.concatenate([e.measured for e in experiments])
+        #: which residuals are compared: outputs at samples of their own stream, flat
+        self.compared = fresh[self.rows][1:][..., list(stage.outputs)].ravel()
         self.weights = np.asarray(weights, float)
+        #: largest thruster lead [s] (Experiment.lead_max_s)
+        self.lead_max = max(e.lead_max_s for e in experiments)
         self._tau_cache: dict[tuple[float, float], tuple[FloatArray, FloatArray]] = {}
 
     @property
     def n_residuals(self) -> int:
-        return int(self.y.size)
+        return int(self.compared.sum())
 
     def _tau(self, lag: float, lead: float) -> tuple[FloatArray, FloatArray]:
         """Lagged thrust at the steps and half steps of every segment, (L + 1, K, 6) each;
@@ -151,8 +160,10 @@ class Problem:
         return y
 
     def residuals(self, theta: FloatArray) -> FloatArray:
-        """Weighted output errors (predicted − measured), flat, for one vector (P,)."""
-        r: FloatArray = ((self.simulate(theta)[:, 0] - self.y) * self.weights).ravel()
+        """Weighted output errors (predicted − measured) where compared, flat, for one
+        vector (P,)."""
+        r: FloatArray = ((self.simulate(theta)[:, 0] - self.y) * self.weights).ravel()[
+            self.compared]
         return r
 
     def jacobian(self, theta: FloatArray, free: Sequence[int], steps: FloatArray
@@ -166,5 +177,6 @@ class Problem:
         y = self.simulate(thetas)
         base = (y[:, 0] - self.y) * self.weights                        # (L, K, n_out)
         dy = (y[:, 1:] - y[:, :1]) * (self.weights / np.asarray(steps)[:, None, None])
-        J: FloatArray = np.moveaxis(dy, 1, -1).reshape(base.size, len(free))
-        return base.ravel(), J
+        J: FloatArray = np.moveaxis(dy, 1, -1).reshape(base.size, len(free))[self.compared]
+        r: FloatArray = base.ravel()[self.compared]
+        return r, J

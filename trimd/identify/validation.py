@@ -13,12 +13,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.profile import Profile
-from trimd.identify.data import Experiment
+from trimd.identify.data import Experiment, depth_rate
 from trimd.identify.model import (
     LAG,
     LEAD,
     STAGES,
     STATE_NAMES,
+    Stage,
     Statics,
     observed,
     prior_values,
@@ -36,7 +37,12 @@ FloatArray = NDArray[np.float64]
 #: rad/s, rad] was not excited: it has no meaningful NRMSE (its denominator is the sensor
 #: noise). About ten times the simulator's default sensor noise; 1.1°/s and 0.6°.
 MIN_OUTPUT_SPREAD = {"u": 0.02, "v": 0.02, "w": 0.02, "p": 0.02, "q": 0.02, "r": 0.02,
-                     "phi": 0.01, "theta": 0.01}
+                     "phi": 0.01, "theta": 0.01, "z_dot": 0.02}
+
+#: Depth samples in the window of the depth rate a validation judges without a DVL: the
+#: same filter on the measured and the simulated depth, long enough that the depth
+#: sensor's noise (3 mm at 5 Hz in the simulator) does not dominate the NRMSE.
+_JUDGED_DEPTH_SAMPLES = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,8 +98,10 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
              ) -> list[Validation]:
     """Free-run simulation of each experiment with the parameter ``values`` (bias
     parameters are not carried over: another session has another gyro bias) from its
-    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe
-    (without a DVL not u and v: :func:`trimd.identify.model.observed`), and which outputs
+    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe,
+    at the samples of that output's own stream
+    (without a DVL not u and v: :func:`trimd.identify.model.observed`; the depth rate
+    ``z_dot`` instead of w), and which outputs
     the experiment excited. ``statics``: the mass and restoring terms (default: the profile's
     nominal vehicle)."""
     fixed_by = statics or statics_of_profile(profile)
@@ -101,16 +109,61 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
     out = []
     for e in with_estimated_velocity(experiments, prior | dict(values), fixed_by.mass_kg,
                                      fixed_by.q_rest):
-        st = observed(STAGES[stage], e.dvl)
+        # without a DVL u and v are simulated (they drive the coupling terms) but
+        # never measured, so never judged
+        st = STAGES[stage]
         problem = Problem([e], st, fixed_by.mass_kg, fixed_by.q_rest, None,
                           np.ones(len(st.outputs)))
+        judged = [j for j, s in enumerate(st.outputs)
+                  if s in observed(st, e.dvl).states and e.measured[:, s].any()]
         theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
                           for n in problem.names])
         y_hat = problem.simulate(theta)[:, 0, 0]
-        y = problem.y[:, 0]
-        names = tuple(STATE_NAMES[s] for s in st.outputs)
-        excited = tuple(bool(np.std(y[:, j]) >= MIN_OUTPUT_SPREAD[n])
-                        for j, n in enumerate(names))
-        out.append(Validation(e.label, names, tuple(float(v) for v in nrmse(y, y_hat)),
-                              e.t_s[1:], y, y_hat, excited))
+        y = problem.y[:, 0].copy()
+        names = tuple(STATE_NAMES[st.outputs[j]] for j in judged)
+        if not e.dvl and "w" in names:
+            # without a DVL the heave output is the depth rate the depth sensor measures
+            # (w from it would hold the simulated u and v on both sides)
+            j = st.outputs.index(2)
+            y[:, j] = depth_rate(e.eta, e.h_s, e.interval_s(2), _JUDGED_DEPTH_SAMPLES)[1:]
+            y_hat[:, j] = _as_measured(_depth_rate_of(st, e, y_hat), e)
+            names = tuple("z_dot" if n == "w" else n for n in names)
+        y_hat, y = y_hat[:, judged], y[:, judged]
+        # each output at the samples of its own stream only
+        own = [e.measured[1:, st.outputs[j]] for j in judged]
+        fits = tuple(float(nrmse(y[m, j], y_hat[m, j])) for j, m in enumerate(own))
+        excited = tuple(bool(np.std(y[m, j]) >= MIN_OUTPUT_SPREAD[n])
+                        for j, (n, m) in enumerate(zip(names, own, strict=True)))
+        out.append(Validation(e.label, names, fits, e.t_s[1:], y, y_hat, excited))
+    return out
+
+
+def _depth_rate_of(stage: Stage, e: Experiment, y_hat: FloatArray) -> FloatArray:
+    """ż [m/s, down] = −sin θ·u + cos θ·sin φ·v + cos θ·cos φ·w of a simulation of
+    ``e`` (``y_hat``: the simulated ``stage.outputs`` at steps 1..N−1; the states it does
+    not simulate from ``e``)."""
+    x = e.x[1:]
+
+    def state(i: int) -> FloatArray:
+        return y_hat[:, stage.outputs.index(i)] if i in stage.outputs else x[:, i]
+
+    u, v, w, phi, theta = (state(i) for i in (0, 1, 2, 6, 7))
+    z_dot: FloatArray = (-np.sin(theta) * u + np.cos(theta) * np.sin(phi) * v
+                         + np.cos(theta) * np.cos(phi) * w)
+    return z_dot
+
+
+def _as_measured(z_dot: FloatArray, e: Experiment) -> FloatArray:
+    """A simulated depth rate at steps 1..N−1 of ``e`` seen as the depth sensor sees it:
+    integrated to a depth, sampled at the depth sensor's samples, interpolated between them
+    and differentiated as the measured one (:func:`trimd.identify.data.depth_rate` over
+    :data:`_JUDGED_DEPTH_SAMPLES`), so that the comparison holds the same smoothing on
+    both sides."""
+    h = e.h_s
+    depth = np.concatenate([[0.0], np.cumsum(0.5 * h * (z_dot[1:] + z_dot[:-1]))])
+    sampled = e.measured[1:, 2]
+    t = e.t_s[1:]
+    eta = np.zeros((len(t), 6))
+    eta[:, 2] = np.interp(t, t[sampled], depth[sampled])
+    out: FloatArray = depth_rate(eta, h, e.interval_s(2), _JUDGED_DEPTH_SAMPLES)
     return out

@@ -1,5 +1,7 @@
 """Unseen vehicles for judging an identification: a profile whose hydrodynamics differ from
-a prior's by random factors, and the damping force a parameter set gives at a speed.
+a prior's by random factors, the damping force a parameter set gives at a speed, and the
+rates an experiment reached (a damping force is judged within them: beyond, it is an
+extrapolation no experiment of that vehicle checks).
 
 Pure computation: no I/O, no clock.
 """
@@ -7,14 +9,15 @@ Pure computation: no I/O, no clock.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
 from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Sample, Velocity
 from trimd.identify.model import HYDRO_NAMES
 
-__all__ = ["damping_force", "perturbed"]
+__all__ = ["damping_force", "perturbed", "rates_reached"]
 
 
 def perturbed(profile: Profile, rng: np.random.Generator, spread: float = 0.5,
@@ -47,3 +50,13 @@ def damping_force(values: Mapping[str, float], dof: int, speed: float) -> float:
     derivatives: the force opposes the motion, so it is negative for a positive speed)."""
     return (values[HYDRO_NAMES[6 + dof]] * speed
             + values[HYDRO_NAMES[12 + dof]] * abs(speed) * speed)
+
+
+def rates_reached(samples: Iterable[Sample]) -> tuple[float, ...]:
+    """Per DOF (u, v, w, p, q, r) the 99th percentile of the measured |ν_i| [m/s, rad/s]
+    in ``samples`` (body velocity from the DVL's samples, inf without any)."""
+    items = list(samples)
+    uvw = np.array([[s.u, s.v, s.w] for s in items if isinstance(s, Velocity)])
+    pqr = np.array([[s.p, s.q, s.r] for s in items if isinstance(s, Attitude)])
+    linear = (np.percentile(np.abs(uvw), 99, axis=0) if len(uvw) else np.full(3, np.inf))
+    return tuple(float(v) for v in (*linear, *np.percentile(np.abs(pqr), 99, axis=0)))

@@ -27,8 +27,11 @@ __all__ = ["ResultPanel"]
 _MIN_VIEW_H = 5
 
 
-def _pieces(pieces: tuple[tuple[str, int], ...]) -> str:
-    return ", ".join(f"{n}×{name}" for name, n in pieces)
+def _pieces(pieces: tuple[tuple[str, int], ...], removed: tuple[tuple[str, int], ...] = ()
+            ) -> str:
+    """Pieces added (``2×lead``) and taken out of the installed ballast (``−1×lead``)."""
+    return ", ".join([*(f"{n}×{name}" for name, n in pieces),
+                      *(f"−{n}×{name}" for name, n in removed)])
 
 
 def _pack(chunks: list[Text], width: int, *, indent: int = 0) -> list[Text]:
@@ -162,13 +165,14 @@ class ResultPanel(Widget):
             if not compact:
                 load.append(f" {s.name}", style="")
             if s.weight_kg:
-                load.append(f" +{s.weight_kg:.2f} kg", style=WEIGHT)
+                load.append(f" {s.weight_kg:+.2f} kg", style=WEIGHT)
             if s.float_kg:
-                load.append(f" +{s.float_kg:.2f} kgf", style=FLOAT)
+                load.append(f" {s.float_kg:+.2f} kgf", style=FLOAT)
             if compact:
                 loads.append(load)
             else:
-                lines += _pack([load, Text(_pieces(s.pieces), style="dim")], width, indent=2)
+                lines += _pack([load, Text(_pieces(s.pieces, s.removed), style="dim")], width,
+                               indent=2)
         lines += _pack(loads, width)
         if not lines:
             lines.append(Text("no ballast needed", style="green"))

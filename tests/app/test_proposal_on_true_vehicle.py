@@ -1,0 +1,48 @@
+"""The proposal put on the TRUE vehicle (issue 12, "the applied milp proposal"): full trims
+of a simulated BlueROV2 Heavy that its profile does not describe exactly
+(``truth=perturbed``: thrust curves 5 % off per thruster and direction, buoyancy 1 %,
+centre of buoyancy 5 mm) with realistic disturbances (``disturb=real``), then the
+session's milp proposal added to that true vehicle, thrusters off.
+
+What the operator acts on is the trim the vehicle is left at, and the ± of the predicted
+trim is what tells them whether to trust it. So over many seeds the true trim must be
+within the level tolerance or within the prediction's 95 % interval (as
+:func:`tests.helpers.assert_proposal_levels` asks of one trim), and the prediction's
+error/σ must have an RMS near 1. Measured over 59 seeds: 97 % as said, RMS 0.93 (roll) and
+1.05 (pitch); with pieces that spent the whole tolerance on their discreteness, 75 %.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.helpers import sim_trim
+from trimd.ballast.propose import Proposal
+from trimd.core.events import Phase
+from trimd.core.profile import Profile
+
+pytestmark = pytest.mark.slow
+
+SEEDS = range(30)
+
+
+def test_heavy_proposal_leaves_the_true_vehicle_as_predicted(bluerov: Profile) -> None:
+    after, predicted, sigma = [], [], []
+    for seed in SEEDS:
+        trim = sim_trim(bluerov, "0.4@W-aft-stbd", seed, "disturb=real,truth=perturbed")
+        if trim.result.phase is not Phase.DONE:  # a hold that never settled: said so
+            assert "never settled" in trim.result.reason, trim.result.reason
+            continue
+        proposal = trim.result.proposal
+        assert isinstance(proposal, Proposal)
+        after.append(trim.trim_after_proposal_deg())
+        predicted.append((proposal.trim.roll_deg, proposal.trim.pitch_deg))
+        sigma.append(proposal.trim_std_deg)
+    assert len(after) >= 0.9 * len(SEEDS)
+    a, p, s = np.array(after), np.array(predicted), np.array(sigma)
+    as_said = np.all((np.abs(a) <= bluerov.level_tol_deg) | (np.abs(a - p) <= 1.96 * s), axis=1)
+    rms = np.sqrt(np.mean(((a - p) / s) ** 2, axis=0))
+    assert as_said.mean() >= 0.9, (as_said.mean(), a[~as_said], p[~as_said], s[~as_said])
+    assert np.all((rms >= 0.6) & (rms <= 1.4)), rms
+    assert np.abs(a).max() < 1.5, a

@@ -1,0 +1,151 @@
+"""The verify hold (issue 15): after the proposal's ballast is on the simulated vehicle, one
+level hold measures what it left and compares it with the prediction.
+
+Physics, not shapes: the verify hold's measured passive trim must match the TRUE
+ballasted vehicle's (the simulator's own equilibrium) within the verification's 95 %
+interval and lie within the proposal's predicted trim ± its 95 % interval, and a wrongly
+installed ballast must be told apart from the right one.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.helpers import SimTrim, sim_trim
+from trimd.app.connect import open_link
+from trimd.app.session import Session
+from trimd.ballast.check import SlotLoad
+from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.verify import Verification, verify_hold
+from trimd.cli.main import main
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.events import Phase
+from trimd.core.procedure import Procedure
+from trimd.core.profile import Profile
+
+Z95 = 1.96
+
+
+def carried(loads: tuple[SlotLoad, ...], g: float) -> str:
+    """``loads`` as simulator payload items at their positions (kg down; negative: lift)."""
+    return "+".join(f"{ld.net_down_N / g:.6f}@{ld.position_m[0]},{ld.position_m[1]},"
+                    f"{ld.position_m[2]}" for ld in loads if ld.net_down_N)
+
+
+def verify_on_sim(trim: SimTrim, payload: str, seed: int, options: str,
+                  installed: tuple[SlotLoad, ...], on_vehicle: tuple[SlotLoad, ...] | None = None
+                  ) -> Verification:
+    """The verify hold of ``installed`` (the ballast the operator says is on) on the
+    simulated vehicle carrying ``payload`` and ``on_vehicle`` (default: ``installed``)."""
+    profile = trim.vehicle.profile
+    estimate = trim.result.estimate
+    assert estimate is not None
+    extra = carried(installed if on_vehicle is None else on_vehicle, profile.gravity_m_s2)
+
+    async def go() -> Verification:
+        url = f"sim:payload={payload}+{extra},seed={seed}" + (f",{options}" if options else "")
+        link = await open_link(url, profile)
+        procedure = Procedure(profile, confirmed=True,
+                              verify=lambda hold: verify_hold(hold, profile, estimate, installed))
+        try:
+            result = await Session(link, profile, recorder=None, presenters=[],
+                                   procedure=procedure, wall_clock=False).run()
+        finally:
+            await link.close()
+        assert result.phase is Phase.DONE, result.reason
+        assert isinstance(result.verification, Verification)
+        return result.verification
+    return asyncio.run(go())
+
+
+@pytest.mark.slow
+def test_verify_hold_measures_what_the_ballast_left(bluerov: Profile) -> None:
+    """BlueROV2 Heavy that its profile does not describe exactly, realistic disturbances."""
+    payload, options = "0.4@W-aft-stbd", "disturb=real,truth=perturbed"
+    seeds = range(6)
+    agree = 0
+    for seed in seeds:
+        trim = sim_trim(bluerov, payload, seed, options)
+        proposal = trim.result.proposal
+        assert isinstance(proposal, Proposal), trim.result.reason
+        v = verify_on_sim(trim, payload, seed, options, proposal.slots)
+        truth = np.array(trim.trim_after_proposal_deg())
+        measured = np.array([v.roll_deg, v.pitch_deg])
+        sigma = np.array([v.roll_std_deg, v.pitch_std_deg])
+        predicted = np.array([proposal.trim.roll_deg, proposal.trim.pitch_deg])
+        assert np.all(np.abs(measured - truth) <= Z95 * sigma), (seed, measured, truth, sigma)
+        assert np.all(np.abs(measured - predicted) <= Z95 * np.array(proposal.trim_std_deg)), (
+            seed, measured, predicted)
+        agree += v.as_predicted
+    assert agree >= len(seeds) - 1
+
+
+def test_verify_hold_tells_a_wrongly_installed_ballast(sabertooth: Profile) -> None:
+    """Sabertooth, 10 kg at AftSB: the proposal installed as proposed is level and as
+    predicted; the same pieces mirrored port for starboard are neither, and the message
+    names the roll moment."""
+    payload, seed = "10@AftSB", 0
+    trim = sim_trim(sabertooth, payload, seed)
+    proposal = trim.result.proposal
+    assert isinstance(proposal, Proposal)
+    right = verify_on_sim(trim, payload, seed, "", proposal.slots)
+    assert right.as_predicted and right.level, right.message
+    mirrored = tuple(replace(ld, position_m=(ld.position_m[0], -ld.position_m[1],
+                                             ld.position_m[2])) for ld in proposal.slots)
+    wrong = verify_on_sim(trim, payload, seed, "", proposal.slots, on_vehicle=mirrored)
+    assert not wrong.as_predicted and not wrong.level, wrong.message
+    assert "NOT as predicted" in wrong.message and "W·y_g − B·y_b off by" in wrong.message
+
+
+def test_run_verify_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                        sabertooth: Profile) -> None:
+    """``trimd run --verify TRIM.json`` reads the trim's estimate and proposal, holds level
+    once and prints one verification line; a file without a proposal is refused."""
+    trim = sim_trim(sabertooth, "10@AftSB", 0)
+    proposal = trim.result.proposal
+    assert isinstance(proposal, Proposal) and trim.result.estimate is not None
+    report = tmp_path / "trim.json"
+    report.write_text(json.dumps({"type": "result",
+                                  "estimate": estimate_to_dict(trim.result.estimate),
+                                  "proposal": proposal_to_dict(proposal)}))
+    link = f"sim:payload=10@AftSB+{carried(proposal.slots, sabertooth.gravity_m_s2)}"
+    code = main(["run", "--link", link, "--profile", "sabertooth-dh2", "--headless", "--yes",
+                 "--json", "--no-record", "--verify", str(report)])
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert code == 0
+    v = [x for x in lines if x["type"] == "verification"]
+    assert len(v) == 1 and v[0]["as_predicted"] and v[0]["level"], v
+    commands = [x["command"] for x in lines if x["type"] == "command"]
+    assert len(commands) == 2  # one level hold, then the release
+    no_proposal = tmp_path / "estimate.json"
+    no_proposal.write_text(json.dumps(estimate_to_dict(trim.result.estimate)))
+    assert main(["run", "--link", link, "--profile", "sabertooth-dh2", "--headless", "--yes",
+                 "--verify", str(no_proposal)]) == 2
+    assert "no ballast proposal in it" in capsys.readouterr().err
+
+
+def test_run_verify_from_the_history(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                     sabertooth: Profile) -> None:
+    """``trimd run`` stores its trim; ``trimd run --verify`` (no file) verifies the last one
+    and stores the outcome, which ``trimd history --json`` lists."""
+    db = str(tmp_path / "trimd.db")
+    common = ["--profile", "sabertooth-dh2", "--headless", "--yes", "--json", "--no-record",
+              "--db", db]
+    assert main(["run", "--link", "sim:payload=10@AftSB", *common]) == 0
+    result = [json.loads(x) for x in capsys.readouterr().out.splitlines()][-1]
+    slots = tuple(SlotLoad(s["name"], tuple(s["position_m"]), 0, 0, 0, 0, s["net_down_N"])
+                  for s in result["proposal"]["slots"])
+    link = f"sim:payload=10@AftSB+{carried(slots, sabertooth.gravity_m_s2)}"
+    assert main(["run", "--link", link, "--verify", *common]) == 0
+    v = [json.loads(x) for x in capsys.readouterr().out.splitlines()][-1]
+    assert v["type"] == "verification" and v["as_predicted"], v
+    assert main(["history", "--db", db, "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    vehicle = listed["vehicles"][0]
+    assert len(vehicle["trims"]) == 1 and len(vehicle["verifications"]) == 1, vehicle

@@ -1,0 +1,93 @@
+"""``trimd history``'s text and JSON: a vehicle's trims, installed ballast, watch alerts and
+verify holds. Times are UTC; lengths in millimetres; ± is one standard deviation."""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from typing import Any
+
+from trimd.app.history.store import EventRecord, History, InstallRecord, TrimRecord
+
+__all__ = ["format_history", "history_to_dict", "utc_text"]
+
+
+def utc_text(t_unix: float) -> str:
+    """``YYYY-mm-dd HH:MM:SS UTC``."""
+    return dt.datetime.fromtimestamp(t_unix, dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def _trim_line(r: TrimRecord) -> str:
+    e = r.estimate
+    cov = e.get("cov_net") or [[math.nan]]
+    cg = [1e3 * v for v in e.get("cg_m", [math.nan] * 3)]
+    cg_std = [1e3 * v for v in e.get("cg_std_m", [math.nan] * 3)]
+    text = (f"  {utc_text(r.t_unix)}  W − B {e.get('net_force_N', math.nan):+.2f} ± "
+            f"{math.sqrt(max(cov[0][0], 0.0)):.2f} N  CG "
+            + " ".join(f"{a} {v:+.1f} ± {s:.1f}" for a, v, s in zip("xyz", cg, cg_std,
+                                                                     strict=True)) + " mm")
+    p = r.proposal
+    if p is not None:
+        changes = p.get("changes") or [{"action": "add", "piece": n, "count": c}
+                                       for s in p.get("slots", [])
+                                       for n, c in s.get("pieces", {}).items()]
+        pieces = sum(int(c["count"]) for c in changes)
+        text += (f"\n      proposal {p.get('method')}: {pieces} piece(s) "
+                 f"{'to handle' if p.get('changes') else 'to add'}, "
+                 f"{'feasible' if p.get('feasible') else 'NOT feasible'}")
+    if r.log_path:
+        text += f"\n      session log {r.log_path}"
+    return text
+
+
+def _install_text(r: InstallRecord) -> str:
+    pieces = "; ".join(f"{p.slot}: {p.count} × {p.piece}" for p in r.pieces) or "none"
+    return f"  {utc_text(r.t_unix)}  ({r.source})  {pieces}"
+
+
+def _event_text(r: EventRecord) -> str:
+    text = r.values.get("text")
+    body = str(text) if text else ", ".join(f"{k} {v}" for k, v in sorted(r.values.items()))
+    return f"  {utc_text(r.t_unix)}  {body}"
+
+
+def format_history(history: History, vehicles: list[str]) -> str:
+    """The records of ``vehicles``, oldest first, each kind under its heading."""
+    blocks = []
+    for v in vehicles:
+        trims, installs = history.trims(v), history.installs(v)
+        alerts, verifies = history.alerts(v), history.verifications(v)
+        segments = history.watch_segments(v)
+        lines = [f"vehicle {v}", f"trims: {len(trims) or 'none'}"]
+        lines += [_trim_line(r) for r in trims]
+        lines.append("installed ballast: " + ("none recorded" if not installs else
+                                              f"{len(installs)} configuration(s), latest last"))
+        lines += [_install_text(r) for r in installs]
+        lines.append(f"watch: {len(segments)} steady segment(s), {len(alerts)} alert(s)")
+        lines += [_event_text(r) for r in alerts]
+        lines.append(f"verify holds: {len(verifies) or 'none'}")
+        lines += [_event_text(r) for r in verifies]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def _event_dict(r: EventRecord) -> dict[str, Any]:
+    return {"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix), **r.values}
+
+
+def history_to_dict(history: History, vehicles: list[str]) -> dict[str, Any]:
+    """JSON-ready: the file's path and, per vehicle, every record (times in s since the
+    Unix epoch and as UTC text; estimates and proposals in their ``--json`` shapes)."""
+    return {"db": str(history.path), "vehicles": [{
+        "vehicle": v,
+        "trims": [{"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix), "profile": r.profile,
+                   "estimate": r.estimate, "proposal": r.proposal, "log_path": r.log_path}
+                  for r in history.trims(v)],
+        "installed": [{"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix), "source": r.source,
+                       "profile": r.profile, "pieces": [
+                           {"slot": p.slot, "piece": p.piece, "count": p.count}
+                           for p in r.pieces]} for r in history.installs(v)],
+        "watch_segments": [_event_dict(r) for r in history.watch_segments(v)],
+        "alerts": [_event_dict(r) for r in history.alerts(v)],
+        "verifications": [_event_dict(r) for r in history.verifications(v)],
+    } for v in vehicles]}

@@ -1,0 +1,106 @@
+"""The trim history's SQLite file: where it is, how it is opened, its schema and migrations.
+
+One file per machine (``<data dir>/trimd.db``, see :func:`trimd.app.files.data_dir`),
+opened in WAL journal mode: readers never block the writer, a writer killed mid-write
+(``kill -9``) leaves the last committed transaction intact, and every record is written
+in one transaction. The schema version is SQLite's ``PRAGMA user_version``; a file at
+version k is brought to :data:`SCHEMA_VERSION` by running ``MIGRATIONS[k:]`` in order,
+each in one transaction with its version bump, so an interrupted migration leaves the
+file at a version it really has.
+
+Times are seconds since the Unix epoch (UTC) [s]; JSON columns hold the shapes of
+:func:`trimd.core.estimate_json.estimate_to_dict` and
+:func:`trimd.ballast.propose.proposal_to_dict`, or a caller's dict of values.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+from trimd.app.files import data_dir
+from trimd.core.errors import DataError
+
+__all__ = ["MIGRATIONS", "SCHEMA_VERSION", "connect", "default_db_path", "migrate"]
+
+#: Schema steps: MIGRATIONS[k] takes a file from version k to version k + 1.
+MIGRATIONS: tuple[tuple[str, ...], ...] = (
+    # v1: trims, watch segments and alerts, installed ballast
+    ("CREATE TABLE trims (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "profile TEXT NOT NULL, t_unix REAL NOT NULL, estimate_json TEXT NOT NULL, "
+     "proposal_json TEXT, log_path TEXT)",
+     "CREATE TABLE watch_segments (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     "CREATE TABLE alerts (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     "CREATE TABLE installs (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "profile TEXT NOT NULL, t_unix REAL NOT NULL, source TEXT NOT NULL "
+     "CHECK (source IN ('proposal', 'edited', 'profile')))",
+     "CREATE TABLE installed_pieces (install_id INTEGER NOT NULL REFERENCES installs(id), "
+     "slot TEXT NOT NULL, piece TEXT NOT NULL, count INTEGER NOT NULL CHECK (count > 0))"),
+    # v2: verify outcomes, and the per-vehicle time indexes every listing reads by
+    ("CREATE TABLE verifications (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     *(f"CREATE INDEX {t}_by_vehicle ON {t} (vehicle, t_unix)"
+       for t in ("trims", "watch_segments", "alerts", "installs", "verifications")),
+     "CREATE INDEX installed_pieces_by_install ON installed_pieces (install_id)"),
+)
+SCHEMA_VERSION = len(MIGRATIONS)
+#: How long a writer waits for another's lock before it gives up [s].
+BUSY_TIMEOUT_S = 10.0
+
+
+def default_db_path() -> Path:
+    """``<data dir>/trimd.db``: ``$TRIMD_DATA_DIR/trimd.db``, else
+    ``~/.local/share/trimd/trimd.db`` (``$XDG_DATA_HOME/trimd`` when that is set)."""
+    return data_dir() / "trimd.db"
+
+
+def migrate(conn: sqlite3.Connection, upto: int = SCHEMA_VERSION) -> int:
+    """Bring the file to version ``upto`` (each step one transaction); its old version.
+
+    DataError when the file is newer than this trimd knows."""
+    old = int(conn.execute("PRAGMA user_version").fetchone()[0])
+    if old > SCHEMA_VERSION:
+        raise DataError(f"the trim history has schema version {old}; this trimd knows up to "
+                        f"{SCHEMA_VERSION}: update trimd")
+    for version in range(old, upto):
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            if int(conn.execute("PRAGMA user_version").fetchone()[0]) == version:
+                for statement in MIGRATIONS[version]:
+                    conn.execute(statement)
+                conn.execute(f"PRAGMA user_version = {version + 1}")
+            conn.execute("COMMIT")
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+    return old
+
+
+def connect(path: str | Path, *, upto: int = SCHEMA_VERSION) -> sqlite3.Connection:
+    """Open (creating it and its folder if needed) and migrate the history at ``path``.
+
+    Autocommit mode: every write states its own transaction (``BEGIN IMMEDIATE``).
+    DataError naming the file when it cannot be opened or is no SQLite database."""
+    p = Path(path)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        conn = sqlite3.connect(p, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+    except (OSError, sqlite3.Error) as exc:
+        raise DataError(f"{p}: cannot open the trim history ({exc})") from None
+    try:
+        conn.execute("PRAGMA journal_mode = WAL")  # waits for a lock as any statement
+        conn.execute("PRAGMA foreign_keys = ON")
+        conn.execute("PRAGMA synchronous = FULL")
+        migrate(conn, upto)
+    except sqlite3.OperationalError as exc:
+        conn.close()
+        raise DataError(f"{p}: cannot open the trim history ({exc})") from None
+    except sqlite3.DatabaseError as exc:
+        conn.close()
+        raise DataError(f"{p}: not a trim history ({exc})") from None
+    except BaseException:
+        conn.close()
+        raise
+    return conn

@@ -1,0 +1,30 @@
+"""What ``trimd run`` stores in the history when a session ends with an estimate."""
+
+from __future__ import annotations
+
+import time
+
+from trimd.app.history.store import History
+from trimd.app.session import SessionResult
+from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.verify import Verification, verification_to_dict
+from trimd.core.estimate_json import estimate_to_dict
+
+__all__ = ["record_result"]
+
+
+def record_result(history: History, vehicle: str, profile: str, result: SessionResult,
+                  t_unix: float | None = None) -> int | None:
+    """Store ``result``'s estimate, proposal and session log path under ``vehicle`` (or a
+    verify hold's verification); the record's id, or None (nothing stored) when the
+    session produced neither."""
+    t = time.time() if t_unix is None else t_unix
+    if isinstance(result.verification, Verification):
+        return history.record_verify(vehicle, t, {**verification_to_dict(result.verification),
+                                                  "log_path": result.log_path})
+    if result.estimate is None:
+        return None
+    proposal = (proposal_to_dict(result.proposal) if isinstance(result.proposal, Proposal)
+                else None)
+    return history.record_trim(vehicle, profile, t,
+                               estimate_to_dict(result.estimate), proposal, result.log_path)

@@ -1,0 +1,65 @@
+"""``trimd history [--vehicle V] [--json] [--db PATH] [--plot FILE]``: what the trim
+history holds for a vehicle (docs/operator.md, "The trim history")."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from trimd.app.history import History
+from trimd.app.history.plot import write_history_plot
+from trimd.app.history.report import format_history, history_to_dict
+from trimd.cli.history_args import db_path
+from trimd.core.errors import DataError
+
+__all__ = ["register", "run"]
+
+
+def register(sub: Any) -> None:
+    p: argparse.ArgumentParser = sub.add_parser(
+        "history", help="list a vehicle's trims, installed ballast and watch alerts",
+        description="List what the trim history holds: every trim's estimate and proposal, "
+        "the ballast installed, watch alerts and verify holds (all vehicles unless "
+        "--vehicle); --plot draws W − B and the centre of gravity over time.")
+    p.add_argument("--vehicle", metavar="NAME", help="only this vehicle")
+    p.add_argument("--db", metavar="PATH", help="the trim history (default: "
+                   "$TRIMD_DATA_DIR/trimd.db, else ~/.local/share/trimd/trimd.db)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--plot", metavar="FILE", help="write a PNG of W − B and the centre of "
+                   "gravity over time (needs one vehicle: --vehicle, or a history of one)")
+    p.set_defaults(func=run)
+
+
+def _nothing(args: argparse.Namespace, path: Path, message: str) -> int:
+    """Say that there is nothing to list (``--json``: an object with no vehicles)."""
+    print(json.dumps({"db": str(path), "vehicles": [], "message": message}) if args.json
+          else message)
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    path = Path(db_path(args))
+    if not path.exists():
+        return _nothing(args, path, f"no trim history yet: {path} does not exist (trimd run "
+                        "and trimd ballast apply write it)")
+    with History(path) as history:
+        known = history.vehicles()
+        if args.vehicle and args.vehicle not in known:
+            return _nothing(args, path, f"no records for vehicle {args.vehicle} in {path} "
+                            f"(vehicles: {', '.join(known) or 'none'})")
+        vehicles = [args.vehicle] if args.vehicle else known
+        if not vehicles:
+            return _nothing(args, path, f"the trim history {path} is empty: no trim, "
+                            "installed ballast or watch record yet")
+        if args.plot:
+            if len(vehicles) > 1:
+                raise DataError(f"--plot draws one vehicle; pick one with --vehicle "
+                                f"({', '.join(vehicles)})")
+            n = write_history_plot(history, vehicles[0], Path(args.plot))
+            print(f"wrote {args.plot}: {n} trim(s) of {vehicles[0]}")
+            return 0
+        print(json.dumps(history_to_dict(history, vehicles), allow_nan=False) if args.json
+              else format_history(history, vehicles))
+    return 0
