@@ -88,23 +88,14 @@ def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFix
     assert alerts[0]["t_s"] > 100
 
 
-def test_post_dive_on_a_trimd_recording_agrees_with_its_trim(
+def test_post_dive_on_a_trimd_recording_with_short_holds(
         capsys: pytest.CaptureFixture[str]) -> None:
-    """The golden recording (a trim of the simulated Sabertooth with 10 kg at AftSB): its
-    level hold is a steady segment to the watch, whose W − B and net moments about x and y
-    agree with the trim's own estimate within their ±."""
+    """The golden recording (a trim of the simulated Sabertooth, whose stop rule ends each
+    hold after ≈ 20 s): steady, armed in ALT_HOLD, but each stretch is shorter than a
+    segment once settled and trimmed, and the verdict says so."""
     golden = Path(__file__).resolve().parent.parent / "data" / "golden"
-    expected = json.loads((golden / "sabertooth-10kg-aftsb.expected.json").read_text(
-        encoding="utf-8"))["estimate"]
     assert main(["watch", str(golden / "sabertooth-10kg-aftsb.tlog"), "--profile",
-                 "sabertooth-dh2", "--json"]) == 0
-    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
-    [seg] = [x for x in lines if x["type"] == "segment"]
-    assert abs(seg["roll_deg"]) < 1 and abs(seg["pitch_deg"]) < 1
-    got = [seg["net_force_N"], *seg["net_moment_Nm"][:2]]
-    std = [seg["net_force_std_N"], *seg["net_moment_std_Nm"][:2]]
-    want = [expected["net_force_N"], *expected["net_moment_Nm"][:2]]
-    want_std = [expected["weight_std_N"], *expected["net_moment_std_Nm"][:2]]
-    for g, s, w, ws in zip(got, std, want, want_std, strict=True):
-        assert abs(g - w) < 3 * max(s, ws), (got, want)
-    assert lines[-1]["type"] == "verdict" and "baseline not formed" in lines[-1]["text"]
+                 "sabertooth-dh2", "--json"]) == 1
+    last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last["type"] == "verdict" and last["segments"] == 0
+    assert last["rejected"] == {"too short": 2} and "too short" in last["text"]
