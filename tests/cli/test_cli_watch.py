@@ -60,3 +60,42 @@ def test_usage_mistakes(argv: list[str], code: int, words: str,
                         capsys: pytest.CaptureFixture[str]) -> None:
     assert main(argv) == code
     assert words in capsys.readouterr().err
+
+
+def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                       ) -> None:
+    """``--baseline EST.json``: the vehicle's last trim (here an exact estimate of the
+    simulated vehicle before it loses a piece) is the reference from the first segment."""
+    from tests.helpers import equilibrium_holds
+    from trimd.core.estimate import estimate_static
+    from trimd.core.estimate_json import estimate_to_dict
+    from trimd.core.profile_yaml import load_profile
+    from trimd.drivers.sim.payload import mass_properties
+
+    profile = load_profile("bluerov2-heavy")
+    m = mass_properties(profile)
+    est = estimate_static(equilibrium_holds(profile, m.W, m.r_g), profile)
+    path = tmp_path / "last-trim.json"
+    path.write_text(json.dumps(estimate_to_dict(est)), encoding="utf-8")
+    assert main(["watch", "--link", "sim:pilot=dive,seed=6,drop=lead-200g@W-aft-ctr@100",
+                 "--profile", "bluerov2-heavy", "--json", "--duration", "300",
+                 "--baseline", str(path)]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    segments = [x for x in lines if x["type"] == "segment"]
+    assert not any(s["baseline"] for s in segments)
+    alerts = [x for x in lines if x["type"] == "alert"]
+    assert alerts and alerts[0]["quantity"] == "net_force_N" and alerts[0]["total"] < 0
+    assert alerts[0]["t_s"] > 100
+
+
+def test_post_dive_on_a_trimd_recording_with_short_holds(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The golden recording (a trim of the simulated Sabertooth, whose stop rule ends each
+    hold after ≈ 20 s): steady, armed in ALT_HOLD, but each stretch is shorter than a
+    segment once settled and trimmed, and the verdict says so."""
+    golden = Path(__file__).resolve().parent.parent / "data" / "golden"
+    assert main(["watch", str(golden / "sabertooth-10kg-aftsb.tlog"), "--profile",
+                 "sabertooth-dh2", "--json"]) == 1
+    last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last["type"] == "verdict" and last["segments"] == 0
+    assert last["rejected"] == {"too short": 2} and "too short" in last["text"]

@@ -52,3 +52,17 @@ def test_a_step_is_found_soon_with_its_size_and_time() -> None:
     assert first.change == pytest.approx(step, abs=3 * first.change_std)
     assert first.total > 0
     assert first.since_s <= 60.0 * first_k and first.since_s >= 60.0 * 95
+
+
+def test_a_significant_change_too_small_to_matter_is_not_alerted() -> None:
+    sigma, step = 0.1, 0.3
+    relevance = np.r_[0.0, 1.0, 1.0, 1.0]   # moments: only a change beyond 1 N·m matters
+    det = ChangeDetector(_baseline(sigma), threshold_for(0.01, 60), relevance=relevance)
+    rng = np.random.default_rng(5)
+    alerts = []
+    for k in range(200):
+        q = np.r_[sigma * rng.standard_normal(3), 0.0]
+        if k >= 100:
+            q[1] += step    # 3σ, but below the relevance
+        alerts += det.update(_segment(k, q, sigma))
+    assert not any(a.component == 1 for a in alerts) and det.suppressed >= 1

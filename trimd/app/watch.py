@@ -95,7 +95,7 @@ def verdict(watch: TrimWatch) -> str:
     n_base = sum(s.baseline for s in watch.segments)
     base = (watch.detector.baseline.source if watch.detector is not None else
             f"not formed ({n_base} of {watch.baseline_segments} level segments)")
-    text = (f"{len(watch.segments)} steady segments; baseline {base}; "
+    text = (f"{len(watch.segments)} steady segment(s); baseline {base}; "
             f"{len(watch.alerts)} alert(s)")
     if watch.alerts:
         text += "".join(f"\n  {a.text}" for a in watch.alerts)

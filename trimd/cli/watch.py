@@ -1,7 +1,8 @@
 """``trimd watch``: the passive trim watch, live over a link or post-dive over logs.
 
 * ``trimd watch --link URL --profile P [--headless] [--json]`` reads the vehicle and
-  sends it nothing (no set-point, no mode change, no MANUAL_CONTROL; no confirmation is
+  sends it nothing (with a terminal: the watch's terminal UI, a plot of W − B and the log
+  of segments and alerts) (no set-point, no mode change, no MANUAL_CONTROL; no confirmation is
   needed). It runs until stopped (SIGINT, SIGTERM, SIGHUP) or ``--duration`` seconds of
   sample time.
 * ``trimd watch LOG… --profile P [--plot FILE] [--json]`` reads each log (any log
@@ -17,13 +18,12 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
@@ -36,12 +36,13 @@ from trimd.app.watch import (
     write_watch_plot,
 )
 from trimd.cli.argtypes import bounded
-from trimd.core.change import Baseline
+from trimd.cli.run import wants_tui
+from trimd.core.change import Baseline, baseline_from_estimate
 from trimd.core.errors import DataError, LinkError
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
-from trimd.core.watch import FALSE_ALARMS_PER_H, MAX_SEGMENT_S, TrimWatch
+from trimd.core.watch import FALSE_ALARMS_PER_H, MAX_SEGMENT_S, TrimWatch, WatchAlert
 
 __all__ = ["register", "run"]
 
@@ -56,8 +57,8 @@ def register(sub: Any) -> None:
                    ".bin logs, each watched on its own")
     p.add_argument("--link", help="live: sim[:opts] | mavlink:<conn> | serial:<dev>[,baud]")
     p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
-    p.add_argument("--headless", action="store_true", help="no terminal UI (the live watch "
-                   "is headless for now)")
+    p.add_argument("--headless", action="store_true", help="live: no terminal UI (lines "
+                   "for people, or --json)")
     p.add_argument("--json", action="store_true", help="one JSON object per line")
     p.add_argument("--plot", metavar="FILE", help="PNG of W − B and the moments over time "
                    "(with several logs: FILE-1.png, FILE-2.png, …)")
@@ -82,8 +83,7 @@ def _baseline(path: str | None) -> Baseline | None:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise DataError(f"--baseline {path}: {exc}") from None
-    est = estimate_from_dict(data, path)
-    return Baseline(est.q.copy(), np.diag(est.q_cov).copy(), None, f"the estimate in {path}")
+    return baseline_from_estimate(estimate_from_dict(data, path), f"the estimate in {path}")
 
 
 def _new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
@@ -119,7 +119,7 @@ def _wall_clock() -> Any:
     return lambda t_s: datetime.fromtimestamp(offset + t_s, UTC).strftime("%H:%M:%S UTC")
 
 
-async def _live(args: argparse.Namespace, profile: Profile) -> int:
+async def _live(args: argparse.Namespace, profile: Profile, tui: bool) -> int:
     scheme, rest = parse_link_url(args.link)
     if scheme == "replay":
         raise LinkError("trimd watch reads logs directly: trimd watch LOG --profile P")
@@ -127,6 +127,17 @@ async def _live(args: argparse.Namespace, profile: Profile) -> int:
         raise LinkError("trimd watch sends no MANUAL_CONTROL: drop pilot=always from the URL")
     link = await open_link(args.link, profile)
     watch = _new_watch(args, profile, _wall_clock() if scheme == "mavlink" else None)
+    if tui:
+        from trimd.tui.watch_app import WatchApp
+
+        app = WatchApp(link, watch, until_s=args.duration)
+        stop_on_signals(lambda why: app.exit())
+        await app.run_async()
+        await link.close()
+        for r in app.records:
+            if isinstance(r, WatchAlert):
+                print(format_record(r))
+        return _finish(watch, args, link.description, args.plot)
     stop = asyncio.Event()
     stop_on_signals(lambda why: stop.set())
     print(f"watching {link.description} (passive: trimd sends no command)", file=sys.stderr)
@@ -145,16 +156,21 @@ def _plot_path(plot: str | None, k: int, n: int) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except BrokenPipeError:  # the reader went away (``| head``): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
     if bool(args.logs) == bool(args.link):
         print("trimd watch: give either --link URL (live) or LOG files (post-dive)",
               file=sys.stderr)
         return 2
     profile = load_profile(args.profile)
     if args.link:
-        if not args.headless and not args.json and sys.stdout.isatty():
-            print("trimd watch: the live watch has no terminal UI yet; running headless",
-                  file=sys.stderr)
-        return asyncio.run(_live(args, profile))
+        return asyncio.run(_live(args, profile, wants_tui(args)))
     code = 0
     for k, path in enumerate(args.logs):
         if not Path(path).is_file():

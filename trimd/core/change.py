@@ -4,10 +4,12 @@ Each steady segment (:mod:`trimd.core.segment`) gives the net quantities it obse
 q_i (i: W − B, W·x_g − B·x_b, W·y_g − B·y_b). Against a baseline b_i its innovation
 δ_i = q_i − b_i has the variance
 
-    σ_i² = σ_noise,i² (the segment's) + σ_b,i² (the baseline's) + ‖G_i − G_b,i‖²,
+    σ_i² = σ_noise,i² + σ_floor,i² (the segment's) + σ_b,i² (the baseline's)
+           + ‖G_i − G_b,i‖²,
 
-G the sensitivity to the thrust curves' gain errors: the same thrusters fly every
-segment, so only the difference of the exposures enters (a baseline without its
+σ_floor the wander between segments that no segment sees in its own samples (slow AHRS
+error: ``floor_var``), G the sensitivity to the thrust curves' gain errors: the same
+thrusters fly every segment, so only the difference of the exposures enters (a baseline without its
 exposure, e.g. a trim's estimate, contributes its full covariance and the segment its
 own gain share, which is conservative). The test on z = δ/σ, per component, is Page's
 two-sided CUSUM:
@@ -23,9 +25,11 @@ segment since the statistic last stood at 0 that is :data:`Z_START` σ off on it
 the alert's direction (the CUSUM's own restart point precedes a step by a few segments
 of noise; a most-likely step split would date a ramp, a leak, too late); the change is
 the weighted mean innovation of the segments from there on, with its ± (the segments'
-own variances, plus the baseline's once). After an alert the component is tested
-against the alerting segment's level, from 0 again (a leak that goes on alerts again as
-it grows); the total change stays against the baseline.
+own variances, plus the baseline's once). A change smaller than what matters
+(``relevance``: the watch uses, for the moments, what would tilt the vehicle at rest by
+half the profile's ``level_tol_deg``) restarts the test without an alert. After an
+alert the component is tested against the alerting segment's level, from 0 again (a leak
+that goes on alerts again as it grows); the total change stays against the baseline.
 """
 
 from __future__ import annotations
@@ -37,10 +41,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.core.estimate import StaticEstimate
 from trimd.core.segment import SegmentEstimate
 
 __all__ = ["COMPONENTS", "CUSUM_K", "Baseline", "ChangeAlert", "ChangeDetector",
-           "baseline_from_segments", "threshold_for"]
+           "baseline_from_estimate", "baseline_from_segments", "threshold_for"]
 
 FloatArray = NDArray[np.float64]
 #: CUSUM reference value k [σ]: half the shift it is tuned to.
@@ -86,21 +91,31 @@ class Baseline:
     source: str
 
 
-def baseline_from_segments(segments: Sequence[SegmentEstimate]) -> Baseline:
+def baseline_from_segments(segments: Sequence[SegmentEstimate],
+                           floor_var: FloatArray | None = None) -> Baseline:
     """Per component, the inverse-variance weighted mean of the segments that observe it
-    (noise variances; the shared gain exposure averaged with the same weights)."""
+    (their noise variances plus ``floor_var``, the wander between segments; the shared
+    gain exposure averaged with the same weights)."""
+    floor = np.zeros(4) if floor_var is None else np.asarray(floor_var, float)
     q, var = np.full(4, np.nan), np.full(4, np.inf)
     gain = np.zeros((4, segments[0].gain_sensitivity.shape[1]))
     for i in range(4):
         use = [s for s in segments if s.observable[i]]
         if not use:
             continue
-        w = np.array([1 / max(s.q_cov_noise[i, i], 1e-18) for s in use])
-        w /= w.sum()
+        v = np.array([max(s.q_cov_noise[i, i] + floor[i], 1e-18) for s in use])
+        w = (1 / v) / np.sum(1 / v)
         q[i] = sum(wk * s.q[i] for wk, s in zip(w, use, strict=True))
-        var[i] = sum(wk**2 * s.q_cov_noise[i, i] for wk, s in zip(w, use, strict=True))
+        var[i] = float(np.sum(w**2 * v))
         gain[i] = sum(wk * s.gain_sensitivity[i] for wk, s in zip(w, use, strict=True))
     return Baseline(q, var, gain, f"the first {len(segments)} segments")
+
+
+def baseline_from_estimate(est: StaticEstimate, source: str) -> Baseline:
+    """A trim's estimate (e.g. the vehicle's last trim, from its history) as the baseline:
+    its q and the variances of its full ± (its gain exposure is not kept, so the test
+    counts each segment's own gain share in full: conservative)."""
+    return Baseline(est.q.copy(), np.diag(est.q_cov).copy(), None, source)
 
 
 @dataclass(frozen=True)
@@ -172,22 +187,34 @@ def _step(run: list[tuple[float, float, float, float]], sign: float, ref_var: fl
     return j, float(np.sum(w * d[j:]) / w.sum()), float(1 / w.sum())
 
 
-def _innovation(seg: SegmentEstimate, i: int, ref: _Reference) -> tuple[float, float]:
-    """δ = q_i − reference and the segment's own variance of it (gain exposures by
-    their difference when the reference's is known)."""
+def _innovation(seg: SegmentEstimate, i: int, ref: _Reference, floor_var: float
+                ) -> tuple[float, float]:
+    """δ = q_i − reference and the segment's own variance of it (its noise, the wander
+    between segments ``floor_var``, gain exposures by their difference when the
+    reference's is known)."""
     g = seg.gain_sensitivity[i] - ref.gain if ref.gain is not None else \
         seg.gain_sensitivity[i]
-    return float(seg.q[i] - ref.q), float(seg.q_cov_noise[i, i] + g @ g)
+    return float(seg.q[i] - ref.q), float(seg.q_cov_noise[i, i] + floor_var + g @ g)
 
 
 class ChangeDetector:
     """Feed :class:`SegmentEstimate` values in time order; get the alerts they raise.
+    ``floor_var`` (4,) is the wander between segments no segment sees [N², (N·m)²];
+    ``relevance`` (4,) the smallest change worth an alert [N, N·m]: a crossing of the
+    threshold by a smaller change (since the baseline, now; after an alert, the step
+    since it) restarts the test without an alert.
     After an alert the component is tested against the alerting segment's level (a
     change that goes on, a leak, alerts again as it grows); ``total`` stays against the
     baseline."""
 
-    def __init__(self, baseline: Baseline, h: float, k: float = CUSUM_K) -> None:
+    def __init__(self, baseline: Baseline, h: float, k: float = CUSUM_K,
+                 floor_var: FloatArray | None = None,
+                 relevance: FloatArray | None = None) -> None:
         self.baseline, self.h, self.k = baseline, h, k
+        self.floor_var = np.zeros(4) if floor_var is None else np.asarray(floor_var, float)
+        self.relevance = np.zeros(4) if relevance is None else np.asarray(relevance, float)
+        #: crossings of the threshold whose change was below ``relevance`` (no alert)
+        self.suppressed = 0
         b = baseline
         self._base = {i: _Reference(float(b.q[i]), float(b.var[i]), None if
                                     b.gain_sensitivity is None else b.gain_sensitivity[i])
@@ -203,7 +230,7 @@ class ChangeDetector:
             ref = self._ref[i]
             if not seg.observable[i] or not math.isfinite(ref.q):
                 continue
-            delta, own = _innovation(seg, i, ref)
+            delta, own = _innovation(seg, i, ref, float(self.floor_var[i]))
             z = delta / math.sqrt(own + ref.var)
             c.up, c.down = max(0.0, c.up + z - self.k), max(0.0, c.down - z - self.k)
             for side, value in (("up", c.up), ("down", c.down)):
@@ -219,13 +246,20 @@ class ChangeDetector:
             run = c.run_up if up else c.run_down
             j, change, change_var = _step(run, 1.0 if up else -1.0, ref.var)
             after = (c.zero_up if up else c.zero_down) if j == 0 else run[j - 1][3]
-            total, own_total = _innovation(seg, i, self._base[i])
+            total, own_total = _innovation(seg, i, self._base[i], float(self.floor_var[i]))
+            # significant, but too small to matter: the change since the baseline for a
+            # first alert, the step since the last alert for a later one
+            if abs(total if i not in self._alerted else change) < self.relevance[i]:
+                self.suppressed += 1
+                self._cusum[i] = _Cusum(zero_up=seg.t_end_s, zero_down=seg.t_end_s)
+                continue
             alerts.append(ChangeAlert(
                 i, total, math.sqrt(own_total + self._base[i].var), change,
                 math.sqrt(change_var + ref.var), after, run[j][2], seg.t_end_s,
                 len(run) - j, max(c.up, c.down), i not in self._alerted))
             self._alerted.add(i)
-            self._ref[i] = _Reference(float(seg.q[i]), float(seg.q_cov_noise[i, i]),
+            self._ref[i] = _Reference(float(seg.q[i]),
+                                      float(seg.q_cov_noise[i, i] + self.floor_var[i]),
                                       seg.gain_sensitivity[i].copy())
             self._cusum[i] = _Cusum(zero_up=seg.t_end_s, zero_down=seg.t_end_s)
         return alerts

@@ -88,6 +88,11 @@ MAX_SEGMENT_S = 60.0
 END_MARGIN_S = WINDOW_S
 #: Shortest segment [s] (a plateau's tail after its full pieces may be shorter).
 MIN_SEGMENT_S = 10.0
+#: The slow error of the AHRS's roll and pitch that a segment does not average out [deg]:
+#: each segment's net moments carry the stiffness times it (measured on the simulated
+#: Heavy with ``disturb=real``: the level moments scatter between segments 1.5× their
+#: own σ, an excess of 0.04°).
+SEGMENT_ATTITUDE_WANDER_DEG = 0.05
 #: Default target false-alarm rate [1/h] and the segment rate it is computed for [1/h].
 FALSE_ALARMS_PER_H = 0.01
 SEGMENTS_PER_H = 60.0
@@ -172,10 +177,16 @@ def alert_text(a: ChangeAlert, clock: Callable[[float], str]) -> str:
     word, why = (up, why_up) if a.total > 0 else (down, why_down)
     when = (f"since {clock(a.since_s)}" if math.isnan(a.after_s) or a.since_s - a.after_s < 1
             else f"since between {clock(a.after_s)} and {clock(a.since_s)}")
-    text = f"{word} by {abs(a.total):.2f} ± {a.total_std:.2f} {unit}"
+    text = f"{word} by {_pm(abs(a.total), a.total_std)} {unit}"
     if a.first:
         return f"{text} {when} ({why})"
-    return f"{text} ({a.change:+.2f} ± {a.change_std:.2f} {unit} {when}) ({why})"
+    return f"{text} ({_pm(a.change, a.change_std, sign=True)} {unit} {when}) ({why})"
+
+
+def _pm(value: float, std: float, sign: bool = False) -> str:
+    """``value ± std`` with two significant digits of ``std`` (at least two decimals)."""
+    digits = max(2, 1 - math.floor(math.log10(std))) if std > 0 else 2
+    return f"{value:{'+' if sign else ''}.{digits}f} ± {std:.{digits}f}"
 
 
 def _before(hold: HoldSamples, t_s: float) -> HoldSamples:
@@ -203,7 +214,18 @@ class TrimWatch:
         self.h = threshold_for(false_alarms_per_h, max(SEGMENTS_PER_H, 3600 / max_segment_s))
         self.clock = clock
         self.baseline_segments = baseline_segments
-        self.detector = ChangeDetector(baseline, self.h) if baseline is not None else None
+        wander = self._rule_stiffness(profile) * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
+        #: variance of each net quantity between segments that no segment sees [N², (N·m)²]
+        self.floor_var = np.r_[0.0, wander**2, wander**2, wander**2]
+        #: the smallest change worth an alert [N, N·m]: W − B by half what the ballast
+        #: proposal may leave (half the net-buoyancy window's half-width), a moment by what
+        #: would tilt the vehicle at rest by half the profile's level tolerance
+        rule = StopRule.for_profile(profile)
+        tilt = self._rule_stiffness(profile) * math.radians(profile.level_tol_deg) / 2
+        self.relevance = np.r_[rule.buoyancy_half_window_N / 2, tilt, tilt, tilt]
+        self.detector = (ChangeDetector(baseline, self.h, floor_var=self.floor_var,
+                                        relevance=self.relevance)
+                         if baseline is not None else None)
         self.segments: list[WatchSegment] = []
         self.alerts: list[WatchAlert] = []
         self.rejected: dict[str, int] = {}
@@ -235,6 +257,10 @@ class TrimWatch:
         self._next_tick = -math.inf
         self._pending: list[SegmentEstimate] = []
         self._last_level: HoldSamples | None = None
+
+    @staticmethod
+    def _rule_stiffness(profile: Profile) -> float:
+        return max(StopRule.for_profile(profile).stiffness_prior_Nm, 0.0)
 
     # ------------------------------------------------------------------ input
     def feed(self, s: Sample) -> list[WatchSegment | WatchAlert]:
@@ -427,7 +453,9 @@ class TrimWatch:
         if baseline:
             self._pending.append(est)
             if len(self._pending) >= self.baseline_segments:
-                self.detector = ChangeDetector(baseline_from_segments(self._pending), self.h)
+                self.detector = ChangeDetector(
+                    baseline_from_segments(self._pending, self.floor_var), self.h,
+                    floor_var=self.floor_var, relevance=self.relevance)
         elif self.detector is not None:
             for a in self.detector.update(est):
                 alert = WatchAlert(a, alert_text(a, self.clock))
