@@ -62,11 +62,15 @@ def test_usage_mistakes(argv: list[str], code: int, words: str,
     assert words in capsys.readouterr().err
 
 
-def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFixture[str]
-                                       ) -> None:
-    """``--baseline EST.json``: the vehicle's last trim (here an exact estimate of the
-    simulated vehicle before it loses a piece) is the reference from the first segment."""
+@pytest.mark.parametrize("source", ["file", "history"])
+def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                       source: str) -> None:
+    """``--baseline EST.json`` or ``--baseline last`` (the vehicle's last trim in the
+    history; here an exact estimate of the simulated vehicle before it loses a piece) is
+    the reference from the first segment; the segments and the alert are stored in the
+    history, where ``trimd history`` lists them."""
     from tests.helpers import equilibrium_holds
+    from trimd.app.history import History
     from trimd.core.estimate import estimate_static
     from trimd.core.estimate_json import estimate_to_dict
     from trimd.core.profile_yaml import load_profile
@@ -75,17 +79,28 @@ def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFix
     profile = load_profile("bluerov2-heavy")
     m = mass_properties(profile)
     est = estimate_static(equilibrium_holds(profile, m.W, m.r_g), profile)
-    path = tmp_path / "last-trim.json"
-    path.write_text(json.dumps(estimate_to_dict(est)), encoding="utf-8")
+    db = str(tmp_path / "trimd.db")
+    baseline = str(tmp_path / "last-trim.json")
+    if source == "file":
+        Path(baseline).write_text(json.dumps(estimate_to_dict(est)), encoding="utf-8")
+    else:
+        with History(db) as history:
+            history.record_trim("bluerov2-heavy", "bluerov2-heavy", 0.0,
+                                estimate_to_dict(est), None, None)
+        baseline = "last"
     assert main(["watch", "--link", "sim:pilot=dive,seed=6,drop=lead-200g@W-aft-ctr@100",
                  "--profile", "bluerov2-heavy", "--json", "--duration", "300",
-                 "--baseline", str(path)]) == 0
+                 "--baseline", baseline, "--db", db]) == 0
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     segments = [x for x in lines if x["type"] == "segment"]
     assert not any(s["baseline"] for s in segments)
     alerts = [x for x in lines if x["type"] == "alert"]
     assert alerts and alerts[0]["quantity"] == "net_force_N" and alerts[0]["total"] < 0
     assert alerts[0]["t_s"] > 100
+    assert main(["history", "--db", db, "--json"]) == 0
+    stored = json.loads(capsys.readouterr().out)["vehicles"][0]
+    assert len(stored["watch_segments"]) == len(segments)
+    assert len(stored["alerts"]) == len(alerts)
 
 
 def test_post_dive_on_a_trimd_recording_with_short_holds(

@@ -27,6 +27,7 @@ from typing import Any
 
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
+from trimd.app.history import History
 from trimd.app.watch import (
     Record,
     format_record,
@@ -36,6 +37,7 @@ from trimd.app.watch import (
     write_watch_plot,
 )
 from trimd.cli.argtypes import bounded
+from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.cli.run import wants_tui
 from trimd.core.change import Baseline, baseline_from_estimate
 from trimd.core.errors import DataError, LinkError
@@ -65,7 +67,11 @@ def register(sub: Any) -> None:
     p.add_argument("--duration", type=bounded(0.0), metavar="S",
                    help="live: stop after S seconds of sample time")
     p.add_argument("--baseline", metavar="EST.json", help="compare with this estimate "
-                   "(trimd solve --json) instead of the first segments")
+                   "(trimd solve --json), or 'last': the vehicle's last trim in the history, "
+                   "instead of the first segments")
+    p.add_argument("--no-history", action="store_true", help="do not store the segments and "
+                   "alerts in the trim history")
+    add_history_args(p)
     p.add_argument("--baseline-segments", type=int, default=3, metavar="N",
                    help="level segments that form the baseline (default 3)")
     p.add_argument("--max-segment", type=bounded(10.0), default=MAX_SEGMENT_S, metavar="S",
@@ -76,9 +82,18 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _baseline(path: str | None) -> Baseline | None:
+def _baseline(args: argparse.Namespace, profile: Profile) -> Baseline | None:
+    path = args.baseline
     if path is None:
         return None
+    if path == "last":
+        vehicle = vehicle_of(args, profile.name)
+        with History(db_path(args)) as history:
+            trims, where = history.trims(vehicle), history.path
+        if not trims:
+            raise DataError(f"--baseline last: no trim of vehicle {vehicle} in {where}")
+        return baseline_from_estimate(estimate_from_dict(trims[-1].estimate, str(where)),
+                                      f"the last trim of {vehicle}")
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
@@ -88,14 +103,42 @@ def _baseline(path: str | None) -> Baseline | None:
 
 def _new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
     kwargs = {"clock": clock} if clock is not None else {}
-    return TrimWatch(profile, baseline=_baseline(args.baseline),
+    return TrimWatch(profile, baseline=_baseline(args, profile),
                      baseline_segments=args.baseline_segments, max_segment_s=args.max_segment,
                      false_alarms_per_h=args.false_alarms_per_h, **kwargs)
 
 
-def _emitter(as_json: bool) -> Any:
+class _Store:
+    """Stores watch records in the trim history as they come, each in its own
+    transaction (``--no-history``: nothing); a file that cannot take them is one warning,
+    and the watch goes on."""
+
+    def __init__(self, args: argparse.Namespace, profile: Profile) -> None:
+        self.vehicle = vehicle_of(args, profile.name)
+        self.history = None if args.no_history else History(db_path(args))
+
+    def __call__(self, r: Record) -> None:
+        if self.history is None:
+            return
+        record = (self.history.record_alert if isinstance(r, WatchAlert)
+                  else self.history.record_watch_segment)
+        try:
+            record(self.vehicle, time.time(), r.to_dict())
+        except DataError as exc:
+            print(f"trimd: warning: the watch is not stored in the history: {exc}",
+                  file=sys.stderr)
+            self.close()
+
+    def close(self) -> None:
+        if self.history is not None:
+            self.history.close()
+            self.history = None
+
+
+def _emitter(as_json: bool, store: _Store) -> Any:
     def emit(r: Record) -> None:
         print(json.dumps(r.to_dict()) if as_json else format_record(r), flush=True)
+        store(r)
     return emit
 
 
@@ -119,7 +162,7 @@ def _wall_clock() -> Any:
     return lambda t_s: datetime.fromtimestamp(offset + t_s, UTC).strftime("%H:%M:%S UTC")
 
 
-async def _live(args: argparse.Namespace, profile: Profile, tui: bool) -> int:
+async def _live(args: argparse.Namespace, profile: Profile, tui: bool, store: _Store) -> int:
     scheme, rest = parse_link_url(args.link)
     if scheme == "replay":
         raise LinkError("trimd watch reads logs directly: trimd watch LOG --profile P")
@@ -135,6 +178,7 @@ async def _live(args: argparse.Namespace, profile: Profile, tui: bool) -> int:
         await app.run_async()
         await link.close()
         for r in app.records:
+            store(r)
             if isinstance(r, WatchAlert):
                 print(format_record(r))
         return _finish(watch, args, link.description, args.plot)
@@ -142,7 +186,8 @@ async def _live(args: argparse.Namespace, profile: Profile, tui: bool) -> int:
     stop_on_signals(lambda why: stop.set())
     print(f"watching {link.description} (passive: trimd sends no command)", file=sys.stderr)
     try:
-        await watch_link(link, watch, _emitter(args.json), until_s=args.duration, stop=stop)
+        await watch_link(link, watch, _emitter(args.json, store), until_s=args.duration,
+                         stop=stop)
     finally:
         await link.close()
     return _finish(watch, args, link.description, args.plot)
@@ -169,14 +214,19 @@ def _run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     profile = load_profile(args.profile)
-    if args.link:
-        return asyncio.run(_live(args, profile, wants_tui(args)))
-    code = 0
-    for k, path in enumerate(args.logs):
-        if not Path(path).is_file():
-            raise DataError(f"{path}: no such file")
-        watch = _new_watch(args, profile)
-        for warning in watch_log(path, profile, watch, _emitter(args.json)):
-            print(f"trimd: warning: {warning}", file=sys.stderr)
-        code = max(code, _finish(watch, args, path, _plot_path(args.plot, k, len(args.logs))))
-    return code
+    store = _Store(args, profile)
+    try:
+        if args.link:
+            return asyncio.run(_live(args, profile, wants_tui(args), store))
+        code = 0
+        for k, path in enumerate(args.logs):
+            if not Path(path).is_file():
+                raise DataError(f"{path}: no such file")
+            watch = _new_watch(args, profile)
+            for warning in watch_log(path, profile, watch, _emitter(args.json, store)):
+                print(f"trimd: warning: {warning}", file=sys.stderr)
+            code = max(code, _finish(watch, args, path,
+                                     _plot_path(args.plot, k, len(args.logs))))
+        return code
+    finally:
+        store.close()
