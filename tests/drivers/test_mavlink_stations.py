@@ -180,6 +180,10 @@ def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
         t_end = vehicle.t_s + 3.0
         seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
         pilot.sticks = (0, 0, 500, 0)
+        # let the neutral sticks reach the link first: on a loaded machine a 30 % stick
+        # message still in flight would (rightly) count as a takeover of trimd's hold
+        t_end = vehicle.t_s + 2.0
+        seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
         assert not any(isinstance(x, PilotInput) for x in seen)
         await link.send(HoldAttitude(*target))
         t_end = vehicle.t_s + 15.0

@@ -588,7 +588,8 @@ def test_trimd_run_over_serial_against_trimd_sim(
     m_err = result["estimate"]["m_ext_kg"] - truth.m_ext_kg
     print(f"serial trim: r_g error {np.round(err * 1000, 4)} mm, m_ext error {m_err:+.3f} kg")
     assert np.all(np.abs(err[:2]) < 1e-3) and abs(err[2]) < 3e-3, err
-    assert abs(m_err) < 0.2
+    # within its own 95 % interval (it carries the thrust curves' 5 %: ≈ ±1 kg)
+    assert abs(m_err) < 1.96 * result["estimate"]["m_ext_std_kg"]
     assert_proposal_levels(sabertooth, payload, result["proposal"])  # milp, applied
     # every injected bad line counted under its own name, nothing else dropped
     counts = links[0].parser.counts
