@@ -88,6 +88,14 @@ MAX_SEGMENT_S = 60.0
 END_MARGIN_S = WINDOW_S
 #: Shortest segment [s] (a plateau's tail after its full pieces may be shorter).
 MIN_SEGMENT_S = 10.0
+#: The part of the AHRS's slow roll/pitch error that a segment's own long-run variance
+#: does not see, so that it shows as scatter between segments [deg]: each segment's net
+#: moments carry the stiffness times it (measured on the simulated Heavy with
+#: ``disturb=real``: the level moments scatter between segments 1.5× their own noise σ,
+#: an excess of 0.04°). Smaller than the profile's ``attitude_error_deg`` (0.1°, the whole
+#: error, which a trim's short hold cannot see at all): with that, the standardised
+#: moment changes of a 2 h dive without change had an RMS of 0.54–0.62 instead of ≈ 1.
+SEGMENT_ATTITUDE_WANDER_DEG = 0.05
 #: Default target false-alarm rate [1/h] and the segment rate it is computed for [1/h].
 FALSE_ALARMS_PER_H = 0.01
 SEGMENTS_PER_H = 60.0
@@ -209,11 +217,7 @@ class TrimWatch:
         self.h = threshold_for(false_alarms_per_h, max(SEGMENTS_PER_H, 3600 / max_segment_s))
         self.clock = clock
         self.baseline_segments = baseline_segments
-        # the AHRS's slow roll/pitch error (the profile's attitude_error_deg), which no
-        # segment averages out: each segment's net moments carry the stiffness times it
-        # (measured on the simulated Heavy with disturb=real: the level moments scatter
-        # between segments 1.5× their own σ, an excess of 0.04°)
-        wander = self._rule_stiffness(profile) * math.radians(profile.attitude_error_deg)
+        wander = self._rule_stiffness(profile) * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
         #: variance of each net quantity between segments that no segment sees [N², (N·m)²]
         self.floor_var = np.r_[0.0, wander**2, wander**2, wander**2]
         #: the smallest change worth an alert [N, N·m]: W − B by half what the ballast
