@@ -70,7 +70,7 @@ from trimd.core.model import (
 from trimd.core.profile import Profile
 
 __all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "attitude_error_factors",
-           "estimate_static", "measurable_dofs", "thrust_curve_std"]
+           "check_samples", "estimate_static", "measurable_dofs", "thrust_curve_std"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -208,6 +208,17 @@ def _check_identifiable(holds: Sequence[HoldSamples], G: Sequence[FloatArray],
         "moment about the vertical is invisible, so at least two holds at different "
         "attitudes with the Z row measured at a level one are needed (e.g. level and "
         "roll = pitch = 20°)")
+
+
+def check_samples(hold: HoldSamples, what: str = "hold") -> None:
+    """EstimationError, naming the ``what`` (hold, segment), for fewer than 2 samples or
+    non-finite data."""
+    if len(hold.phi) < 2:
+        raise EstimationError(f"{what} {hold.label!r} has {len(hold.phi)} steady samples; "
+                              "at least 2 are needed")
+    if not (np.all(np.isfinite(hold.phi)) and np.all(np.isfinite(hold.theta))
+            and np.all(np.isfinite(hold.tau))):
+        raise EstimationError(f"{what} {hold.label!r} contains NaN or infinite values")
 
 
 def _is_level(hold: HoldSamples) -> bool:
@@ -348,12 +359,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     if len(holds) == 0:
         raise EstimationError("no steady hold to estimate from")
     for h in holds:
-        if len(h.phi) < 2:
-            raise EstimationError(f"hold {h.label!r} has {len(h.phi)} steady samples; "
-                                  "at least 2 are needed")
-        if not (np.all(np.isfinite(h.phi)) and np.all(np.isfinite(h.theta))
-                and np.all(np.isfinite(h.tau))):
-            raise EstimationError(f"hold {h.label!r} contains NaN or infinite values")
+        check_samples(h)
     level = [_is_level(h) for h in holds]
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
     # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift

@@ -33,7 +33,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.drift import DRIFT_MODEL_ERROR
-from trimd.core.errors import EstimationError
 from trimd.core.estimate import (
     _MIN_RELATIVE_SINGULAR,
     _MOMENT_ROWS,
@@ -42,6 +41,7 @@ from trimd.core.estimate import (
     _is_level,
     _thrust_gain_factors,
     attitude_error_factors,
+    check_samples,
     measurable_dofs,
 )
 from trimd.core.longrun import mean_covariance
@@ -126,12 +126,7 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     ([1.5, -0.2, 0.1], (True, True, True, False))
     """
     h = hold
-    if len(h.phi) < 2:
-        raise EstimationError(f"segment {h.label!r} has {len(h.phi)} steady samples; "
-                              "at least 2 are needed")
-    if not (np.all(np.isfinite(h.phi)) and np.all(np.isfinite(h.theta))
-            and np.all(np.isfinite(h.tau))):
-        raise EstimationError(f"segment {h.label!r} contains NaN or infinite values")
+    check_samples(h, "segment")
     prior = nominal_q(profile) if q_prior is None else np.asarray(q_prior, float)
     rows = np.array(measurable_dofs(profile), bool)
     phi, theta = float(np.mean(h.phi)), float(np.mean(h.theta))
