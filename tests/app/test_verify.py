@@ -17,17 +17,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import SimTrim, sim_trim
+from tests.helpers import SimTrim, equilibrium_holds, sim_trim
 from trimd.app.connect import open_link
 from trimd.app.session import Session
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verify_hold
 from trimd.cli.main import main
+from trimd.core.estimate import estimate_static
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Phase
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.payload import mass_properties
 
 Z95 = 1.96
 
@@ -149,3 +152,23 @@ def test_run_verify_from_the_history(tmp_path: Path, capsys: pytest.CaptureFixtu
     listed = json.loads(capsys.readouterr().out)
     vehicle = listed["vehicles"][0]
     assert len(vehicle["trims"]) == 1 and len(vehicle["verifications"]) == 1, vehicle
+
+
+def test_run_verify_refuses_what_it_cannot_check(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Bad input is a clear error (exit 2) before anything is commanded: ``--verify`` with
+    no trim in the history, and a trim whose proposal uses slots the profile lacks."""
+    common = ["--link", "sim", "--profile", "bluerov2-heavy", "--headless", "--yes",
+              "--no-record", "--db", str(tmp_path / "empty.db")]
+    assert main(["run", *common, "--verify"]) == 2
+    assert "no trim with a proposal for vehicle bluerov2-heavy" in capsys.readouterr().err
+    heavy = load_profile("bluerov2-heavy")
+    m = mass_properties(heavy)
+    estimate = estimate_to_dict(estimate_static(equilibrium_holds(heavy, m.W, m.r_g), heavy))
+    other = tmp_path / "sabertooth-trim.json"
+    other.write_text(json.dumps({"type": "result", "estimate": estimate, "proposal": {"slots": [
+        {"name": "AftSB", "position_m": [-1.0, 0.6, 0.0], "weight_kg": 1.0, "float_kg": 0.0,
+         "mass_kg": 1.0, "net_down_N": 8.9, "pieces": {"lead-1kg": 1}}]}}))
+    assert main(["run", *common, "--verify", str(other)]) == 2
+    assert "uses slots ['AftSB'] that profile 'bluerov2-heavy' does not have" in (
+        capsys.readouterr().err)

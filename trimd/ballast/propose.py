@@ -56,6 +56,7 @@ __all__ = [
     "Proposal",
     "SlotLoad",
     "Trim",
+    "json_number",
     "proposal_to_dict",
     "propose_ballast",
 ]
@@ -373,7 +374,7 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
     return best
 
 
-def _number(value: float) -> float | None:
+def json_number(value: float) -> float | None:
     """``value``, or None where it is undefined (NaN or infinite)."""
     return value if math.isfinite(value) else None
 
@@ -408,9 +409,9 @@ def proposal_to_dict(p: Proposal) -> dict[str, Any]:
         "net_buoyancy_N": t.net_buoyancy_N,
         "net_buoyancy_pct": t.net_buoyancy_pct,
         "net_buoyancy_std_N": t.net_buoyancy_std_N,
-        "predicted_roll_deg": _number(t.roll_deg),
-        "predicted_pitch_deg": _number(t.pitch_deg),
-        "predicted_trim_std_deg": [_number(v) for v in p.trim_std_deg],
+        "predicted_roll_deg": json_number(t.roll_deg),
+        "predicted_pitch_deg": json_number(t.pitch_deg),
+        "predicted_trim_std_deg": [json_number(v) for v in p.trim_std_deg],
         "weight_N": t.weight_N,
         "buoyancy_N": t.buoyancy_N,
         "cg_m": t.r_g_m.tolist(),
@@ -418,7 +419,7 @@ def proposal_to_dict(p: Proposal) -> dict[str, Any]:
         "net_moment_Nm": t.net_moment_Nm.tolist(),
         "level_tol_deg": p.level_tol_deg,
         "net_buoyancy_window_pct": (None if p.window_pct is None
-                                    else [_number(v) for v in p.window_pct]),
+                                    else [json_number(v) for v in p.window_pct]),
         "feasible": p.feasible,
         "success": p.success,
         "binding": list(p.binding),

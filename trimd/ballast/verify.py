@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from scipy.stats import norm
 
 from trimd.ballast.check import MIN_GM_M, SlotLoad, Trim, check_trim, equilibrium_attitude
+from trimd.ballast.propose import json_number
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.profile import Profile
 from trimd.core.segment import SegmentEstimate, estimate_segment
@@ -130,16 +131,14 @@ def verify_hold(hold: HoldSamples, profile: Profile, estimate: StaticEstimate,
 
 def verification_to_dict(v: Verification) -> dict[str, Any]:
     """JSON-ready dict of a verification (units in the key names; NaN as None)."""
-    def number(x: float) -> float | None:
-        return float(x) if math.isfinite(x) else None
     return {
         "level": v.level, "as_predicted": v.as_predicted, "message": v.message,
-        "roll_deg": number(v.roll_deg), "pitch_deg": number(v.pitch_deg),
-        "trim_std_deg": [number(v.roll_std_deg), number(v.pitch_std_deg)],
-        "predicted_roll_deg": number(v.predicted.roll_deg),
-        "predicted_pitch_deg": number(v.predicted.pitch_deg),
-        "predicted_trim_std_deg": [number(v.predicted.roll_std_deg),
-                                   number(v.predicted.pitch_std_deg)],
+        "roll_deg": json_number(v.roll_deg), "pitch_deg": json_number(v.pitch_deg),
+        "trim_std_deg": [json_number(v.roll_std_deg), json_number(v.pitch_std_deg)],
+        "predicted_roll_deg": json_number(v.predicted.roll_deg),
+        "predicted_pitch_deg": json_number(v.predicted.pitch_deg),
+        "predicted_trim_std_deg": [json_number(v.predicted.roll_std_deg),
+                                   json_number(v.predicted.pitch_std_deg)],
         "measured_N_Nm": [float(x) for x in v.measured.q[:3]],
         "measured_std_N_Nm": [float(x) for x in np.sqrt(np.diag(v.measured.q_cov))[:3]],
         "difference_N_Nm": [float(x) for x in v.difference],

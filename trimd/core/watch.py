@@ -217,15 +217,16 @@ class TrimWatch:
         self.h = threshold_for(false_alarms_per_h, max(SEGMENTS_PER_H, 3600 / max_segment_s))
         self.clock = clock
         self.baseline_segments = baseline_segments
-        wander = self._rule_stiffness(profile) * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
+        self._rule = StopRule.for_profile(profile)
+        stiffness = max(self._rule.stiffness_prior_Nm, 0.0)
+        wander = stiffness * math.radians(SEGMENT_ATTITUDE_WANDER_DEG)
         #: variance of each net quantity between segments that no segment sees [N², (N·m)²]
         self.floor_var = np.r_[0.0, wander**2, wander**2, wander**2]
         #: the smallest change worth an alert [N, N·m]: W − B by half what the ballast
         #: proposal may leave (half the net-buoyancy window's half-width), a moment by what
         #: would tilt the vehicle at rest by half the profile's level tolerance
-        rule = StopRule.for_profile(profile)
-        tilt = self._rule_stiffness(profile) * math.radians(profile.level_tol_deg) / 2
-        self.relevance = np.r_[rule.buoyancy_half_window_N / 2, tilt, tilt, tilt]
+        tilt = stiffness * math.radians(profile.level_tol_deg) / 2
+        self.relevance = np.r_[self._rule.buoyancy_half_window_N / 2, tilt, tilt, tilt]
         self.detector = (ChangeDetector(baseline, self.h, floor_var=self.floor_var,
                                         relevance=self.relevance)
                          if baseline is not None else None)
@@ -245,7 +246,6 @@ class TrimWatch:
             self._q_prior = np.where(np.isfinite(self._q_prior), self._q_prior,
                                      nominal_q(profile))
         self._T = thrust_configuration(profile.thrusters)
-        self._rule = StopRule.for_profile(profile)
         #: runs of attitude samples that count, split where one did not (a break)
         self._runs: list[list[Attitude]] = [[]]
         self._depth: list[Depth] = []
@@ -260,10 +260,6 @@ class TrimWatch:
         self._next_tick = -math.inf
         self._pending: list[SegmentEstimate] = []
         self._last_level: HoldSamples | None = None
-
-    @staticmethod
-    def _rule_stiffness(profile: Profile) -> float:
-        return max(StopRule.for_profile(profile).stiffness_prior_Nm, 0.0)
 
     # ------------------------------------------------------------------ input
     def feed(self, s: Sample) -> list[WatchSegment | WatchAlert]:
