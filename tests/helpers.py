@@ -97,6 +97,7 @@ class FakeVehicle:
     muted: set[str] = field(default_factory=set)  # streams that have stopped
     stuck_at_deg: float | None = None  # cannot tilt beyond this (never settles)
     depth_drift_m_s: float = 0.0
+    yaw_rate_rad_s: float = 0.0  # the heading turns at this rate, whatever is commanded
     rates_hz: dict[str, float] = field(default_factory=lambda: {
         "attitude": 20.0, "thrusters": 10.0, "depth": 5.0, "health": 1.0})
     phi: float = 0.0
@@ -150,8 +151,8 @@ class FakeVehicle:
             out.append(Depth(t, self.depth + 0.01 * self.rng.standard_normal()))
         if due("attitude"):
             noise = math.radians(0.05) * self.rng.standard_normal(2)
-            out.append(Attitude(t, self.phi + noise[0], self.theta + noise[1], 0.3,
-                                0.0, 0.0, 0.0))
+            out.append(Attitude(t, self.phi + noise[0], self.theta + noise[1],
+                                0.3 + self.yaw_rate_rad_s * t, 0.0, 0.0, self.yaw_rate_rad_s))
         return out
 
 
@@ -282,3 +283,17 @@ def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
         finally:
             await link.close()
     return asyncio.run(go())
+
+
+def command_plan(sent: list[Command]) -> list[tuple[float, float] | str]:
+    """The commands a session sent, as its plan: each held (roll, pitch) [deg, rounded to
+    0.01°] once, however often the held heading was moved along during the hold
+    (``trimd.core.procedure.HEADING_LEASH_DEG``), and ``"release"``."""
+    plan: list[tuple[float, float] | str] = []
+    for c in sent:
+        step: tuple[float, float] | str = (
+            (round(math.degrees(c.phi), 2), round(math.degrees(c.theta), 2))
+            if isinstance(c, HoldAttitude) else type(c).__name__.lower())
+        if not plan or plan[-1] != step:
+            plan.append(step)
+    return plan

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.helpers import REPO, assert_proposal_levels, sim_trim
+from tests.helpers import REPO, assert_proposal_levels, ballast_payload, sim_trim
 from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
 from trimd.core.estimate import StaticEstimate
@@ -129,3 +129,20 @@ def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
     assert np.array_equal(first.result.estimate.q, again.result.estimate.q)
     assert np.array_equal(first.q_true, again.q_true)
     assert first.vehicle.true_profile.buoyancy_N != bluerov.buoyancy_N
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_trimmed_vehicle_can_be_trimmed_again(bluerov: Profile, seed: int) -> None:
+    """Trim, put the proposal on, trim again: the second trim settles at its tilted hold
+    and leaves the true vehicle within the level tolerance. A trimmed vehicle needs no
+    yaw torque when tilted, so its horizontal thrusters idle in their deadband; with the
+    heading held absolutely (before ``HEADING_LEASH_DEG``) its yaw limit-cycled through
+    the roll and pitch loops and the tilted hold of these seeds never settled."""
+    options = "disturb=real,truth=perturbed"
+    first = sim_trim(bluerov, "0.4@W-aft-stbd", seed, options)
+    assert first.result.proposal is not None, first.result.reason
+    ballasted = "0.4@W-aft-stbd+" + ballast_payload(first.result.proposal, bluerov)
+    again = sim_trim(bluerov, ballasted, seed, options)
+    assert again.result.phase is Phase.DONE, again.result.reason
+    after = again.trim_after_proposal_deg()
+    assert max(abs(a) for a in after) <= bluerov.level_tol_deg, after

@@ -13,7 +13,7 @@ from tests.helpers import FakeVehicle, payload_truth
 from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
 from trimd.core.guards import ENVELOPE_MARGIN_DEG, STREAM_MISSED_PERIODS
 from trimd.core.model import thrust_configuration
-from trimd.core.procedure import MIN_RATES_HZ, Procedure
+from trimd.core.procedure import HEADING_LEASH_DEG, MIN_RATES_HZ, Procedure
 from trimd.core.profile import Profile
 from trimd.core.samples import HoldAttitude, PilotInput, Release
 
@@ -315,3 +315,21 @@ def test_confirm_checks_the_vehicle_again(sabertooth: Profile,
     thesis_vehicle.armed = True
     run(proc, thesis_vehicle, 40.0, t_start=22.0)
     assert proc.phase is Phase.CONFIRM and thesis_vehicle.commands == []  # asks again
+
+
+def test_the_held_heading_follows_a_turning_vehicle_on_a_leash(sabertooth: Profile) -> None:
+    """A hold commands roll and pitch; the heading it holds trails the vehicle's own by at
+    most HEADING_LEASH_DEG (an absolute heading held at a tilt limit-cycles through the
+    roll and pitch loops), moved in steps of half the leash, never with another tilt."""
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    vehicle = FakeVehicle(sabertooth, W, r_g, yaw_rate_rad_s=math.radians(1.0))
+    proc = Procedure(sabertooth, confirmed=True, propose=lambda est: "proposal")
+    log = run(proc, vehicle, 1000.0)
+    assert proc.phase is Phase.DONE, proc.reason
+    holds = [(t, c) for t, c in log if isinstance(c, HoldAttitude)]
+    turned_deg = math.degrees(vehicle.yaw_rate_rad_s) * (holds[-1][0] - holds[0][0])
+    assert len(holds) - 2 == pytest.approx(turned_deg / (HEADING_LEASH_DEG / 2), abs=2)
+    for t, c in holds[1:]:
+        heading = 0.3 + vehicle.yaw_rate_rad_s * t
+        assert abs(math.degrees(c.psi - heading)) <= HEADING_LEASH_DEG
+        assert (round(math.degrees(c.phi)), round(math.degrees(c.theta))) in {(0, 0), (20, 20)}

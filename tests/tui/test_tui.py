@@ -18,7 +18,7 @@ import pytest
 from textual.message import Message
 from textual.pilot import Pilot
 
-from tests.helpers import FakeLink, ballast_payload, passive_attitude_deg
+from tests.helpers import FakeLink, ballast_payload, command_plan, passive_attitude_deg
 from tests.tui.tui_helpers import (
     RecordingSimLink,
     app_for,
@@ -129,7 +129,7 @@ async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile,
         # within its own 95 % interval (it carries the thrust curves' 5 %: ≈ ±1 kg)
         assert abs(result.estimate.m_ext_kg - link.vehicle.truth.m_ext_kg) < (
             1.96 * result.estimate.m_ext_std_kg)
-        assert [type(c) for c in link.sent] == [HoldAttitude, HoldAttitude, Release]
+        assert command_plan(link.sent) == [(0.0, 0.0), (20.0, 20.0), "release"]
         assert link.vehicle.controller.target[:2] == (0.0, 0.0)  # released: level again
         assert app.query_one(LinkPanel).border_title == "Link · simulated sabertooth-dh2"
         panel = app.query_one(ResultPanel)
@@ -176,7 +176,7 @@ async def test_abort_mid_hold_on_the_simulated_vehicle_releases_it(sabertooth: P
         assert app.result is not None and app.result.phase is Phase.ABORTED
         assert app.result.reason == "aborted by the operator"
         assert _phase(app) is Phase.ABORTED
-    assert [type(c) for c in link.sent] == [HoldAttitude, HoldAttitude, Release]
+    assert command_plan(link.sent) == [(0.0, 0.0), (20.0, 20.0), "release"]
     t_release, _ = link.commands[-1]
     assert t_release == link.paused_at  # mid-hold: the vehicle took no step in between
     v = link.vehicle

@@ -13,8 +13,8 @@ from collections.abc import Callable
 from typing import Any, TextIO
 
 from trimd.app.report import (
+    NewCommands,
     NewWarnings,
-    describe_command,
     format_estimate,
     format_proposal,
     format_verification,
@@ -44,6 +44,7 @@ class HeadlessPresenter:
         self.every = progress_every_s
         self._next_progress = -math.inf
         self._new_warnings = NewWarnings()
+        self._new_commands = NewCommands()
 
     def _emit(self, text: str, obj: dict[str, Any]) -> None:
         line = json.dumps(obj) if self.json_lines else text
@@ -64,9 +65,9 @@ class HeadlessPresenter:
             self._emit(f"[{t:8.1f} s] {out.kind + ': ' if out.kind != 'state' else ''}"
                        f"{out.text}", {"type": out.kind, "t_s": t, "phase": phase,
                                        "text": out.text})
-        else:
-            self._emit(f"[{t:8.1f} s] command: {describe_command(out)}",
-                       {"type": "command", "t_s": t, "command": describe_command(out)})
+        elif (text := self._new_commands(out)) is not None:
+            self._emit(f"[{t:8.1f} s] command: {text}",
+                       {"type": "command", "t_s": t, "command": text})
 
     def sample(self, sample: Sample, progress: Progress) -> None:
         if isinstance(sample, Health):

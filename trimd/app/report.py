@@ -18,7 +18,7 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
-__all__ = ["NewWarnings", "describe_command", "format_estimate", "format_proposal",
+__all__ = ["NewCommands", "NewWarnings", "describe_command", "format_estimate", "format_proposal",
            "format_result", "format_verification"]
 
 
@@ -116,6 +116,23 @@ def describe_command(command: Command) -> str:
     if isinstance(command, Release):
         return "release control"
     return repr(command)
+
+
+class NewCommands:
+    """The commands each presenter shows: every command, except a hold's set-point sent
+    again with only its heading moved along (``trimd.core.procedure.HEADING_LEASH_DEG``:
+    dozens per trim, recorded in the session log, not news to the operator)."""
+
+    def __init__(self) -> None:
+        self._held: tuple[float, float] | None = None
+
+    def __call__(self, command: Command) -> str | None:
+        """The command's log line, or None when it is not news."""
+        held = (command.phi, command.theta) if isinstance(command, HoldAttitude) else None
+        if held is not None and held == self._held:
+            return None
+        self._held = held
+        return describe_command(command)
 
 
 class NewWarnings:

@@ -56,6 +56,15 @@ MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
 PRECHECK_WINDOW_S = 5.0
 #: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
 BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
+#: The held heading trails the vehicle's own by at most this much [deg]: once the heading
+#: is further off, the target moves to half this distance from it. A hold needs roll and
+#: pitch, not a heading, and an absolute heading held at a tilt couples into them: a yaw
+#: error is partly a tilt error there, so the roll and pitch loops chase it, and with the
+#: horizontal thrusters idle in their deadband (a trimmed vehicle needs no yaw torque) the
+#: simulated Heavy limit-cycled at 20°/20° (yaw ±15°, roll and pitch ±3.5°, period 12 s)
+#: and the hold never settled. A leash, not a free heading: a vehicle whose offset centre
+#: of gravity gives a yaw torque when tilted would otherwise turn all hold long.
+HEADING_LEASH_DEG = 2.0
 #: Before the holds, depth may wander by this share of max_depth_excursion_m over the
 #: precheck window.
 DEPTH_STABLE_SHARE = 0.5
@@ -208,12 +217,27 @@ class Procedure:
             return []
         if self.phase is Phase.COLLECT and self._time_left() < 0:
             return self._end_hold(self._decided())
+        return self._heading_leash(a) + self._hold_sample(a, self._settling)
+
+    def _heading_leash(self, a: Attitude) -> list[Output]:
+        """Move the held heading towards the vehicle's when it trails by more than
+        :data:`HEADING_LEASH_DEG`."""
+        error = math.remainder(self._psi - a.psi, math.tau)
+        leash = math.radians(HEADING_LEASH_DEG)
+        if abs(error) <= leash:
+            return []
+        self._psi = a.psi + math.copysign(leash / 2, error)
+        hold = self._holds[-1]
+        return [HoldAttitude(hold.phi, hold.theta, self._psi)]
+
+    def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output]:
+        """An attitude sample during a hold: settle, collect, move on."""
         thrust = self._thrust(a.t_s)
-        if not self._settling.attitude(a, thrust is not None) or thrust is None:
+        if not settling.attitude(a, thrust is not None) or thrust is None:
             return []
         tau = self._T @ thrust
         if self.phase is Phase.SETTLE:
-            if a.t_s - self._settling.steady_since >= self.proc.min_steady_s:
+            if a.t_s - settling.steady_since >= self.proc.min_steady_s:
                 return self._enter(Phase.COLLECT, f"hold {len(self._holds)} steady: collecting")
             return []
         hold = self._holds[-1]

@@ -19,7 +19,7 @@ from textual.events import Resize
 from textual.screen import Screen
 from textual.widgets import Footer
 
-from trimd.app.report import describe_command
+from trimd.app.report import NewCommands
 from trimd.app.session import Session, SessionResult
 from trimd.ballast.propose import METHODS, Proposal
 from trimd.core.events import Phase, Progress
@@ -93,6 +93,7 @@ class TrimApp(App[SessionResult]):
         self._quitting = False
         self._progress: Progress | None = None
         self._dirty = False
+        self._new_commands = NewCommands()
 
     def compose(self) -> ComposeResult:
         with Horizontal(id="main"):
@@ -168,7 +169,9 @@ class TrimApp(App[SessionResult]):
 
     @on(CommandSent)
     def _command(self, message: CommandSent) -> None:
-        self.query_one(EventLog).add(message.t_s, "command", describe_command(message.command))
+        text = self._new_commands(message.command)
+        if text is not None:
+            self.query_one(EventLog).add(message.t_s, "command", text)
 
     @on(SessionEnded)
     def _ended(self, message: SessionEnded) -> None:

@@ -244,6 +244,11 @@ class Commander:
         others = self.stations.present(now)
         if self.decoder.vehicle is None:
             _fail(done, "no vehicle heartbeat yet")
+        elif isinstance(command, HoldAttitude) and self.target is not None:
+            # already holding (the next hold, or its heading moved along): no mode change
+            self.target = (command.phi, command.theta, command.psi)
+            self._due["target"] = now
+            _succeed(done)
         elif isinstance(command, HoldAttitude):
             self.target = (command.phi, command.theta, command.psi)
             self.pilot = _NEUTRAL
