@@ -29,9 +29,8 @@ from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
-from trimd.ballast.check import SlotLoad
+from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.ballast.verify import verify_hold
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError
@@ -39,7 +38,6 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
-from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -103,29 +101,32 @@ def _exit_code(result: SessionResult) -> int:
 
 def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
                   presenters: list[Presenter]) -> Session:
+    target = _trim_to_verify(args, profile) if getattr(args, "verify", None) else None
     recorder = None
     if not args.no_record:
         path = Path(args.record) if args.record else default_record_path(profile)
-        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0])
+        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0],
+                                verify_target=target)
 
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=args.ballast)
 
-    procedure = None
-    if getattr(args, "verify", None):
-        trim, installed = _trim_to_verify(args, profile)
-        procedure = Procedure(profile, confirmed=args.yes,
-                              verify=lambda hold: verify_hold(hold, profile, trim, installed))
+    procedure = None if target is None else verify_procedure(
+        profile, target, confirmed=args.yes, source=_target_source(args))
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose, procedure=procedure)
 
 
-def _trim_to_verify(args: argparse.Namespace, profile: Profile
-                    ) -> tuple[StaticEstimate, list[SlotLoad]]:
-    """The estimate and proposed ballast a verify hold checks: from ``--verify FILE``, or
-    (``--verify`` alone) the vehicle's last trim in the history."""
+def _target_source(args: argparse.Namespace) -> str:
+    return "the vehicle's last trim" if args.verify == LAST_TRIM else str(args.verify)
+
+
+def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any]:
+    """The verify target (:mod:`trimd.app.verify`): the estimate and proposed ballast of
+    ``--verify FILE``, or (``--verify`` alone) of the vehicle's last trim in the history."""
     if args.verify != LAST_TRIM:
-        return read_estimate(args.verify), read_installed(args.verify, profile)
+        loads = read_installed(args.verify, profile)
+        return verify_target(read_estimate(args.verify), loads)
     vehicle = vehicle_of(args, profile.name)
     with History(db_path(args)) as history:
         trims = [t for t in history.trims(vehicle) if t.proposal is not None]
@@ -134,8 +135,9 @@ def _trim_to_verify(args: argparse.Namespace, profile: Profile
         raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
                         "the trim to verify (--verify TRIM.json)")
     record = json.dumps({"estimate": trims[-1].estimate, "proposal": trims[-1].proposal})
-    return (estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
-            installed_from_json(record, f"the trim of {vehicle}", profile))
+    loads = installed_from_json(record, f"the trim of {vehicle}", profile)
+    return verify_target(estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
+                         loads)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
