@@ -145,7 +145,7 @@ def test_replay_of_a_verify_hold_reproduces_its_verdict(
     """A verify hold's recording carries its verify target: replayed, it is one level hold
     again (not a trim) and gives the live verdict exactly; a damaged target is a clear
     error (exit 2)."""
-    from tests.app.test_verify import carried
+    from tests.helpers import carried
     from trimd.ballast.check import SlotLoad
     from trimd.core.profile_yaml import load_profile
     from trimd.logs.replay import recorded_verify_target

@@ -1,0 +1,199 @@
+"""After a trim in the TUI: apply (the proposal recorded as installed ballast, as
+``trimd ballast apply`` records it) and verify (a level hold of the vehicle with that
+ballast actually fitted, commanded only after the operator confirms), on the simulated
+vehicle; the verdict shows, the history holds trim, installation and verification in
+order, and the verify hold's recording replays to the same verdict (confirmed up front:
+a replay starts the hold without waiting for a confirmation)."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from textual.pilot import Pilot
+
+from tests.helpers import carried, passive_attitude_deg
+from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
+from trimd.app.after_trim import AfterTrim
+from trimd.app.history import History
+from trimd.ballast.propose import Proposal
+from trimd.ballast.verify import Verification, verification_to_dict
+from trimd.cli.replay import replay_session
+from trimd.core.events import Phase
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import read_profile_text
+from trimd.core.samples import HoldAttitude, Release
+from trimd.logs.recorder import TlogRecorder
+from trimd.logs.replay import recorded_verify_target
+from trimd.tui import TrimApp
+from trimd.tui.next_steps import NextSteps
+from trimd.tui.stepper import Stepper
+from trimd.tui.verdict_panel import VerdictPanel
+
+PAYLOAD = "10@AftSB"
+
+
+def _phase(app: TrimApp) -> Phase | None:
+    progress = app.query_one(Stepper).progress
+    return None if progress is None else progress.phase
+
+
+class Vehicle:
+    """The simulated vehicle's links: the trim's, then the verify hold's, which carries
+    what the operator recorded as installed (the pilot fitted it) unless ``fitted`` is
+    False."""
+
+    def __init__(self, profile: Profile, *, fitted: bool = True) -> None:
+        self.profile, self.fitted = profile, fitted
+        self.links: list[RecordingSimLink] = []
+        self.app: TrimApp | None = None
+
+    async def open(self) -> RecordingSimLink:
+        assert self.app is not None
+        applied = self.app.followup.applied
+        assert applied is not None  # verify is offered only after apply
+        extra = carried(applied.loads, self.profile.gravity_m_s2) if self.fitted else ""
+        payload = f"{PAYLOAD}+{extra}" if extra else PAYLOAD
+        link = await recording_sim_link(f"payload={payload},seed={len(self.links) + 1}",
+                                        self.profile)
+        self.links.append(link)
+        return link
+
+
+def after_trim(profile: Profile, tmp_path: Path, vehicle: Vehicle, *, confirmed: bool
+               ) -> AfterTrim:
+    def recorder(target: dict[str, Any]) -> TlogRecorder:
+        return TlogRecorder(tmp_path / "verify.tlog", profile,
+                            read_profile_text(profile.name)[0], verify_target=target)
+
+    return AfterTrim(tmp_path / "h.db", "rov", profile, confirmed, vehicle.open, recorder)
+
+
+@pytest.mark.asyncio
+async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
+                                                          tmp_path: Path) -> None:
+    vehicle = Vehicle(sabertooth)
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=False, tmp_path=tmp_path)
+    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=False)
+    vehicle.app = app
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        await pilot.press("s")
+        await until(pilot, lambda: app.result is not None)
+        trim = app.result
+        assert trim is not None and trim.phase is Phase.DONE, trim
+        proposal = trim.proposal
+        assert isinstance(proposal, Proposal) and proposal.feasible
+        assert app.query_one(NextSteps).has_class("-shown")
+        assert app.check_action("apply", ()) and not app.check_action("verify", ())
+
+        await pilot.press("y")  # verify before apply: not offered, nothing happens
+        await pilot.pause()
+        assert vehicle.links == []
+        await pilot.press("p")
+        await pilot.pause()
+        applied = app.followup.applied
+        assert applied is not None and applied.source == "proposal"
+        assert applied.installed == proposal.installed_after
+        assert not app.check_action("apply", ()) and app.check_action("verify", ())
+
+        await pilot.press("y")
+        await until(pilot, lambda: bool(vehicle.links) and _phase(app) is Phase.CONFIRM)
+        verify_link = vehicle.links[0]
+        assert verify_link.sent == []  # nothing commanded before the operator confirms
+        assert app.result is None and app.query_one(Stepper).holds == sabertooth.holds[:1]
+        await pilot.press("s")
+        await until(pilot, lambda: app.result is not None)
+        result = app.result
+        assert result is not None and result.phase is Phase.DONE, result
+        v = result.verification
+        assert isinstance(v, Verification)
+        assert v.as_predicted and v.level, v.message
+        # the measured residual trim is the true one (the simulator's, with the ballast)
+        fitted = f"{PAYLOAD}+{carried(applied.loads, sabertooth.gravity_m_s2)}"
+        truth = passive_attitude_deg(sabertooth, fitted)
+        measured, sigma = (np.array([v.roll_deg, v.pitch_deg]),
+                           np.array([v.roll_std_deg, v.pitch_std_deg]))
+        assert np.all(np.abs(measured - truth) <= 1.96 * sigma), (measured, truth, sigma)
+        assert [type(c) for c in verify_link.sent] == [HoldAttitude, Release]
+        assert verify_link.sent[0].phi == verify_link.sent[0].theta == 0.0
+        assert app.query_one(VerdictPanel).verification is v
+        assert app.has_class("-verdict")
+        await pilot.press("q")
+        await pilot.pause()
+    assert app.results == [trim, result]
+
+    with History(tmp_path / "h.db") as history:
+        trims, installs = history.trims("rov"), history.installs("rov")
+        verifications = history.verifications("rov")
+    assert len(trims) == len(installs) == len(verifications) == 1
+    assert trims[0].t_unix <= installs[0].t_unix <= verifications[0].t_unix
+    assert installs[0].pieces == proposal.installed_after
+    assert verifications[0].values["as_predicted"] is True
+
+    assert recorded_verify_target(tmp_path / "verify.tlog") is not None
+
+
+@pytest.mark.asyncio
+async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
+                                                      tmp_path: Path) -> None:
+    """Confirmed up front (``--yes``) the verify hold starts at once; the pilot did not fit
+    the ballast recorded, and the verdict says so, naming the moments."""
+    vehicle = Vehicle(sabertooth, fitted=False)
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
+    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=True)
+    vehicle.app = app
+    async with app.run_test(size=(80, 24)) as pilot:
+        await _apply_and_verify(pilot, app)
+        result = app.result
+        assert result is not None and isinstance(result.verification, Verification)
+        v = result.verification
+        assert not v.as_predicted and not v.level
+        assert "NOT as predicted" in v.message and "W·x_g − B·x_b off by" in v.message
+        assert app.query_one(VerdictPanel).has_class("-off")
+    # confirmed up front, as its replay is: the recording reproduces the verdict exactly
+    replayed, _ = await replay_session(str(tmp_path / "verify.tlog"), sabertooth, speed=None,
+                                       presenters=[], method="milp")
+    assert isinstance(replayed.verification, Verification)
+    assert verification_to_dict(replayed.verification) == verification_to_dict(v)
+
+
+async def _apply_and_verify(pilot: Pilot[Any], app: TrimApp) -> None:
+    await until(pilot, lambda: app.result is not None)
+    await pilot.press("p")
+    await pilot.pause()
+    await pilot.press("y")
+    await until(pilot, lambda: len(app.results) == 2)
+
+
+@pytest.mark.asyncio
+async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
+                                                           tmp_path: Path) -> None:
+    """The link cannot be opened again: the next-steps panel says why (no traceback) and
+    offers verify again; the trim's result stays."""
+    from trimd.core.errors import LinkError
+
+    async def no_link() -> RecordingSimLink:
+        raise LinkError("udp:0.0.0.0:14550: address in use")
+
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
+    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
+    app.followup.after = AfterTrim(after.db, after.vehicle, after.profile, True, no_link,
+                                   after.recorder)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: app.result is not None)
+        trim = app.result
+        await pilot.press("p")
+        await pilot.pause()
+        await pilot.press("y")
+        await until(pilot, lambda: not app.followup.opening)
+        await asyncio.sleep(0)
+        await pilot.pause()
+        assert app.result is trim and app.check_action("verify", ())
+        assert "address in use" in str(app.query_one(NextSteps).content)

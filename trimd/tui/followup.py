@@ -1,0 +1,127 @@
+"""The TUI after a session: store its result in the trim history and, once a trim ends
+with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`).
+
+Apply records the proposal shown (the method the operator chose) as the installed ballast.
+Verify opens the trim's link again and hands the app a verify-hold session, which runs
+on the main screen as the trim did: nothing is commanded before the operator confirms
+(``s``, unless ``--yes``), ``a`` aborts, quitting asks first; its verdict then shows.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from trimd.app.after_trim import AfterTrim
+from trimd.app.apply import Applied
+from trimd.app.report import format_applied
+from trimd.app.session import SessionResult
+from trimd.app.verify import verify_target
+from trimd.ballast.propose import Proposal
+from trimd.ballast.verify import Verification
+from trimd.core.errors import TrimdError
+from trimd.core.events import Phase
+from trimd.tui.event_log import EventLog
+from trimd.tui.next_steps import NextSteps
+from trimd.tui.result_panel import ResultPanel
+from trimd.tui.verdict_panel import VerdictPanel
+
+if TYPE_CHECKING:
+    from trimd.tui.app import TrimApp
+
+__all__ = ["Followup"]
+
+
+class Followup:
+    """What the app does after each session; ``after`` None: nothing (a replay)."""
+
+    def __init__(self, app: TrimApp, after: AfterTrim | None) -> None:
+        self.app = app
+        self.after = after
+        self.trim: SessionResult | None = None  # the trim whose proposal is offered
+        self.applied: Applied | None = None
+        self.target: dict[str, Any] | None = None  # what a verify hold checks
+        self.opening = False
+
+    def _log(self, kind: str, text: str) -> None:
+        self.app.query_one(EventLog).add(self.app.state.t_s, kind, text)
+
+    def ended(self, r: SessionResult) -> None:
+        """A session ended: store it; a trim with a proposal offers apply, a verify hold
+        shows its verdict."""
+        if self.after is None:
+            return
+        try:
+            stored = self.after.store(r)
+        except TrimdError as exc:
+            self._log("error", f"not stored in the trim history: {exc}")
+            self.app.notify(f"not stored in the trim history: {exc}", severity="error")
+        else:
+            if stored:
+                self._log("info", stored)
+        steps = self.app.query_one(NextSteps)
+        if isinstance(r.verification, Verification):
+            self.app.query_one(VerdictPanel).show(r.verification)
+            self.app.add_class("-verdict", "-result")
+            self._log("result", r.verification.message)
+            steps.verified(r.verification, r.reason)
+        elif self.target is not None:  # a verify hold that ended without a verdict
+            steps.verified(None, r.reason)
+        elif r.phase is Phase.DONE and isinstance(r.proposal, Proposal):
+            self.trim = r
+            if self.after.db is None:
+                steps.unavailable("apply and verify record in the trim history: "
+                                  "not with --no-history")
+            else:
+                steps.offer(r.proposal.method, self.after.vehicle)
+
+    @property
+    def can_apply(self) -> bool:
+        return (self.after is not None and self.after.db is not None and self.trim is not None
+                and self.applied is None and self.app.result is not None)
+
+    @property
+    def can_verify(self) -> bool:
+        return self.target is not None and self.app.result is not None and not self.opening
+
+    def apply(self) -> None:
+        """Record the proposal shown as the installed ballast."""
+        proposal = self.app.query_one(ResultPanel).proposal
+        if self.after is None or self.trim is None or self.trim.estimate is None:
+            return
+        if proposal is None:
+            self.app.notify("no proposal shown yet: wait for it, or press m", severity="warning")
+            return
+        try:
+            self.applied = self.after.apply(self.trim.estimate, proposal)
+        except TrimdError as exc:
+            self._log("error", f"apply: {exc}")
+            self.app.query_one(NextSteps).failed(f"apply: {exc}", "p", "apply again")
+            return
+        self.target = verify_target(self.trim.estimate, self.applied.loads)
+        for line in format_applied(self.applied).splitlines():
+            self._log("info", line)
+        self.app.query_one(NextSteps).applied(self.applied)
+        self.app.notify("Ballast recorded. Fit it on the vehicle, then press y to verify.")
+
+    async def verify(self) -> None:
+        """Open the link again and start the verify hold on the main screen."""
+        if self.after is None or self.target is None:
+            return
+        self.opening = True
+        self.app.refresh_bindings()
+        steps = self.app.query_one(NextSteps)
+        steps.verifying("the link (opening…)")
+        try:
+            session = await self.after.verify_session(self.target, [])
+        except (TrimdError, OSError) as exc:
+            self._log("error", f"verify: {exc}")
+            steps.failed(f"verify: {exc}", "y", "verify again")
+            return
+        finally:
+            self.opening = False
+            self.app.refresh_bindings()
+        steps.verifying(getattr(session.link, "description", "the link"))
+        self.app.query_one(VerdictPanel).remove_class("-off")
+        self.app.remove_class("-verdict", "-result")
+        self._log("state", "verify hold: a level hold of the ballasted vehicle")
+        self.app.run_session(session, verify=True)
