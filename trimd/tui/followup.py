@@ -101,7 +101,6 @@ class Followup:
         for line in format_applied(self.applied).splitlines():
             self._log("info", line)
         self.app.query_one(NextSteps).applied(self.applied)
-        self.app.notify("Ballast recorded. Fit it on the vehicle, then press y to verify.")
 
     async def verify(self) -> None:
         """Open the link again and start the verify hold on the main screen."""
