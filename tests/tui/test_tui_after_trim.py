@@ -2,8 +2,8 @@
 ``trimd ballast apply`` records it) and verify (a level hold of the vehicle with that
 ballast actually fitted, commanded only after the operator confirms), on the simulated
 vehicle; the verdict shows, the history holds trim, installation and verification in
-order, and the verify hold's recording replays to the same verdict (confirmed up front:
-a replay starts the hold without waiting for a confirmation)."""
+order, and the verify hold's recording replays to the same verdict, whether the operator
+confirmed it or ``--yes`` did."""
 
 from __future__ import annotations
 
@@ -135,7 +135,13 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
     assert installs[0].pieces == proposal.installed_after
     assert verifications[0].values["as_predicted"] is True
 
-    assert recorded_verify_target(tmp_path / "verify.tlog") is not None
+    # the recording replays to the same verdict: confirmed where the operator confirmed
+    recording = tmp_path / "verify.tlog"
+    assert recorded_verify_target(recording) is not None
+    replayed, _ = await replay_session(str(recording), sabertooth, speed=None, presenters=[],
+                                       method="milp")
+    assert isinstance(replayed.verification, Verification)
+    assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
 @pytest.mark.asyncio
@@ -156,7 +162,7 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
         assert not v.as_predicted and not v.level
         assert "NOT as predicted" in v.message and "W·x_g − B·x_b off by" in v.message
         assert app.query_one(VerdictPanel).has_class("-off")
-    # confirmed up front, as its replay is: the recording reproduces the verdict exactly
+    # confirmed up front: the recording reproduces the verdict exactly too
     replayed, _ = await replay_session(str(tmp_path / "verify.tlog"), sabertooth, speed=None,
                                        presenters=[], method="milp")
     assert isinstance(replayed.verification, Verification)

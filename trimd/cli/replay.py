@@ -84,17 +84,17 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
 
 def _session(link: Link, path: str, profile: Profile, *,
              presenters: list[Presenter], method: str) -> Session:
-    """The replay's session over ``link`` (the recording ``path``): confirmed; a verify
-    hold when the recording carries a verify target, else the trim, proposing by
-    ``method``."""
+    """The replay's session over ``link`` (the recording ``path``): a verify hold when
+    the recording carries a verify target, else the trim, proposing by ``method``;
+    confirmed where the live session was (the recording's :class:`Confirmed`)."""
     target = recorded_verify_target(path)
     procedure = None if target is None else verify_procedure(
-        profile, target, confirmed=True, source=f"{path} (recorded verify target)")
+        profile, target, confirmed=False, source=f"{path} (recorded verify target)")
 
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=method)
 
-    return Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
+    return Session(link, profile, recorder=None, presenters=presenters, confirmed=False,
                    propose=propose, procedure=procedure, wall_clock=False)
 
 

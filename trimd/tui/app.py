@@ -221,7 +221,8 @@ class TrimApp(App[SessionResult]):
         if action == "start":
             progress = self.query_one(Stepper).progress
             early = progress is None or progress.phase in _BEFORE_HOLDS
-            return self.result is None and not self.confirmed and early
+            # a replay confirms where the live session was confirmed (its recording says)
+            return self.result is None and not self.confirmed and early and not self.replay
         if action in ("method", "view"):
             return self.query_one(ResultPanel).estimate is not None
         if action == "pace":
