@@ -182,3 +182,41 @@ def test_replay_of_a_verify_hold_reproduces_its_verdict(
     damaged.write_bytes(bytes(data))
     assert main(["replay", str(damaged), "--json"]) == 2
     assert "verify target is damaged" in capsys.readouterr().err
+
+
+def test_an_old_verify_recording_says_what_it_is(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A verify hold recorded before recordings carried their verify target replays as a
+    trim, which fails (one hold); the replay then says what the recording is."""
+    import asyncio
+
+    from tests.helpers import carried, sim_trim
+    from trimd.app.connect import open_link
+    from trimd.app.session import Session
+    from trimd.ballast.propose import Proposal
+    from trimd.ballast.verify import verify_hold
+    from trimd.core.procedure import Procedure
+    from trimd.core.profile_yaml import load_profile, read_profile_text
+    from trimd.logs.recorder import TlogRecorder
+
+    profile = load_profile("sabertooth-dh2")
+    trim = sim_trim(profile, "10@AftSB", 0)
+    estimate, proposal = trim.result.estimate, trim.result.proposal
+    assert estimate is not None and isinstance(proposal, Proposal)
+    log = tmp_path / "old-verify.tlog"
+
+    async def old_verify() -> None:
+        extra = carried(proposal.slots, profile.gravity_m_s2)
+        link = await open_link(f"sim:payload=10@AftSB+{extra}", profile)
+        recorder = TlogRecorder(log, profile, read_profile_text("sabertooth-dh2")[0])
+        procedure = Procedure(profile, confirmed=True, verify=lambda hold: verify_hold(
+            hold, profile, estimate, proposal.slots))
+        result = await Session(link, profile, recorder=recorder, presenters=[],
+                               procedure=procedure, wall_clock=False).run()
+        assert result.phase.value == "done", result.reason
+
+    asyncio.run(old_verify())
+    assert main(["replay", str(log), "--json"]) == 1
+    err = capsys.readouterr().err
+    assert "is a verify hold recorded by an older trimd, without the trim it verified" in err
+    assert "Traceback" not in err

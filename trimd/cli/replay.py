@@ -36,10 +36,16 @@ from trimd.core.events import Phase
 from trimd.core.holdfinder import find_holds
 from trimd.core.link import Link
 from trimd.core.model import thrust_configuration
+from trimd.core.procedure import VERIFY_DONE
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.core.samples import Attitude, Battery, Health, Sample, Thrusters
-from trimd.logs.replay import ReplayLink, recorded_profile_yaml, recorded_verify_target
+from trimd.logs.replay import (
+    ReplayLink,
+    recorded_profile_yaml,
+    recorded_trimd_texts,
+    recorded_verify_target,
+)
 from trimd.tui.run import run_in_tui
 
 if TYPE_CHECKING:
@@ -190,5 +196,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"trimd: warning: {warning}", file=sys.stderr)
     if result.phase is not Phase.DONE:
         print(f"trimd: replay ended {result.phase.value}: {result.reason}", file=sys.stderr)
+        if recorded_verify_target(path) is None and VERIFY_DONE in recorded_trimd_texts(path):
+            print(f"trimd: {path} is a verify hold recorded by an older trimd, without the "
+                  "trim it verified: it replays only as a trim, which it is not (its verdict "
+                  "is in the trim history: trimd history)", file=sys.stderr)
         return 1
     return 0

@@ -30,7 +30,8 @@ from trimd.logs.recorder import (
 )
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "recorded_profile_yaml", "recorded_verify_target"]
+__all__ = ["ReplayLink", "recorded_profile_yaml", "recorded_trimd_texts",
+           "recorded_verify_target"]
 
 
 def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
@@ -94,6 +95,17 @@ def recorded_verify_target(path: str | Path) -> dict[str, Any] | None:
     if not isinstance(target, dict):
         raise DataError(f"{path}: the recorded verify target is not a JSON object")
     return target
+
+
+def recorded_trimd_texts(path: str | Path) -> Iterator[str]:
+    """The texts trimd wrote into a recording (notices, state changes), in file order;
+    each text's first chunk only."""
+    if is_dataflash(path):
+        return
+    for _, msg in TlogReader.open(path).messages():
+        if ((msg.get_srcSystem(), msg.get_srcComponent()) == (TRIMD_SYSTEM, TRIMD_COMPONENT)
+                and msg.get_type() == "STATUSTEXT" and getattr(msg, "chunk_seq", 0) == 0):
+            yield str(msg.text)
 
 
 class ReplayLink:
