@@ -203,3 +203,68 @@ async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
         await pilot.pause()
         assert app.result is trim and app.check_action("verify", ())
         assert "address in use" in str(app.query_one(NextSteps).content)
+
+
+def test_trimd_run_in_the_terminal_ui_apply_and_verify(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """``trimd run`` with the terminal UI: trim, apply, verify on the same URL (a new
+    simulated vehicle: nobody fitted the ballast, so NOT as predicted), quit. The history
+    holds each once, in order; both sessions are printed and recorded, the verify
+    recording beside the trim's, and it replays to the same verdict."""
+    import trimd.cli.run
+    import trimd.tui.run
+    from trimd.cli.main import main
+    from trimd.core.profile_yaml import load_profile
+
+    async def drive(app: TrimApp) -> object:
+        async with app.run_test(size=(80, 24)) as pilot:
+            await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+            await pilot.press("s")
+            await until(pilot, lambda: app.result is not None)
+            await pilot.press("p")
+            await pilot.pause()
+            await pilot.press("y")
+            await until(pilot, lambda: app.result is None and _phase(app) is Phase.CONFIRM)
+            await pilot.press("s")
+            await until(pilot, lambda: len(app.results) == 2)
+            await pilot.press("q")
+        return app.result
+
+    monkeypatch.setattr(trimd.cli.run, "wants_tui", lambda args: True)
+    monkeypatch.setattr(trimd.tui.run, "run_in_tui", drive)
+    db, log = tmp_path / "h.db", tmp_path / "trim.tlog"
+    assert main(["run", "--link", "sim:payload=10@AftSB", "--profile", "sabertooth-dh2",
+                 "--db", str(db), "--vehicle", "rov", "--record", str(log)]) == 0
+    out, err = capsys.readouterr()
+    assert "ballast by milp" in out and "verify hold (" in out
+    assert "NOT as predicted" in out
+    verify_logs = sorted(tmp_path.glob("trim-verify-*.tlog"))
+    assert len(verify_logs) == 1
+    assert f"session log: {log}" in err and f"session log: {verify_logs[0]}" in err
+    with History(db) as history:
+        assert len(history.trims("rov")) == len(history.installs("rov")) == 1
+        verifications = history.verifications("rov")
+    assert len(verifications) == 1 and verifications[0].values["as_predicted"] is False
+    replayed, _ = asyncio.run(replay_session(str(verify_logs[0]), load_profile(
+        "sabertooth-dh2"), speed=None, presenters=[], method="milp"))
+    assert isinstance(replayed.verification, Verification)
+    again = verification_to_dict(replayed.verification)
+    assert (again["measured_N_Nm"], again["message"]) == (
+        verifications[0].values["measured_N_Nm"], verifications[0].values["message"])
+
+
+@pytest.mark.asyncio
+async def test_without_a_history_apply_and_verify_are_not_offered(
+        sabertooth: Profile, tmp_path: Path) -> None:
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
+    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
+    app.followup.after = AfterTrim(None, after.vehicle, sabertooth, True, after.open_link,
+                                   after.recorder)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: app.result is not None)
+        await pilot.pause()
+        assert not app.check_action("apply", ()) and not app.check_action("verify", ())
+        assert "not with --no-history" in str(app.query_one(NextSteps).content)
+    assert not (tmp_path / "h.db").exists()
