@@ -268,3 +268,59 @@ async def test_without_a_history_apply_and_verify_are_not_offered(
         assert not app.check_action("apply", ()) and not app.check_action("verify", ())
         assert "not with --no-history" in str(app.query_one(NextSteps).content)
     assert not (tmp_path / "h.db").exists()
+
+
+@pytest.mark.asyncio
+async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Profile,
+                                                                tmp_path: Path) -> None:
+    """Confirmed up front (``--yes``), a verify hold would command as soon as its link is
+    open: ABORT pressed while it opens cancels it, and nothing is commanded."""
+    async def slow_link() -> RecordingSimLink:
+        await asyncio.Event().wait()  # a link that takes its time to answer
+        raise AssertionError("not reached")
+
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
+    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
+    app.followup.after = AfterTrim(after.db, after.vehicle, sabertooth, True, slow_link,
+                                   after.recorder)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: app.result is not None)
+        trim = app.result
+        await pilot.press("p")
+        await pilot.pause()
+        await pilot.press("y")
+        await until(pilot, lambda: app.followup.opening)
+        await pilot.press("a")
+        await until(pilot, lambda: all(w.is_finished for w in app.workers
+                                       if w.group == "verify"))
+        assert not app.followup.opening and app.result is trim and app.results == [trim]
+        assert "verify cancelled" in str(app.query_one(NextSteps).content)
+        assert app.check_action("verify", ())
+
+
+@pytest.mark.asyncio
+async def test_a_replayed_verify_hold_shows_its_verdict(sabertooth: Profile,
+                                                        tmp_path: Path) -> None:
+    """``trimd replay`` of a verify hold in the terminal UI: the verdict panel, no offer."""
+    from trimd.cli.replay import replay_app
+
+    vehicle = Vehicle(sabertooth)
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
+    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
+    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=True)
+    vehicle.app = app
+    async with app.run_test(size=(80, 24)) as pilot:
+        await _apply_and_verify(pilot, app)
+    live = app.results[-1].verification
+    assert isinstance(live, Verification)
+    replay = replay_app(str(tmp_path / "verify.tlog"), sabertooth, speed=float("inf"),
+                        method="milp")
+    async with replay.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: replay.result is not None)
+        await pilot.pause()
+        shown = replay.query_one(VerdictPanel).verification
+        assert shown is not None and replay.has_class("-verdict")
+        assert verification_to_dict(shown) == verification_to_dict(live)
+        assert not replay.query_one(NextSteps).has_class("-shown")
+        assert not replay.check_action("start", ())  # a replay confirms where live did

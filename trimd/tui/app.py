@@ -245,6 +245,8 @@ class TrimApp(App[SessionResult]):
         if self.result is None:
             self.session.abort("aborted by the operator")
             self.query_one(EventLog).add(self.state.t_s, "error", "ABORT requested")
+        else:  # a verify hold whose link is being opened does not start
+            self.followup.cancel()
 
     def stop(self, reason: str) -> None:
         """End the session for ``reason`` (releasing the vehicle, closing the log), then

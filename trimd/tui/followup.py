@@ -46,8 +46,12 @@ class Followup:
         self.app.query_one(EventLog).add(self.app.state.t_s, kind, text)
 
     def ended(self, r: SessionResult) -> None:
-        """A session ended: store it; a trim with a proposal offers apply, a verify hold
-        shows its verdict."""
+        """A session ended: a verify hold shows its verdict (a replayed one too); with
+        ``after``, it is stored, and a trim with a proposal offers apply."""
+        if isinstance(r.verification, Verification):
+            self.app.query_one(VerdictPanel).show(r.verification)
+            self.app.add_class("-verdict", "-result")
+            self._log("result", r.verification.message)
         if self.after is None:
             return
         try:
@@ -59,13 +63,9 @@ class Followup:
             if stored:
                 self._log("info", stored)
         steps = self.app.query_one(NextSteps)
-        if isinstance(r.verification, Verification):
-            self.app.query_one(VerdictPanel).show(r.verification)
-            self.app.add_class("-verdict", "-result")
-            self._log("result", r.verification.message)
-            steps.verified(r.verification, r.reason)
-        elif self.target is not None:  # a verify hold that ended without a verdict
-            steps.verified(None, r.reason)
+        if self.target is not None:  # the verify hold this offered ended
+            steps.verified(r.verification if isinstance(r.verification, Verification)
+                           else None, r.reason)
         elif r.phase is Phase.DONE and isinstance(r.proposal, Proposal):
             self.trim = r
             if self.after.db is None:
@@ -101,6 +101,15 @@ class Followup:
         for line in format_applied(self.applied).splitlines():
             self._log("info", line)
         self.app.query_one(NextSteps).applied(self.applied)
+
+    def cancel(self) -> None:
+        """The operator aborted while the link was being opened: no verify hold starts."""
+        if self.opening:
+            self.app.workers.cancel_group(self.app, "verify")
+            self.opening = False
+            self._log("error", "verify cancelled by the operator before it started")
+            self.app.query_one(NextSteps).failed("verify cancelled", "y", "verify again")
+            self.app.refresh_bindings()
 
     async def verify(self) -> None:
         """Open the link again and start the verify hold on the main screen."""
