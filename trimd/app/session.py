@@ -106,6 +106,9 @@ class Machine(Protocol):
     def proposal(self) -> object | None: ...
 
     @property
+    def verification(self) -> object | None: ...
+
+    @property
     def progress(self) -> Progress: ...
 
     def step(self, event: Event) -> list[Output]: ...
@@ -184,7 +187,7 @@ class Session:
         p = self.procedure
         return SessionResult(p.phase, p.reason, p.cause, p.estimate, p.proposal,
                              self.recorder.path if self.recorder else None,
-                             getattr(p, "verification", None))
+                             p.verification)
 
     async def _loop(self) -> None:
         samples: AsyncIterator[Sample] = self.link.samples()

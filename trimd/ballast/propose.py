@@ -49,6 +49,7 @@ from trimd.ballast.lp import (
 from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import covariance_problem
+from trimd.core.jsonsafe import json_number
 from trimd.core.profile import InstalledPiece, Profile
 
 __all__ = [
@@ -56,7 +57,6 @@ __all__ = [
     "Proposal",
     "SlotLoad",
     "Trim",
-    "json_number",
     "proposal_to_dict",
     "propose_ballast",
     "slot_to_dict",
@@ -373,11 +373,6 @@ def propose_ballast(estimate: StaticEstimate, profile: Profile, method: str = "m
             break
     assert best is not None
     return best
-
-
-def json_number(value: float) -> float | None:
-    """``value``, or None where it is undefined (NaN or infinite)."""
-    return value if math.isfinite(value) else None
 
 
 def _pieces(pieces: Sequence[InstalledPiece]) -> list[dict[str, Any]]:

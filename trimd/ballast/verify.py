@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 from scipy.stats import norm
 
 from trimd.ballast.check import MIN_GM_M, SlotLoad, Trim, check_trim, equilibrium_attitude
-from trimd.ballast.propose import json_number
 from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 from trimd.core.segment import SegmentEstimate, estimate_segment
 

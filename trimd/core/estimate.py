@@ -69,18 +69,21 @@ from trimd.core.model import (
 )
 from trimd.core.profile import Profile
 
-__all__ = ["HoldSamples", "HoldSummary", "StaticEstimate", "attitude_error_factors",
-           "check_samples", "estimate_static", "measurable_dofs", "thrust_curve_std"]
+__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "HoldSamples", "HoldSummary",
+           "StaticEstimate", "attitude_error_factors", "check_samples", "drift_moments",
+           "estimate_static", "is_level", "measurable_dofs", "thrust_curve_std",
+           "thrust_gain_factors"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 #: Holds whose stacked design has a relative singular value below this cannot separate
 #: a parameter (≈ sin 1.1°): an "almost level" hold does not identify z_g.
-_MIN_RELATIVE_SINGULAR = 0.02
+MIN_RELATIVE_SINGULAR = 0.02
 #: A hold whose mean roll and pitch are below this [rad] (≈ 3°) counts as level.
 _LEVEL_RAD = np.radians(3.0)
-_MOMENT_ROWS = np.array([False, False, False, True, True, True])
+#: The moment rows (K, M, N) of τ and G(φ, θ).
+MOMENT_ROWS = np.array([False, False, False, True, True, True])
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,12 +193,12 @@ def _check_identifiable(holds: Sequence[HoldSamples], G: Sequence[FloatArray],
     """Refuse, naming the missing direction, when the rows the fit uses cannot determine q."""
     A = np.concatenate([Gk[r] for Gk, r in zip(G, rows, strict=True)])
     _, s, vt = np.linalg.svd(A, full_matrices=False)
-    if len(s) == 4 and s[-1] >= _MIN_RELATIVE_SINGULAR * s[0]:
+    if len(s) == 4 and s[-1] >= MIN_RELATIVE_SINGULAR * s[0]:
         return
     name = _PARAM_NAMES[int(np.argmax(np.abs(vt[-1])))] if len(s) == 4 else _PARAM_NAMES[3]
     tilts = ", ".join(f"({np.degrees(np.mean(h.phi)):.1f}°, {np.degrees(np.mean(h.theta)):.1f}°)"
                       for h in holds)
-    if all(_is_level(h) for h in holds):
+    if all(is_level(h) for h in holds):
         raise EstimationError(
             f"{name} is not identifiable: every hold was level (holds at roll, pitch {tilts});"
             " add a tilted hold, e.g. roll = pitch = 20°")
@@ -221,7 +224,8 @@ def check_samples(hold: HoldSamples, what: str = "hold") -> None:
         raise EstimationError(f"{what} {hold.label!r} contains NaN or infinite values")
 
 
-def _is_level(hold: HoldSamples) -> bool:
+def is_level(hold: HoldSamples) -> bool:
+    """Are the hold's mean roll and pitch both within 3° of level?"""
     return bool(abs(np.mean(hold.phi)) < _LEVEL_RAD and abs(np.mean(hold.theta)) < _LEVEL_RAD)
 
 
@@ -251,7 +255,7 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
-def _thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+def thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
                          profile: Profile) -> list[tuple[FloatArray, FloatArray]]:
     """Per hold, how its mean τ (the rows used) moves with each thruster's relative gain
     error, forward and reverse: T_rows·diag(f̄±)·diag(σ_gain), two arrays (rows × n)
@@ -280,7 +284,7 @@ def thrust_curve_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profil
     """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust curves' gain errors
     alone (the profile's ``uncertainty_pct``): the part of its ± that no length of
     collecting reduces. Zero for a hold without per-thruster thrust."""
-    forward, reverse = _thrust_gain_factors([hold], [rows], profile)[0]
+    forward, reverse = thrust_gain_factors([hold], [rows], profile)[0]
     std: FloatArray = np.sqrt((forward**2).sum(axis=1) + (reverse**2).sum(axis=1))
     return std
 
@@ -300,7 +304,7 @@ def attitude_error_factors(attitude: Sequence[tuple[float, float]],
     return out
 
 
-def _drift_moments(attitude: Sequence[tuple[float, float]],
+def drift_moments(attitude: Sequence[tuple[float, float]],
                    used: Sequence[NDArray[np.bool_]], profile: Profile,
                    net_weight_N: float) -> list[FloatArray]:
     """Per hold, the Munk moment of its drift on the rows used [N·m; 0 on force rows];
@@ -360,13 +364,13 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         raise EstimationError("no steady hold to estimate from")
     for h in holds:
         check_samples(h)
-    level = [_is_level(h) for h in holds]
+    level = [is_level(h) for h in holds]
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
     # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift
     use_force = [lv or profile.holds_station or not any(level) for lv in level]
     attitude = [(float(np.mean(h.phi)), float(np.mean(h.theta))) for h in holds]
     # rows that carry no information at a hold's attitude (X, Y, N at level) are left out
-    used = [rows & (_MOMENT_ROWS | f) & informative_rows(*a)
+    used = [rows & (MOMENT_ROWS | f) & informative_rows(*a)
             for a, f in zip(attitude, use_force, strict=True)]
     G = [restoring_matrix(*a) for a in attitude]
     _check_identifiable(holds, G, used)
@@ -378,11 +382,11 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # twice (the residuals depend on q)
     # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
     # whose noise is nil but whose thrust is uncertain is not exact
-    gains = _thrust_gain_factors(holds, used, profile)
+    gains = thrust_gain_factors(holds, used, profile)
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):
-        drift = _drift_moments(attitude, used, profile, float(q[0]))
+        drift = drift_moments(attitude, used, profile, float(q[0]))
         tilt = attitude_error_factors(attitude, used, profile, q)
         means = _residual_means(holds, used, q)
         var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)

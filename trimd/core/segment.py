@@ -34,15 +34,15 @@ from numpy.typing import NDArray
 
 from trimd.core.drift import DRIFT_MODEL_ERROR
 from trimd.core.estimate import (
-    _MIN_RELATIVE_SINGULAR,
-    _MOMENT_ROWS,
+    MIN_RELATIVE_SINGULAR,
+    MOMENT_ROWS,
     HoldSamples,
-    _drift_moments,
-    _is_level,
-    _thrust_gain_factors,
     attitude_error_factors,
     check_samples,
+    drift_moments,
+    is_level,
     measurable_dofs,
+    thrust_gain_factors,
 )
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
@@ -131,22 +131,22 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     rows = np.array(measurable_dofs(profile), bool)
     phi, theta = float(np.mean(h.phi)), float(np.mean(h.theta))
     # as in estimate_static: rows without information at this attitude are left out
-    used = (rows & (_MOMENT_ROWS | (_is_level(h) or profile.holds_station))
+    used = (rows & (MOMENT_ROWS | (is_level(h) or profile.holds_station))
             & informative_rows(phi, theta))
     A = restoring_matrix(phi, theta)[used]
     _, s, vt = np.linalg.svd(A, full_matrices=False)
-    r = int(np.sum(s >= _MIN_RELATIVE_SINGULAR * s[0]))
+    r = int(np.sum(s >= MIN_RELATIVE_SINGULAR * s[0]))
     V_o = vt[:r].T
     V_u = np.linalg.svd(V_o.T)[2][r:].T if r < 4 else np.zeros((4, 0))
     o0, o1, o2, o3 = (bool(np.linalg.norm(V_u[i]) < _OBSERVABLE_LEAK) for i in range(4))
     observable = (o0, o1, o2, o3)
     B_o = A @ V_o
     tau = h.tau[:, used].mean(axis=0)
-    forward, reverse = _thrust_gain_factors([h], [used], profile)[0]
+    forward, reverse = thrust_gain_factors([h], [used], profile)[0]
     q = prior.copy()
     weights = np.ones(int(used.sum()))
     for _ in range(3):
-        drift = _drift_moments([(phi, theta)], [used], profile, float(q[0]))[0]
+        drift = drift_moments([(phi, theta)], [used], profile, float(q[0]))[0]
         L = np.linalg.pinv(B_o * weights[:, None]) * weights
         q = prior + V_o @ (L @ (tau - drift - A @ prior))
         e = h.tau[:, used] - np.einsum("nij,j->ni",

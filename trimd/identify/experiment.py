@@ -1,6 +1,7 @@
 """The open-loop excitation experiment: a pure state machine with the trim procedure's
 interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, ``reason``,
-``cause``, ``estimate``, ``proposal``), so :class:`trimd.app.session.Session` runs it.
+``cause``, ``estimate``, ``proposal``, ``verification``), so
+:class:`trimd.app.session.Session` runs it.
 
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
@@ -90,6 +91,7 @@ class Excite:
         self.cause = Cause.NONE
         self.estimate = None
         self.proposal = None
+        self.verification = None
         # open loop drives thrusters, so no thruster stream is needed to steer by
         self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
                            streams=("attitude", "depth"), min_rates_hz=MIN_RATES_HZ)

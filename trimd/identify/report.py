@@ -13,6 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 from trimd.identify.fit import StageFit
 from trimd.identify.model import HYDRO_NAMES
@@ -72,10 +73,6 @@ def profile_fragment(values: Mapping[str, float], profile: Profile,
     return "\n".join(lines) + "\n"
 
 
-def _num(x: float) -> float | None:
-    return x if math.isfinite(x) else None
-
-
 def excitation_dict(fit: StageFit) -> dict[str, Any]:
     """Per DOF of the stage: τ spread and the thrusters' authority [N or N·m], their ratio,
     the threshold, and whether it counts as excited."""
@@ -102,18 +99,18 @@ def summary_dict(fits: Sequence[StageFit], validations: Mapping[str, Sequence[Va
     out: dict[str, Any] = {"stages": {}}
     for fit in fits:
         out["stages"][fit.stage] = {
-            "parameters": {p.name: {"value": p.value, "std": _num(p.std), "prior": p.prior,
+            "parameters": {p.name: {"value": p.value, "std": json_number(p.std), "prior": p.prior,
                                     "free": p.free, "note": p.note}
                            for p in fit.parameters},
             "free": list(fit.free_names),
             "excitation": excitation_dict(fit),
             "not_excited": [d.name for d in fit.not_excited],
             "statics": statics_dict(fit),
-            "correlation": [[_num(float(c)) for c in row] for row in fit.correlation],
+            "correlation": [[json_number(float(c)) for c in row] for row in fit.correlation],
             "rms_residual": fit.rms_residual, "samples": fit.n_samples,
             "simulations": fit.nfev, "warnings": list(fit.warnings),
             "validation": [{"label": v.label,
-                            "nrmse_pct": {o: None if x is None else _num(x)
+                            "nrmse_pct": {o: None if x is None else json_number(x)
                                           for o, x in v.judged().items()},
                             "not_excited": [o for o, x in v.judged().items() if x is None]}
                            for v in validations.get(fit.stage, ())],

@@ -11,7 +11,6 @@ each); ``trimd run`` through :meth:`History.record_trim`; ``trimd ballast apply`
 from __future__ import annotations
 
 import json
-import math
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -22,6 +21,7 @@ from typing import Any, Literal
 
 from trimd.app.history.schema import connect, default_db_path
 from trimd.core.errors import DataError
+from trimd.core.jsonsafe import json_finite
 from trimd.core.profile import InstalledPiece
 
 __all__ = ["EventRecord", "History", "InstallRecord", "TrimRecord", "vehicle_key"]
@@ -75,20 +75,9 @@ class InstallRecord:
     pieces: tuple[InstalledPiece, ...]
 
 
-def _finite(value: Any) -> Any:
-    """``value`` with every NaN or infinite number replaced by None (JSON ``null``)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
-
-
 def _json(values: object) -> str:
     """Strict JSON of ``values``; an undefined number is stored as null."""
-    return json.dumps(_finite(values), allow_nan=False, sort_keys=True)
+    return json.dumps(json_finite(values), allow_nan=False, sort_keys=True)
 
 
 class History:
