@@ -30,6 +30,7 @@ from trimd.logs.recorder import TlogRecorder
 from trimd.logs.replay import recorded_verify_target
 from trimd.tui import TrimApp
 from trimd.tui.next_steps import NextSteps
+from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 from trimd.tui.verdict_panel import VerdictPanel
 
@@ -94,11 +95,15 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
         await pilot.press("y")  # verify before apply: not offered, nothing happens
         await pilot.pause()
         assert vehicle.links == []
+        panel = app.query_one(ResultPanel)
+        await pilot.press("m")  # lp shown: ideal amounts, no pieces to install
+        await until(pilot, lambda: panel.method == "lp" and panel.proposal is not None)
         await pilot.press("p")
         await pilot.pause()
         applied = app.followup.applied
         assert applied is not None and applied.source == "proposal"
-        assert applied.installed == proposal.installed_after
+        assert applied.installed == proposal.installed_after  # the milp pieces, shown now
+        assert panel.method == "milp" and panel.proposal is proposal
         assert not app.check_action("apply", ()) and app.check_action("verify", ())
 
         await pilot.press("y")

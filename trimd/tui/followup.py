@@ -1,7 +1,8 @@
 """The TUI after a session: store its result in the trim history and, once a trim ends
 with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`).
 
-Apply records the proposal shown (the method the operator chose) as the installed ballast.
+Apply records the ``milp`` proposal (pieces of the inventory; the other methods' ideal
+amounts cannot be installed as such) as the installed ballast, and shows it.
 Verify opens the trim's link again and hands the app a verify-hold session, which runs
 on the main screen as the trim did: nothing is commanded before the operator confirms
 (``s``, unless ``--yes``), ``a`` aborts, quitting asks first; its verdict then shows.
@@ -16,7 +17,7 @@ from trimd.app.apply import Applied
 from trimd.app.report import format_applied
 from trimd.app.session import SessionResult
 from trimd.app.verify import verify_target
-from trimd.ballast.propose import Proposal
+from trimd.ballast.propose import Proposal, propose_ballast
 from trimd.ballast.verify import Verification
 from trimd.core.errors import TrimdError
 from trimd.core.events import Phase
@@ -28,7 +29,11 @@ from trimd.tui.verdict_panel import VerdictPanel
 if TYPE_CHECKING:
     from trimd.tui.app import TrimApp
 
-__all__ = ["Followup"]
+__all__ = ["APPLIED_METHOD", "Followup"]
+
+#: The proposal apply records: pieces of the inventory, what can be installed (the other
+#: methods give ideal continuous amounts), as ``trimd ballast apply`` records it.
+APPLIED_METHOD = "milp"
 
 
 class Followup:
@@ -72,7 +77,7 @@ class Followup:
                 steps.unavailable("apply and verify record in the trim history: "
                                   "not with --no-history")
             else:
-                steps.offer(r.proposal.method, self.after.vehicle)
+                steps.offer(APPLIED_METHOD, self.after.vehicle)
 
     @property
     def can_apply(self) -> bool:
@@ -84,19 +89,20 @@ class Followup:
         return self.target is not None and self.app.result is not None and not self.opening
 
     def apply(self) -> None:
-        """Record the proposal shown as the installed ballast."""
-        proposal = self.app.query_one(ResultPanel).proposal
+        """Record the ``milp`` proposal as the installed ballast and show it."""
         if self.after is None or self.trim is None or self.trim.estimate is None:
             return
-        if proposal is None:
-            self.app.notify("no proposal shown yet: wait for it, or press m", severity="warning")
-            return
+        panel = self.app.query_one(ResultPanel)
         try:
+            proposal = panel.proposals.get(APPLIED_METHOD) or propose_ballast(
+                self.trim.estimate, self.app.profile, method=APPLIED_METHOD)
             self.applied = self.after.apply(self.trim.estimate, proposal)
-        except TrimdError as exc:
+        except (TrimdError, ValueError) as exc:
             self._log("error", f"apply: {exc}")
             self.app.query_one(NextSteps).failed(f"apply: {exc}", "p", "apply again")
             return
+        panel.proposals[APPLIED_METHOD] = proposal
+        panel.method = APPLIED_METHOD  # what was recorded is what is shown
         self.target = verify_target(self.trim.estimate, self.applied.loads)
         for line in format_applied(self.applied).splitlines():
             self._log("info", line)

@@ -1,5 +1,5 @@
 """Next-steps panel: after a trim that ended with a proposal, what the operator can do —
-``p`` apply (record the proposal shown as the installed ballast in the trim history), then,
+``p`` apply (record the milp proposal as the installed ballast in the trim history), then,
 once the ballast is on the vehicle, ``y`` verify (one level hold that measures what the
 ballast left); and how each went."""
 
