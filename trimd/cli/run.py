@@ -102,7 +102,8 @@ def _exit_code(result: SessionResult) -> int:
 
 def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
                   presenters: list[Presenter]) -> Session:
-    target = _trim_to_verify(args, profile) if getattr(args, "verify", None) else None
+    """The trim's session, or with ``--verify`` the verify hold of ``args.target``."""
+    target = args.target
     recorder = None
     if not args.no_record:
         path = Path(args.record) if args.record else default_record_path(profile)
@@ -199,6 +200,8 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
+    # what --verify checks is read before the link opens: bad input commands nothing
+    args.target = _trim_to_verify(args, profile) if getattr(args, "verify", None) else None
     if tui:  # the TUI stores each session's result in the history as it ends
         results, truth_text = asyncio.run(_tui(args, profile, truth=truth))
     else:
