@@ -75,3 +75,41 @@ def test_watch_says_which_baseline_it_used(tmp_path: Path, bluerov: Profile,
     assert "warning" not in err
     assert main([*watch, "--db", str(tmp_path / "empty.db")]) == 2
     assert "no trim or verify hold of vehicle bluerov2-heavy" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_after_apply_and_verify_the_ballast_is_no_change(
+        tmp_path: Path, sabertooth: Profile, capsys: pytest.CaptureFixture[str]) -> None:
+    """Simulated Sabertooth, 10 kg at AftSB: trim, ``ballast apply``, the ballast fitted,
+    verify hold; then a dive with that ballast. Against the trim as measured (before the
+    ballast) the watch alerts on the ballast itself; with ``--baseline last`` (the verify
+    hold) it does not."""
+    import json
+
+    from tests.helpers import carried
+    from trimd.app.files import read_installed
+
+    common = ["--profile", "sabertooth-dh2", "--db", str(tmp_path / "h.db"), "--vehicle",
+              "rov"]
+    run = ["run", *common, "--headless", "--yes", "--json", "--no-record"]
+    assert main([*run, "--link", "sim:payload=10@AftSB"]) == 0
+    trim = tmp_path / "trim.jsonl"
+    trim.write_text(capsys.readouterr().out)
+    assert main(["ballast", "apply", *common, "--estimate", str(trim)]) == 0
+    extra = carried(read_installed(trim, sabertooth), sabertooth.gravity_m_s2)
+    link = f"sim:payload=10@AftSB+{extra}"
+    assert main([*run, "--link", f"{link},seed=3", "--verify"]) == 0
+    capsys.readouterr()
+    estimate = tmp_path / "est.json"
+    estimate.write_text(json.dumps(json.loads(trim.read_text().splitlines()[-1])["estimate"]))
+    watch = ["watch", *common, "--link", f"{link},pilot=dive,seed=4", "--json",
+             "--duration", "300", "--no-history"]
+
+    assert main([*watch, "--baseline", str(estimate)]) == 0
+    alerts = [x for x in map(json.loads, capsys.readouterr().out.splitlines())
+              if x["type"] == "alert"]
+    assert {a["quantity"] for a in alerts} >= {"net_force_N"}  # the floats added: lighter
+    assert main([*watch, "--baseline", "last"]) == 0
+    out, err = capsys.readouterr()
+    assert "baseline: the verify hold of rov" in err
+    assert [x for x in map(json.loads, out.splitlines()) if x["type"] == "alert"] == []
