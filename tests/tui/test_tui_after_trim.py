@@ -8,6 +8,7 @@ confirmed it or ``--yes`` did."""
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from tests.helpers import carried, passive_attitude_deg
 from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
 from trimd.app.after_trim import AfterTrim
 from trimd.app.history import History
+from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.cli.replay import replay_session
@@ -64,23 +66,32 @@ class Vehicle:
         return link
 
 
-def after_trim(profile: Profile, tmp_path: Path, vehicle: Vehicle, *, confirmed: bool
-               ) -> AfterTrim:
+async def trim_app(profile: Profile, tmp_path: Path, *, confirmed: bool,
+                   vehicle: Vehicle | None = None,
+                   open_link: Callable[[], Awaitable[RecordingSimLink]] | None = None,
+                   history: bool = True) -> TrimApp:
+    """The TUI over a trim of the simulated vehicle (PAYLOAD, seed 1) as ``trimd run``
+    builds it: the history ``h.db`` (``history`` False: ``--no-history``) and the verify
+    hold's link from ``vehicle`` (or ``open_link``), recorded to ``verify.tlog``."""
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", profile)
+    app = app_for(profile, link, confirmed=confirmed, tmp_path=tmp_path)
+    vehicle = vehicle or Vehicle(profile)
+    vehicle.app = app
+
     def recorder(target: dict[str, Any]) -> TlogRecorder:
         return TlogRecorder(tmp_path / "verify.tlog", profile,
                             read_profile_text(profile.name)[0], verify_target=target)
 
-    return AfterTrim(tmp_path / "h.db", "rov", profile, confirmed, vehicle.open, recorder)
+    app.followup.after = AfterTrim(tmp_path / "h.db" if history else None, "rov", profile,
+                                   confirmed, open_link or vehicle.open, recorder)
+    return app
 
 
 @pytest.mark.asyncio
 async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
                                                           tmp_path: Path) -> None:
     vehicle = Vehicle(sabertooth)
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=False, tmp_path=tmp_path)
-    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=False)
-    vehicle.app = app
+    app = await trim_app(sabertooth, tmp_path, confirmed=False, vehicle=vehicle)
     async with app.run_test(size=(80, 24)) as pilot:
         await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
         await pilot.press("s")
@@ -155,10 +166,7 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
     """Confirmed up front (``--yes``) the verify hold starts at once; the pilot did not fit
     the ballast recorded, and the verdict says so, naming the moments."""
     vehicle = Vehicle(sabertooth, fitted=False)
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
-    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=True)
-    vehicle.app = app
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, vehicle=vehicle)
     async with app.run_test(size=(80, 24)) as pilot:
         await _apply_and_verify(pilot, app)
         result = app.result
@@ -174,11 +182,18 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
-async def _apply_and_verify(pilot: Pilot[Any], app: TrimApp) -> None:
+async def _apply_then_verify(pilot: Pilot[Any], app: TrimApp) -> SessionResult | None:
+    """Once the trim has ended: ``p`` (apply), then ``y`` (verify); the trim's result."""
     await until(pilot, lambda: app.result is not None)
+    trim = app.result
     await pilot.press("p")
     await pilot.pause()
     await pilot.press("y")
+    return trim
+
+
+async def _apply_and_verify(pilot: Pilot[Any], app: TrimApp) -> None:
+    await _apply_then_verify(pilot, app)
     await until(pilot, lambda: len(app.results) == 2)
 
 
@@ -192,17 +207,9 @@ async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
     async def no_link() -> RecordingSimLink:
         raise LinkError("udp:0.0.0.0:14550: address in use")
 
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
-    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
-    app.followup.after = AfterTrim(after.db, after.vehicle, after.profile, True, no_link,
-                                   after.recorder)
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, open_link=no_link)
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: app.result is not None)
-        trim = app.result
-        await pilot.press("p")
-        await pilot.pause()
-        await pilot.press("y")
+        trim = await _apply_then_verify(pilot, app)
         await until(pilot, lambda: not app.followup.opening)
         await asyncio.sleep(0)
         await pilot.pause()
@@ -262,11 +269,7 @@ def test_trimd_run_in_the_terminal_ui_apply_and_verify(
 @pytest.mark.asyncio
 async def test_without_a_history_apply_and_verify_are_not_offered(
         sabertooth: Profile, tmp_path: Path) -> None:
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
-    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
-    app.followup.after = AfterTrim(None, after.vehicle, sabertooth, True, after.open_link,
-                                   after.recorder)
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, history=False)
     async with app.run_test(size=(80, 24)) as pilot:
         await until(pilot, lambda: app.result is not None)
         await pilot.pause()
@@ -284,17 +287,9 @@ async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Prof
         await asyncio.Event().wait()  # a link that takes its time to answer
         raise AssertionError("not reached")
 
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
-    after = after_trim(sabertooth, tmp_path, Vehicle(sabertooth), confirmed=True)
-    app.followup.after = AfterTrim(after.db, after.vehicle, sabertooth, True, slow_link,
-                                   after.recorder)
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, open_link=slow_link)
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: app.result is not None)
-        trim = app.result
-        await pilot.press("p")
-        await pilot.pause()
-        await pilot.press("y")
+        trim = await _apply_then_verify(pilot, app)
         await until(pilot, lambda: app.followup.opening)
         await pilot.press("a")
         await until(pilot, lambda: all(w.is_finished for w in app.workers
@@ -311,10 +306,7 @@ async def test_a_replayed_verify_hold_shows_its_verdict(sabertooth: Profile,
     from trimd.cli.replay import replay_app
 
     vehicle = Vehicle(sabertooth)
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", sabertooth)
-    app = app_for(sabertooth, link, confirmed=True, tmp_path=tmp_path)
-    app.followup.after = after_trim(sabertooth, tmp_path, vehicle, confirmed=True)
-    vehicle.app = app
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, vehicle=vehicle)
     async with app.run_test(size=(80, 24)) as pilot:
         await _apply_and_verify(pilot, app)
     live = app.results[-1].verification
