@@ -8,6 +8,7 @@ confirmed it or ``--yes`` did."""
 from __future__ import annotations
 
 import asyncio
+import json
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
@@ -139,6 +140,13 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
         assert verify_link.sent[0].phi == verify_link.sent[0].theta == 0.0
         assert app.query_one(VerdictPanel).verification is v
         assert app.has_class("-verdict")
+        await pilot.press("r")  # the report: the trim and, now, the verify hold's verdict
+        await pilot.pause()
+        report = json.loads((tmp_path / "verify-report.json").read_text())
+        assert report["verification"]["as_predicted"] and report["warnings"] == []
+        assert report["proposal"]["installed_after"] == [
+            {"slot": x.slot, "piece": x.piece, "count": x.count} for x in applied.installed]
+        assert "## Verify hold" in (tmp_path / "verify-report.md").read_text()
         await pilot.press("q")
         await pilot.pause()
     assert app.results == [trim, result]
@@ -175,6 +183,10 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
         assert not v.as_predicted and not v.level
         assert "NOT as predicted" in v.message and "W·x_g − B·x_b off by" in v.message
         assert app.query_one(VerdictPanel).has_class("-off")
+        await pilot.press("r")
+        await pilot.pause()
+        warnings = json.loads((tmp_path / "verify-report.json").read_text())["warnings"]
+        assert warnings == [f"the verify hold: {v.message}"]
     # confirmed up front: the recording reproduces the verdict exactly too
     replayed, _ = await replay_session(str(tmp_path / "verify.tlog"), sabertooth, speed=None,
                                        presenters=[], method="milp")

@@ -278,7 +278,8 @@ class TrimApp(App[SessionResult]):
         status = f"{p.phase.value}: {p.reason}" if p.reason else p.phase.value
         report = Report(self.profile.name, self.link_description, status, log_path,
                         panel.estimate, panel.proposal, self.truth,
-                        list(self.query_one(EventLog).entries))
+                        list(self.query_one(EventLog).entries),
+                        self.query_one(VerdictPanel).verification)
         directory = self.report_dir or (Path(log_path).parent if log_path else Path.cwd())
         stem = f"{Path(log_path).stem}-report" if log_path else f"trimd-{self.profile.name}"
         try:
