@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from textual.pilot import Pilot
 
+import trimd.app.session
 from tests.helpers import carried, passive_attitude_deg
 from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
 from trimd.app.after_trim import AfterTrim
@@ -40,6 +41,12 @@ from trimd.tui.verdict_panel import VerdictPanel
 PAYLOAD = "10@AftSB"
 
 
+@pytest.fixture(autouse=True)
+def _no_ticks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No quiet-link Ticks from the wall clock: sample time alone, as in a replay."""
+    monkeypatch.setattr(trimd.app.session, "TICK_S", 1e6)
+
+
 def _phase(app: TrimApp) -> Phase | None:
     progress = app.query_one(Stepper).progress
     return None if progress is None else progress.phase
@@ -55,6 +62,11 @@ class Vehicle:
         self.links: list[RecordingSimLink] = []
         self.app: TrimApp | None = None
 
+    def awaiting_operator(self, link: RecordingSimLink) -> bool:
+        """The procedure waits for the operator's confirmation: no sample meanwhile (with
+        no quiet-link Ticks either, the result does not depend on the key's timing)."""
+        return self.app is not None and self.app.session.procedure.phase is Phase.CONFIRM
+
     async def open(self) -> RecordingSimLink:
         assert self.app is not None
         applied = self.app.followup.applied
@@ -62,7 +74,7 @@ class Vehicle:
         extra = carried(applied.loads, self.profile.gravity_m_s2) if self.fitted else ""
         payload = f"{PAYLOAD}+{extra}" if extra else PAYLOAD
         link = await recording_sim_link(f"payload={payload},seed={len(self.links) + 1}",
-                                        self.profile)
+                                        self.profile, hold_while=self.awaiting_operator)
         self.links.append(link)
         return link
 
@@ -74,9 +86,10 @@ async def trim_app(profile: Profile, tmp_path: Path, *, confirmed: bool,
     """The TUI over a trim of the simulated vehicle (PAYLOAD, seed 1) as ``trimd run``
     builds it: the history ``h.db`` (``history`` False: ``--no-history``) and the verify
     hold's link from ``vehicle`` (or ``open_link``), recorded to ``verify.tlog``."""
-    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", profile)
-    app = app_for(profile, link, confirmed=confirmed, tmp_path=tmp_path)
     vehicle = vehicle or Vehicle(profile)
+    link = await recording_sim_link(f"payload={PAYLOAD},seed=1", profile,
+                                    hold_while=vehicle.awaiting_operator)
+    app = app_for(profile, link, confirmed=confirmed, tmp_path=tmp_path)
     vehicle.app = app
 
     def recorder(target: dict[str, Any]) -> TlogRecorder:
