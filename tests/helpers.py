@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -22,6 +22,7 @@ from scipy.signal import lfilter
 
 from trimd.app.connect import open_link
 from trimd.app.session import Session, SessionResult
+from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.core.estimate import HoldSamples
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
@@ -193,6 +194,13 @@ def ballast_payload(proposal: Proposal | dict[str, Any], profile: Profile) -> st
     slots = (proposal_to_dict(proposal) if isinstance(proposal, Proposal) else proposal)["slots"]
     return "+".join(f"{s['net_down_N'] / profile.gravity_m_s2:.6f}@{s['name']}" for s in slots
                     if abs(s["net_down_N"]) > 0)
+
+
+def carried(loads: Sequence[SlotLoad], g: float) -> str:
+    """``loads`` as simulator payload items at their positions (kg down; negative: lift):
+    the ballast a verify hold checks, fitted on the simulated vehicle."""
+    return "+".join(f"{ld.net_down_N / g:.6f}@{ld.position_m[0]},{ld.position_m[1]},"
+                    f"{ld.position_m[2]}" for ld in loads if ld.net_down_N)
 
 
 def passive_attitude_deg(profile: Profile, payload: str, config: SimConfig | None = None

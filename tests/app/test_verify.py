@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import SimTrim, equilibrium_holds, sim_trim
+from tests.helpers import SimTrim, carried, equilibrium_holds, sim_trim
 from trimd.app.connect import open_link
 from trimd.app.session import Session
 from trimd.ballast.check import SlotLoad
@@ -33,12 +33,6 @@ from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.payload import mass_properties
 
 Z95 = 1.96
-
-
-def carried(loads: tuple[SlotLoad, ...], g: float) -> str:
-    """``loads`` as simulator payload items at their positions (kg down; negative: lift)."""
-    return "+".join(f"{ld.net_down_N / g:.6f}@{ld.position_m[0]},{ld.position_m[1]},"
-                    f"{ld.position_m[2]}" for ld in loads if ld.net_down_N)
 
 
 def verify_on_sim(trim: SimTrim, payload: str, seed: int, options: str,

@@ -130,3 +130,28 @@ def test_run_proposes_from_the_ballast_the_history_holds(
     assert trim.proposal is not None and trim.proposal["feasible"]
     assert trim.proposal["installed_before"] == [{"slot": "W-aft-ctr", "piece": LEAD,
                                                   "count": 2}]
+
+
+def test_a_proposal_from_other_ballast_is_refused(tmp_path: Path, est_file: Path,
+                                                  bluerov: Profile) -> None:
+    """The TUI's apply records a proposal made at the end of the trim; when ballast was
+    recorded for the vehicle since, that proposal no longer starts from what is on it:
+    refused, nothing written (the history keeps exactly its one record)."""
+    from trimd.app.apply import apply_ballast
+    from trimd.app.files import read_estimate
+    from trimd.ballast.propose import propose_ballast
+    from trimd.core.errors import DataError
+
+    db = tmp_path / "h.db"
+    estimate = read_estimate(est_file)
+    proposal = propose_ballast(estimate, bluerov, "milp")  # from nothing installed
+    with History(db) as h:
+        h.record_installed("rov", bluerov.name, 1.0, "edited",
+                           [InstalledPiece("W-aft-ctr", LEAD, 2)])
+    with pytest.raises(DataError, match="starts from ballast other than"):
+        apply_ballast(db, "rov", bluerov, estimate=estimate, proposal=proposal)
+    with History(db) as h:
+        assert len(h.installs("rov")) == 1
+    applied = apply_ballast(db, "other-rov", bluerov, estimate=estimate, proposal=proposal)
+    assert applied.installed == proposal.installed_after and applied.source == "proposal"
+    assert applied.trim is not None and applied.trim.stable

@@ -62,3 +62,17 @@ def test_a_run_without_estimate_stores_nothing(tmp_path: Path) -> None:
     code = main(["run", "--link", "udp:127.0.0.1:14550", "--profile", "bluerov2-heavy",
                  "--headless", "--yes", "--no-record", "--db", str(db)])
     assert code == 3 and not db.exists()
+
+
+def test_history_shows_a_verify_hold_by_its_verdict(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    db = tmp_path / "h.db"
+    message = ("level: passive roll -0.18° ± 0.12°, pitch -0.19° ± 0.19° (predicted -0.24°, "
+               "+0.09°); as predicted")
+    with History(db) as h:
+        h.record_verify("rov", 0.0, {"as_predicted": True, "message": message,
+                                     "measured_N_Nm": [-41.6, 1.59, -1.5]})
+    assert main(["history", "--db", str(db), "--vehicle", "rov"]) == 0
+    out = capsys.readouterr().out
+    assert f"1970-01-01 00:00:00 UTC  {message}\n" in out + "\n"
+    assert "measured_N_Nm" not in out

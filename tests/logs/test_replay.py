@@ -138,3 +138,85 @@ def test_sigterm_releases_and_closes_the_log(tmp_path: Path) -> None:
                             "--types", "STATUSTEXT", str(log)], capture_output=True, text=True,
                            timeout=120, check=True).stdout
     assert "trimd: release control" in texts
+
+
+def test_replay_of_a_verify_hold_reproduces_its_verdict(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A verify hold's recording carries its verify target: replayed, it is one level hold
+    again (not a trim) and gives the live verdict exactly; a damaged target is a clear
+    error (exit 2)."""
+    from tests.helpers import carried
+    from trimd.ballast.check import SlotLoad
+    from trimd.core.profile_yaml import load_profile
+    from trimd.logs.replay import recorded_verify_target
+
+    common = ["--profile", "sabertooth-dh2", "--headless", "--yes", "--json", "--no-history"]
+    assert main(["run", "--link", "sim:payload=10@AftSB", *common, "--no-record"]) == 0
+    trim = tmp_path / "trim.json"
+    trim.write_text(capsys.readouterr().out)
+    slots = tuple(SlotLoad(s["name"], tuple(s["position_m"]), 0, 0, 0, 0, s["net_down_N"])
+                  for s in last_json(trim.read_text())["proposal"]["slots"])  # type: ignore[index]
+    log = tmp_path / "verify.tlog"
+    g = load_profile("sabertooth-dh2").gravity_m_s2
+    link = f"sim:payload=10@AftSB+{carried(slots, g)},seed=3"  # the ballast fitted
+    assert main(["run", "--link", link, *common, "--verify", str(trim), "--record",
+                 str(log)]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    live = [x for x in lines if x["type"] == "verification"]
+    assert len(live) == 1 and live[0]["as_predicted"], live
+    assert recorded_verify_target(log) is not None
+    assert recorded_profile_yaml(log) == (PROFILES / "sabertooth-dh2.yaml").read_text()
+
+    assert main(["replay", str(log), "--json"]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    replayed = [x for x in lines if x["type"] == "verification"]
+    assert replayed == live  # the measurement, the comparison and the verdict, exactly
+    commands = [x["command"] for x in lines if x["type"] == "command"]
+    assert len(commands) == 2 and commands[0].startswith("hold roll 0")  # one hold, release
+
+    data = bytearray(log.read_bytes())
+    header = data.index(b"trimd verify target")
+    block = data.index(b"\xff\xbe\x83\x00\x00", header)  # the target's first data packet
+    data[block + 20] ^= 0xFF
+    damaged = tmp_path / "damaged.tlog"
+    damaged.write_bytes(bytes(data))
+    assert main(["replay", str(damaged), "--json"]) == 2
+    assert "verify target is damaged" in capsys.readouterr().err
+
+
+def test_an_old_verify_recording_says_what_it_is(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A verify hold recorded before recordings carried their verify target replays as a
+    trim, which fails (one hold); the replay then says what the recording is."""
+    import asyncio
+
+    from tests.helpers import carried, sim_trim
+    from trimd.app.connect import open_link
+    from trimd.app.session import Session
+    from trimd.ballast.propose import Proposal
+    from trimd.ballast.verify import verify_hold
+    from trimd.core.procedure import Procedure
+    from trimd.core.profile_yaml import load_profile, read_profile_text
+    from trimd.logs.recorder import TlogRecorder
+
+    profile = load_profile("sabertooth-dh2")
+    trim = sim_trim(profile, "10@AftSB", 0)
+    estimate, proposal = trim.result.estimate, trim.result.proposal
+    assert estimate is not None and isinstance(proposal, Proposal)
+    log = tmp_path / "old-verify.tlog"
+
+    async def old_verify() -> None:
+        extra = carried(proposal.slots, profile.gravity_m_s2)
+        link = await open_link(f"sim:payload=10@AftSB+{extra}", profile)
+        recorder = TlogRecorder(log, profile, read_profile_text("sabertooth-dh2")[0])
+        procedure = Procedure(profile, confirmed=True, verify=lambda hold: verify_hold(
+            hold, profile, estimate, proposal.slots))
+        result = await Session(link, profile, recorder=recorder, presenters=[],
+                               procedure=procedure, wall_clock=False).run()
+        assert result.phase.value == "done", result.reason
+
+    asyncio.run(old_verify())
+    assert main(["replay", str(log), "--json"]) == 1
+    err = capsys.readouterr().err
+    assert "is a verify hold recorded by an older trimd, without the trim it verified" in err
+    assert "Traceback" not in err

@@ -1,19 +1,31 @@
-"""SVG snapshots of the main screen at 80×24 and 120×40, during a hold and with the
-proposal shown. Deterministic: seeded fake vehicle, session time, a fixed clock for the
+"""SVG snapshots of the main screen at 80×24 and 120×40, during a hold, with the
+proposal shown, with the offer of apply and verify after the trim, and with a verify
+hold's verdict. Deterministic: seeded fake vehicle, session time, a fixed clock for the
 heartbeat age, and no Ticks (the session's quiet-link clock) while the link is paused."""
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
 from textual.pilot import Pilot
 
 import trimd.app.session
-from tests.helpers import FakeLink
-from tests.tui.tui_helpers import PausedLink, app_for, thesis_vehicle, until
+from tests.helpers import FakeLink, carried
+from tests.tui.tui_helpers import (
+    PausedLink,
+    RecordingSimLink,
+    app_for,
+    recording_sim_link,
+    thesis_vehicle,
+    until,
+)
+from trimd.app.after_trim import AfterTrim
 from trimd.core.profile import Profile
+from trimd.tui import TrimApp
 from trimd.tui.result_panel import ResultPanel
 
 SIZES = [(80, 24), (120, 40)]
@@ -48,6 +60,61 @@ def test_with_the_proposal(snap_compare: Callable[..., bool], sabertooth: Profil
     async def run_before(pilot: Pilot[Any]) -> None:
         await until(pilot, lambda: app.result is not None
                     and app.query_one(ResultPanel).proposal is not None)
+        await pilot.pause(0.3)
+
+    assert snap_compare(app, terminal_size=size, run_before=run_before)
+
+
+@pytest.fixture
+def after_sabertooth(sabertooth: Profile, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+                     ) -> Callable[[], Any]:
+    """The TUI over a confirmed trim of the simulated Sabertooth (10 kg at AftSB), with a
+    history at ``h.db`` in the current directory (the paths shown do not vary) and a verify
+    hold on the simulated vehicle with the applied ballast fitted; not recorded."""
+    monkeypatch.chdir(tmp_path)
+
+    async def build() -> TrimApp:
+        link = await recording_sim_link("payload=10@AftSB,seed=1", sabertooth)
+        app = app_for(sabertooth, link, confirmed=True, link_description="sim:10@AftSB")
+
+        async def fitted() -> RecordingSimLink:
+            applied = app.followup.applied
+            assert applied is not None
+            extra = carried(applied.loads, sabertooth.gravity_m_s2)
+            return await recording_sim_link(f"payload=10@AftSB+{extra},seed=2", sabertooth)
+
+        app.followup.after = AfterTrim(Path("h.db"), "rov", sabertooth, True, fitted,
+                                       lambda target: None)
+        return app
+    return build
+
+
+@pytest.mark.parametrize("size", [(80, 24)], ids=lambda s: f"{s[0]}x{s[1]}")
+def test_offer_after_the_trim(snap_compare: Callable[..., bool],
+                              after_sabertooth: Callable[[], Any],
+                              size: tuple[int, int]) -> None:
+    app = asyncio.run(after_sabertooth())
+
+    async def run_before(pilot: Pilot[Any]) -> None:
+        await until(pilot, lambda: app.result is not None
+                    and app.query_one(ResultPanel).proposal is not None)
+        await pilot.pause(0.3)
+
+    assert snap_compare(app, terminal_size=size, run_before=run_before)
+
+
+@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
+def test_verdict_after_apply_and_verify(snap_compare: Callable[..., bool],
+                                        after_sabertooth: Callable[[], Any],
+                                        size: tuple[int, int]) -> None:
+    app = asyncio.run(after_sabertooth())
+
+    async def run_before(pilot: Pilot[Any]) -> None:
+        await until(pilot, lambda: app.result is not None)
+        await pilot.press("p")
+        await pilot.pause()
+        await pilot.press("y")
+        await until(pilot, lambda: len(app.results) == 2)
         await pilot.pause(0.3)
 
     assert snap_compare(app, terminal_size=size, run_before=run_before)

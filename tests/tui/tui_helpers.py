@@ -50,15 +50,20 @@ class RecordingSimLink(SimLink):
     for good once true (the stream goes silent without ending, as PausedLink;
     ``paused_at``: the simulated time it froze at): the vehicle stays mid-manoeuvre while
     a test presses keys, however slowly the runner goes, and still takes commands.
+    ``hold_while(link)`` holds the next sample back for as long as it is true (e.g. while
+    the procedure waits for the operator: the confirmation then comes after the same
+    sample however long the key press takes).
     """
 
     def __init__(self, link: SimLink, *,
-                 pause_when: Callable[[RecordingSimLink], bool] | None = None) -> None:
+                 pause_when: Callable[[RecordingSimLink], bool] | None = None,
+                 hold_while: Callable[[RecordingSimLink], bool] | None = None) -> None:
         super().__init__(link.vehicle)
         self.description = link.description
         self.sent: list[Command] = []
         self.commands: list[tuple[float, Command]] = []
         self.pause_when = pause_when
+        self.hold_while = hold_while
         self.paused_at: float | None = None
 
     async def samples(self) -> AsyncIterator[Sample]:
@@ -66,6 +71,8 @@ class RecordingSimLink(SimLink):
             if self.paused_at is None and self.pause_when is not None and self.pause_when(self):
                 self.paused_at = self.vehicle.t_s
                 await asyncio.Event().wait()
+            while self.hold_while is not None and self.hold_while(self):
+                await asyncio.sleep(0.005)
             yield s
 
     async def send(self, command: Command) -> None:
@@ -75,13 +82,14 @@ class RecordingSimLink(SimLink):
 
 
 async def recording_sim_link(options: str, profile: Profile, *,
-                             pause_when: Callable[[RecordingSimLink], bool] | None = None
+                             pause_when: Callable[[RecordingSimLink], bool] | None = None,
+                             hold_while: Callable[[RecordingSimLink], bool] | None = None
                              ) -> RecordingSimLink:
     """The simulated vehicle of ``sim:options``, opened as ``trimd run --link`` opens it,
     recording what it is sent (see :class:`RecordingSimLink`)."""
     link = await open_link(f"sim:{options}", profile)
     assert isinstance(link, SimLink), link
-    return RecordingSimLink(link, pause_when=pause_when)
+    return RecordingSimLink(link, pause_when=pause_when, hold_while=hold_while)
 
 
 def app_for(profile: Profile, link: Any, *, confirmed: bool, tmp_path: Path | None = None,

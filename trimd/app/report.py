@@ -11,6 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from trimd.app.apply import Applied
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import VERIFIED, Verification
@@ -18,7 +19,8 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
-__all__ = ["NewCommands", "NewWarnings", "describe_command", "format_estimate", "format_proposal",
+__all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
+           "format_estimate", "format_proposal",
            "format_result", "format_verification"]
 
 
@@ -80,6 +82,22 @@ def format_proposal(p: Proposal) -> str:
 
 def _pieces_text(pieces: Sequence[InstalledPiece]) -> str:
     return "; ".join(f"{x.count} × {x.piece} in {x.slot}" for x in pieces) or "none"
+
+
+def format_applied(a: Applied) -> str:
+    """What ``trimd ballast apply`` (or the TUI's apply) recorded, the changes from before
+    and, with an estimate, the physics check of the configuration."""
+    lines = [f"recorded for vehicle {a.vehicle} in {a.db} ({a.source}):",
+             f"  {_pieces_text(a.installed)}",
+             f"changed from {a.before_from}: " + ("; ".join(a.changes) or "nothing")]
+    t = a.trim
+    if t is not None:
+        lines.append(f"physics check: passive roll {t.roll_deg:+.3f} ± {t.roll_std_deg:.3f}°, "
+                     f"pitch {t.pitch_deg:+.3f} ± {t.pitch_std_deg:.3f}°, net buoyancy "
+                     f"{t.net_buoyancy_N:+.2f} N ({t.net_buoyancy_pct:+.2f} % of weight)"
+                     if t.stable else
+                     "physics check: no static stability, passive trim undefined")
+    return "\n".join(lines)
 
 
 def format_verification(v: Verification) -> str:

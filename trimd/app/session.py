@@ -5,7 +5,8 @@ The session is the only place where the procedure meets I/O. It
 * starts at the vehicle's first heartbeat (a Health sample), puts every sample on the
   session time base (seconds since then, to the millisecond) and passes it through the
   recorder, so the procedure sees exactly what a replay of the log will see;
-* feeds the procedure samples, operator events and, when a live link goes quiet, Ticks
+* feeds the procedure samples, operator events (a recording's :class:`Confirmed` is the
+  operator's confirmation, where it took effect live) and, when a live link goes quiet, Ticks
   from the monotonic clock (so a dead link still times out; a recording has its own
   clock only); a vehicle that talks but never connects (a link's disconnected Health:
   another protocol version, no answer to the handshake) fails after
@@ -46,7 +47,7 @@ from trimd.core.events import (
 from trimd.core.link import Link, RawPackets
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
-from trimd.core.samples import Command, Health, PilotInput, Release, Sample
+from trimd.core.samples import Command, Confirmed, Health, PilotInput, Release, Sample
 
 __all__ = ["Machine", "Presenter", "Recorder", "Session", "SessionResult"]
 
@@ -212,7 +213,10 @@ class Session:
                         await self._feed(Health(self._t_last, False, "", False, detail=detail))
                         break
                     next_sample = asyncio.ensure_future(anext(samples))
-                    if self._t0 is not None or (isinstance(sample, Health) and sample.connected):
+                    if isinstance(sample, Confirmed):  # a recording: confirmed here, live
+                        await self._feed(Confirm())
+                    elif self._t0 is not None or (isinstance(sample, Health)
+                                                  and sample.connected):
                         await self._feed(self._on_session_time(sample))
                     elif isinstance(sample, Health) and sample.detail:
                         waiting = sample.detail  # why the link does not connect (yet)

@@ -59,6 +59,7 @@ __all__ = [
     "Trim",
     "proposal_to_dict",
     "propose_ballast",
+    "slot_to_dict",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -378,6 +379,14 @@ def _pieces(pieces: Sequence[InstalledPiece]) -> list[dict[str, Any]]:
     return [{"slot": x.slot, "piece": x.piece, "count": x.count} for x in pieces]
 
 
+def slot_to_dict(s: SlotLoad) -> dict[str, Any]:
+    """One slot's load as a proposal's JSON carries it (read back by
+    :func:`trimd.app.files.installed_from_json`)."""
+    return {"name": s.name, "position_m": list(s.position_m), "weight_kg": s.weight_kg,
+            "float_kg": s.float_kg, "mass_kg": s.mass_kg, "pieces": dict(s.pieces),
+            "removed": dict(s.removed), "net_down_N": s.net_down_N}
+
+
 def proposal_to_dict(p: Proposal) -> dict[str, Any]:
     """JSON-ready dict (the ``trimd ballast --json`` shape; units in the key names).
 
@@ -391,9 +400,7 @@ def proposal_to_dict(p: Proposal) -> dict[str, Any]:
     t = p.trim
     return {
         "method": p.method,
-        "slots": [{"name": s.name, "position_m": list(s.position_m), "weight_kg": s.weight_kg,
-                   "float_kg": s.float_kg, "mass_kg": s.mass_kg, "pieces": dict(s.pieces),
-                   "removed": dict(s.removed), "net_down_N": s.net_down_N} for s in p.slots],
+        "slots": [slot_to_dict(s) for s in p.slots],
         "added_mass_kg": p.added_mass_kg,
         "changes": [{"action": c.action, "piece": c.piece, "count": c.count,
                      "from_slot": c.from_slot, "to_slot": c.to_slot, "text": c.text}

@@ -16,15 +16,11 @@ import argparse
 import dataclasses
 import json
 import re
-import time
-from typing import Any, Literal
+from typing import Any
 
+from trimd.app.apply import apply_ballast
 from trimd.app.files import read_estimate
-from trimd.app.history import History
-from trimd.app.history.installed import current_installed
-from trimd.ballast.changes import ballast_changes, change_loads
-from trimd.ballast.check import check_trim
-from trimd.ballast.propose import propose_ballast
+from trimd.app.report import format_applied
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import ProfileError
 from trimd.core.profile import InstalledPiece, Profile
@@ -67,50 +63,27 @@ def parse_set(texts: list[str], profile: Profile) -> list[InstalledPiece]:
             for x in items]
 
 
-def _edited(base: tuple[InstalledPiece, ...], edits: list[InstalledPiece]
-            ) -> list[InstalledPiece]:
-    counts = {(x.slot, x.piece): x.count for x in base}
-    counts.update({(x.slot, x.piece): x.count for x in edits})
-    return [InstalledPiece(s, p, n) for (s, p), n in counts.items()]
-
-
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    vehicle = vehicle_of(args, profile.name)
-    db = db_path(args)
-    before, where = current_installed(db, vehicle, profile)
-    if args.estimate is None and not args.set:
+    estimate = read_estimate(args.estimate) if args.estimate else None
+    if estimate is None and not args.set:
         raise ProfileError("trimd ballast apply: give --estimate (record its proposal) or "
                            "--set SLOT:PIECE=COUNT (record edited counts), or both")
-    estimate = read_estimate(args.estimate) if args.estimate else None
-    planned = before
-    if estimate is not None:
-        planned = propose_ballast(estimate, profile, "milp", installed=before).installed_after
-    source: Literal["edited", "proposal"] = "edited" if args.set else "proposal"
-    after = profile.resolve_installed(_edited(planned, parse_set(args.set, profile)),
-                                      "the installed ballast")
-    loads = change_loads(profile, before, after)
-    trim = check_trim(estimate, loads, profile.gravity_m_s2) if estimate else None
-    with History(db) as history:
-        history.record_installed(vehicle, profile.name, time.time(), source, after)
-    changes = [c.text for c in ballast_changes(loads)]
+    applied = apply_ballast(db_path(args), vehicle_of(args, profile.name), profile,
+                            estimate=estimate, edits=parse_set(args.set, profile))
+    trim = applied.trim
     if args.json:
         print(json.dumps({
-            "vehicle": vehicle, "db": db, "source": source, "before_from": where,
-            "installed": [{"slot": x.slot, "piece": x.piece, "count": x.count} for x in after],
-            "changes": changes,
+            "vehicle": applied.vehicle, "db": str(applied.db), "source": applied.source,
+            "before_from": applied.before_from,
+            "installed": [{"slot": x.slot, "piece": x.piece, "count": x.count}
+                          for x in applied.installed],
+            "changes": list(applied.changes),
             "predicted": None if trim is None or not trim.stable else {
                 "roll_deg": trim.roll_deg, "pitch_deg": trim.pitch_deg,
                 "trim_std_deg": [trim.roll_std_deg, trim.pitch_std_deg],
                 "net_buoyancy_N": trim.net_buoyancy_N,
                 "net_buoyancy_pct": trim.net_buoyancy_pct}}, allow_nan=False))
         return 0
-    print(f"recorded for vehicle {vehicle} in {db} ({source}):")
-    print("  " + ("; ".join(f"{x.count} × {x.piece} in {x.slot}" for x in after) or "none"))
-    print(f"changed from {where}: " + ("; ".join(changes) or "nothing"))
-    if trim is not None:
-        print(f"physics check: passive roll {trim.roll_deg:+.3f} ± {trim.roll_std_deg:.3f}°, "
-              f"pitch {trim.pitch_deg:+.3f} ± {trim.pitch_std_deg:.3f}°, net buoyancy "
-              f"{trim.net_buoyancy_N:+.2f} N ({trim.net_buoyancy_pct:+.2f} % of weight)"
-              if trim.stable else "physics check: no static stability, passive trim undefined")
+    print(format_applied(applied))
     return 0

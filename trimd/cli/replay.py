@@ -24,6 +24,7 @@ import yaml
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.report import format_estimate, format_proposal, format_result
 from trimd.app.session import Presenter, Session, SessionResult
+from trimd.app.verify import verify_procedure
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import bounded
 from trimd.cli.inspect import HOLD_MODES, format_report, inspect_log
@@ -35,10 +36,16 @@ from trimd.core.events import Phase
 from trimd.core.holdfinder import find_holds
 from trimd.core.link import Link
 from trimd.core.model import thrust_configuration
+from trimd.core.procedure import VERIFY_DONE
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.core.samples import Attitude, Battery, Health, Sample, Thrusters
-from trimd.logs.replay import ReplayLink, recorded_profile_yaml
+from trimd.logs.replay import (
+    ReplayLink,
+    recorded_profile_yaml,
+    recorded_trimd_texts,
+    recorded_verify_target,
+)
 from trimd.tui.run import run_in_tui
 
 if TYPE_CHECKING:
@@ -81,23 +88,30 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
     return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
 
 
-def _session(link: Link, profile: Profile, *, presenters: list[Presenter],
-             method: str) -> Session:
-    """The replay's session over ``link``: confirmed, proposing by ``method``."""
+def _session(link: Link, path: str, profile: Profile, *,
+             presenters: list[Presenter], method: str) -> Session:
+    """The replay's session over ``link`` (the recording ``path``): a verify hold when
+    the recording carries a verify target, else the trim, proposing by ``method``;
+    confirmed where the live session was (the recording's :class:`Confirmed`)."""
+    target = recorded_verify_target(path)
+    procedure = None if target is None else verify_procedure(
+        profile, target, confirmed=False, source=f"{path} (recorded verify target)")
 
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=method)
 
-    return Session(link, profile, recorder=None, presenters=presenters, confirmed=True,
-                   propose=propose, wall_clock=False)
+    return Session(link, profile, recorder=None, presenters=presenters, confirmed=False,
+                   propose=propose, procedure=procedure, wall_clock=False)
 
 
 async def replay_session(path: str, profile: Profile, *, speed: float | None,
                          presenters: list[Presenter], method: str
                          ) -> tuple[SessionResult, ReplayLink]:
-    """Run the trim procedure over a recording; return its result and the link."""
+    """Run the recorded procedure (trim or verify hold) over a recording; return its result
+    and the link."""
     link = ReplayLink(path, profile, speed=speed)
-    return await _session(link, profile, presenters=presenters, method=method).run(), link
+    session = _session(link, path, profile, presenters=presenters, method=method)
+    return await session.run(), link
 
 
 def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> TrimApp:
@@ -107,7 +121,7 @@ def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> Tri
     from trimd.tui.replay_pace import PacedReplay
 
     link = PacedReplay(ReplayLink(path, profile), speed=speed)
-    return make_app(_session(link, profile, presenters=[], method=method), profile,
+    return make_app(_session(link, path, profile, presenters=[], method=method), profile,
                     link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
@@ -182,5 +196,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"trimd: warning: {warning}", file=sys.stderr)
     if result.phase is not Phase.DONE:
         print(f"trimd: replay ended {result.phase.value}: {result.reason}", file=sys.stderr)
+        if recorded_verify_target(path) is None and VERIFY_DONE in recorded_trimd_texts(path):
+            print(f"trimd: {path} is a verify hold recorded by an older trimd, without the "
+                  "trim it verified: it replays only as a trim, which it is not (its verdict "
+                  "is in the trim history: trimd history)", file=sys.stderr)
         return 1
     return 0

@@ -13,9 +13,11 @@ import asyncio
 import dataclasses
 import json
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
+from trimd.app.after_trim import AfterTrim
 from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
@@ -26,12 +28,10 @@ from trimd.app.files import (
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.installed import current_installed
-from trimd.app.history.trims import record_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
-from trimd.ballast.check import SlotLoad
+from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.ballast.verify import verify_hold
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError
@@ -39,7 +39,6 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
-from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -103,29 +102,33 @@ def _exit_code(result: SessionResult) -> int:
 
 def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
                   presenters: list[Presenter]) -> Session:
+    """The trim's session, or with ``--verify`` the verify hold of ``args.target``."""
+    target = args.target
     recorder = None
     if not args.no_record:
         path = Path(args.record) if args.record else default_record_path(profile)
-        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0])
+        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0],
+                                verify_target=target)
 
     def propose(estimate: StaticEstimate) -> Any:
         return propose_ballast(estimate, profile, method=args.ballast)
 
-    procedure = None
-    if getattr(args, "verify", None):
-        trim, installed = _trim_to_verify(args, profile)
-        procedure = Procedure(profile, confirmed=args.yes,
-                              verify=lambda hold: verify_hold(hold, profile, trim, installed))
+    procedure = None if target is None else verify_procedure(
+        profile, target, confirmed=args.yes, source=_target_source(args))
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose, procedure=procedure)
 
 
-def _trim_to_verify(args: argparse.Namespace, profile: Profile
-                    ) -> tuple[StaticEstimate, list[SlotLoad]]:
-    """The estimate and proposed ballast a verify hold checks: from ``--verify FILE``, or
-    (``--verify`` alone) the vehicle's last trim in the history."""
+def _target_source(args: argparse.Namespace) -> str:
+    return "the vehicle's last trim" if args.verify == LAST_TRIM else str(args.verify)
+
+
+def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any]:
+    """The verify target (:mod:`trimd.app.verify`): the estimate and proposed ballast of
+    ``--verify FILE``, or (``--verify`` alone) of the vehicle's last trim in the history."""
     if args.verify != LAST_TRIM:
-        return read_estimate(args.verify), read_installed(args.verify, profile)
+        loads = read_installed(args.verify, profile)
+        return verify_target(read_estimate(args.verify), loads)
     vehicle = vehicle_of(args, profile.name)
     with History(db_path(args)) as history:
         trims = [t for t in history.trims(vehicle) if t.proposal is not None]
@@ -134,8 +137,9 @@ def _trim_to_verify(args: argparse.Namespace, profile: Profile
         raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
                         "the trim to verify (--verify TRIM.json)")
     record = json.dumps({"estimate": trims[-1].estimate, "proposal": trims[-1].proposal})
-    return (estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
-            installed_from_json(record, f"the trim of {vehicle}", profile))
+    loads = installed_from_json(record, f"the trim of {vehicle}", profile)
+    return verify_target(estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
+                         loads)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
@@ -155,15 +159,36 @@ async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
 
 
 async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
-               ) -> tuple[SessionResult, str | None]:
+               ) -> tuple[list[SessionResult], str | None]:
     from trimd.tui import make_app
     from trimd.tui.run import run_in_tui
 
     link = await open_link(args.link, profile)
     truth_text = _truth(link, truth)
     app = make_app(_make_session(args, profile, link, []), profile,
-                   link_description=link.description, truth=truth_text)
-    return await run_in_tui(app), truth_text
+                   link_description=link.description, truth=truth_text,
+                   after=_after_trim(args, profile))
+    await run_in_tui(app)
+    return app.results, truth_text
+
+
+def _after_trim(args: argparse.Namespace, profile: Profile) -> AfterTrim:
+    """Where results go, and how a verify hold after the trim opens its link (the same
+    URL) and records (a new log: ``--record PATH`` gets ``-verify-HHMMSS`` in its name)."""
+    yaml_text = read_profile_text(args.profile)[0]
+
+    def recorder(target: dict[str, Any]) -> TlogRecorder | None:
+        if args.no_record:
+            return None
+        path = default_record_path(profile) if not args.record else Path(args.record)
+        if args.record:
+            path = path.with_name(f"{path.stem}-verify-{time.strftime('%H%M%S')}"
+                                  f"{path.suffix}")
+        return TlogRecorder(path, profile, yaml_text, verify_target=target)
+
+    return AfterTrim(None if args.no_history else Path(db_path(args)),
+                     vehicle_of(args, profile.name), profile, args.yes,
+                     lambda: open_link(args.link, profile), recorder)
 
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
@@ -175,33 +200,39 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    result, truth_text = asyncio.run((_tui if tui else _headless)(args, profile, truth=truth))
-    if result.phase is not Phase.DONE:
-        print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
-    text = format_result(result) if tui else None  # headless printed it as it came
-    if text:
-        print(text)
+    # what --verify checks is read before the link opens: bad input commands nothing
+    args.target = _trim_to_verify(args, profile) if getattr(args, "verify", None) else None
+    if tui:  # the TUI stores each session's result in the history as it ends
+        results, truth_text = asyncio.run(_tui(args, profile, truth=truth))
+    else:
+        result, truth_text = asyncio.run(_headless(args, profile, truth=truth))
+        results = [result]
+    for result in results:
+        if result.phase is not Phase.DONE:
+            print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+        text = format_result(result) if tui else None  # headless printed it as it came
+        if text:
+            print(text)
+        if result.log_path:
+            print(f"session log: {result.log_path}", file=sys.stderr)
     if truth_text and not args.json:
         print("\n" + truth_text)
-    if result.log_path:
-        print(f"session log: {result.log_path}", file=sys.stderr)
-    if not args.no_history and (result.estimate is not None or result.verification):
-        _store(args, profile, result)
-    return _exit_code(result)
+    if not tui:
+        _store(_after_trim(args, profile), results[-1])
+    return _exit_code(results[-1])
 
 
-def _store(args: argparse.Namespace, profile: Profile, result: SessionResult) -> None:
+def _store(after: AfterTrim, result: SessionResult) -> None:
     """Store the result in the trim history; a file that cannot take it is a warning (the
     trim itself succeeded and was printed)."""
-    vehicle = vehicle_of(args, profile.name)
     try:
-        with History(db_path(args)) as history:
-            record_result(history, vehicle, profile.name, result)
+        stored = after.store(result)
     except DataError as exc:
         print(f"trimd: warning: the trim was not stored in the history: {exc}",
               file=sys.stderr)
         return
-    print(f"trim history: stored for vehicle {vehicle} in {history.path}", file=sys.stderr)
+    if stored:
+        print(stored, file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:

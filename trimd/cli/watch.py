@@ -28,6 +28,7 @@ from typing import Any
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.baseline import latest_baseline
 from trimd.app.watch import (
     Record,
     format_record,
@@ -67,7 +68,8 @@ def register(sub: Any) -> None:
     p.add_argument("--duration", type=bounded(0.0), metavar="S",
                    help="live: stop after S seconds of sample time")
     p.add_argument("--baseline", metavar="EST.json", help="compare with this estimate "
-                   "(trimd solve --json), or 'last': the vehicle's last trim in the history, "
+                   "(trimd solve --json), or 'last': the vehicle's latest measurement in the "
+                   "history (its last trim, or a verify hold of its ballast if newer), "
                    "instead of the first segments")
     p.add_argument("--no-history", action="store_true", help="do not store the segments and "
                    "alerts in the trim history")
@@ -87,13 +89,12 @@ def _baseline(args: argparse.Namespace, profile: Profile) -> Baseline | None:
     if path is None:
         return None
     if path == "last":
-        vehicle = vehicle_of(args, profile.name)
         with History(db_path(args)) as history:
-            trims, where = history.trims(vehicle), history.path
-        if not trims:
-            raise DataError(f"--baseline last: no trim of vehicle {vehicle} in {where}")
-        return baseline_from_estimate(estimate_from_dict(trims[-1].estimate, str(where)),
-                                      f"the last trim of {vehicle}")
+            latest = latest_baseline(history, vehicle_of(args, profile.name))
+        print(f"trimd watch: baseline: {latest.baseline.source}", file=sys.stderr)
+        if latest.warning:
+            print(f"trimd: warning: {latest.warning}", file=sys.stderr)
+        return latest.baseline
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:

@@ -49,7 +49,7 @@ from trimd.core.samples import (
 )
 from trimd.core.settling import HoldSettling
 
-__all__ = ["Procedure"]
+__all__ = ["VERIFY_DONE", "Procedure"]
 
 #: Telemetry the precheck needs, in samples per second of sample time.
 MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
@@ -68,6 +68,8 @@ HEADING_LEASH_DEG = 2.0
 #: Before the holds, depth may wander by this share of max_depth_excursion_m over the
 #: precheck window.
 DEPTH_STABLE_SHARE = 0.5
+#: How a verify hold that reached its verdict ends (its last state notice says so).
+VERIFY_DONE = "verify hold done"
 
 
 @dataclass
@@ -378,7 +380,7 @@ class Procedure:
             self.verification = verify(self._hold_samples()[0])
         except EstimationError as exc:
             return self._finish(Phase.FAILED, f"cannot verify: {exc}", cause=Cause.ESTIMATION)
-        out = self._finish(Phase.DONE, "verify hold done")
+        out = self._finish(Phase.DONE, VERIFY_DONE)
         out.append(Notice(self._t, "result", "verification", verification=self.verification))
         return out
 

@@ -14,6 +14,7 @@ __all__ = [
     "Attitude",
     "Battery",
     "Command",
+    "Confirmed",
     "Depth",
     "Health",
     "HoldAttitude",
@@ -123,7 +124,17 @@ class PilotInput:
     source: str
 
 
-Sample = Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText | PilotInput
+@dataclass(frozen=True, slots=True)
+class Confirmed:
+    """In a recording: trimd began commanding the vehicle here, so the operator's
+    confirmation (or ``--yes``) took effect at this point. A replay confirms here, so its
+    holds start at the very sample the live ones did."""
+
+    t_s: float
+
+
+Sample = (Attitude | Thrusters | Depth | Velocity | Battery | Health | VehicleText | PilotInput
+          | Confirmed)
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,7 +14,11 @@ zero; a replay measures every sample's time from it.
   SET_ATTITUDE_TARGET for a hold, STATUSTEXT for release, notices and warnings,
   NAMED_VALUE_FLOAT for the result.
 * The vehicle profile rides along as gzip-compressed YAML in ENCAPSULATED_DATA packets,
-  so a trimd recording replays without ``--profile``.
+  so a trimd recording replays without ``--profile``; a verify hold's recording carries
+  its verify target (:mod:`trimd.app.verify`) the same way, as gzip-compressed JSON, so
+  its replay is a verify hold too. Each block follows a STATUSTEXT that names it
+  (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`); a reader that knows only the profile
+  stops at the next one.
 
 :meth:`TlogRecorder.sample` returns the sample *as the log stores it* (float32 angles,
 integer PWM, millivolts): the live procedure sees exactly what a replay will see. The file
@@ -24,6 +28,7 @@ is flushed and synced at least once a second, so after ``kill -9`` at most a sec
 from __future__ import annotations
 
 import gzip
+import json
 import math
 import os
 import struct
@@ -55,11 +60,14 @@ from trimd.core.samples import (
 )
 from trimd.drivers.mavlink.ardusub import mode_name, mode_number
 
-__all__ = ["PILOT_TEXT", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "TlogRecorder"]
+__all__ = ["PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK",
+           "TlogRecorder"]
 
 TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
 VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
 SESSION_START = "trimd session start"
+#: How the STATUSTEXT before each block of ENCAPSULATED_DATA begins.
+PROFILE_BLOCK, VERIFY_BLOCK = "trimd profile ", "trimd verify target"
 #: A :class:`PilotInput` is recorded as the vehicle's STATUSTEXT (warning) with this
 #: prefix before its source; :class:`trimd.logs.log.TlogLog` reads it back as one.
 PILOT_TEXT = "pilot took over: "
@@ -89,9 +97,11 @@ def _text_chunks(text: str) -> list[bytes]:
 
 
 class TlogRecorder:
-    """Record one session to ``path`` (parent directories are created)."""
+    """Record one session to ``path`` (parent directories are created); ``verify_target``:
+    the session is a verify hold of that target (:mod:`trimd.app.verify`)."""
 
-    def __init__(self, path: str | Path, profile: Profile, profile_yaml: str) -> None:
+    def __init__(self, path: str | Path, profile: Profile, profile_yaml: str, *,
+                 verify_target: dict[str, Any] | None = None) -> None:
         self.path = str(path)
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self._file = open(path, "wb")  # noqa: SIM115 - kept open for the session
@@ -105,7 +115,9 @@ class TlogRecorder:
         self._last_flush = time.monotonic()
         self._text_id = 0
         self._write_text(0.0, SESSION_START, 6)
-        self._write_profile(profile.name, profile_yaml)
+        self._write_block(f"{PROFILE_BLOCK}{profile.name}", profile_yaml, "YAML")
+        if verify_target is not None:
+            self._write_block(VERIFY_BLOCK, json.dumps(verify_target), "JSON")
 
     # ---------------------------------------------------------------- writing
     def _write(self, t_s: float, mav: Any, msg: Any) -> None:
@@ -134,9 +146,11 @@ class TlogRecorder:
         for seq, chunk in enumerate(chunks):
             self._write(t_s, mav, mav.statustext_encode(severity, chunk, self._text_id, seq))
 
-    def _write_profile(self, name: str, profile_yaml: str) -> None:
-        data = gzip.compress(profile_yaml.encode("utf-8"), mtime=0)
-        self._write_text(0.0, f"trimd profile {name}: {len(data)} bytes gzip YAML", 6)
+    def _write_block(self, header: str, text: str, kind: str) -> None:
+        """``text`` gzip-compressed in ENCAPSULATED_DATA packets after a STATUSTEXT
+        ``header: N bytes gzip KIND``, all at session time 0."""
+        data = gzip.compress(text.encode("utf-8"), mtime=0)
+        self._write_text(0.0, f"{header}: {len(data)} bytes gzip {kind}", 6)
         for seq, start in enumerate(range(0, len(data), 253)):
             chunk = data[start:start + 253]
             self._write(0.0, self._trimd, self._trimd.encapsulated_data_encode(

@@ -10,26 +10,36 @@ function of the samples.
 from __future__ import annotations
 
 import asyncio
+import json
 import time
 import zlib
 from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
+from typing import Any
 
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Sample
 from trimd.logs.log import is_dataflash, open_log
-from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM
+from trimd.logs.recorder import (
+    PROFILE_BLOCK,
+    SESSION_START,
+    TRIMD_COMPONENT,
+    TRIMD_SYSTEM,
+    VERIFY_BLOCK,
+)
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "recorded_profile_yaml"]
+__all__ = ["ReplayLink", "recorded_profile_yaml", "recorded_trimd_texts",
+           "recorded_verify_target"]
 
 
-def recorded_profile_yaml(path: str | Path) -> str | None:
-    """The vehicle profile a trimd recording carries (YAML text); None for other logs."""
-    if is_dataflash(path):
-        return None
-    chunks: list[bytes] = []
+def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
+    """The ENCAPSULATED_DATA blocks at the start of a trimd recording, by the start of the
+    STATUSTEXT naming each (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`); empty for other
+    logs. Any other trimd message after a block ends them."""
+    blocks: dict[str, list[bytes]] = {}
+    current: str | None = None
     trimd = False
     for _, msg in TlogReader.open(path).messages():
         if (msg.get_srcSystem(), msg.get_srcComponent()) != (TRIMD_SYSTEM, TRIMD_COMPONENT):
@@ -37,20 +47,65 @@ def recorded_profile_yaml(path: str | Path) -> str | None:
         kind = msg.get_type()
         if kind == "STATUSTEXT" and msg.text == SESSION_START:
             trimd = True
-        elif kind == "ENCAPSULATED_DATA" and trimd:
-            chunks.append(bytes(msg.data))
-        elif chunks:
+        elif kind == "STATUSTEXT" and trimd and getattr(msg, "chunk_seq", 0) == 0 and any(
+                msg.text.startswith(name) for name in (PROFILE_BLOCK, VERIFY_BLOCK)):
+            current = next(n for n in (PROFILE_BLOCK, VERIFY_BLOCK) if msg.text.startswith(n))
+            blocks[current] = []
+        elif kind == "ENCAPSULATED_DATA" and current is not None:
+            blocks[current].append(bytes(msg.data))
+        elif kind == "STATUSTEXT" and getattr(msg, "chunk_seq", 0) > 0:
+            continue  # the rest of a long header
+        elif blocks:
             break
-    if not chunks:
-        return None
+    return {k: v for k, v in blocks.items() if v}
+
+
+def _gunzip(chunks: list[bytes], path: str | Path, what: str) -> str:
     gunzip = zlib.decompressobj(wbits=31)  # gzip; the zero padding of the last chunk stays
     try:
         text = gunzip.decompress(b"".join(chunks)).decode("utf-8")
     except (zlib.error, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: the recorded profile is damaged ({exc})") from None
+        raise DataError(f"{path}: the recorded {what} is damaged ({exc})") from None
     if not gunzip.eof:
-        raise DataError(f"{path}: the recorded profile is cut short")
+        raise DataError(f"{path}: the recorded {what} is cut short")
     return text
+
+
+def recorded_profile_yaml(path: str | Path) -> str | None:
+    """The vehicle profile a trimd recording carries (YAML text); None for other logs."""
+    if is_dataflash(path):
+        return None
+    chunks = _recorded_blocks(path).get(PROFILE_BLOCK)
+    return None if chunks is None else _gunzip(chunks, path, "profile")
+
+
+def recorded_verify_target(path: str | Path) -> dict[str, Any] | None:
+    """The verify target a verify hold's recording carries (:mod:`trimd.app.verify`); None
+    for a trim's recording (and for a verify hold recorded before trimd wrote it) and
+    other logs."""
+    if is_dataflash(path):
+        return None
+    chunks = _recorded_blocks(path).get(VERIFY_BLOCK)
+    if chunks is None:
+        return None
+    try:
+        target = json.loads(_gunzip(chunks, path, "verify target"))
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: the recorded verify target is damaged ({exc})") from None
+    if not isinstance(target, dict):
+        raise DataError(f"{path}: the recorded verify target is not a JSON object")
+    return target
+
+
+def recorded_trimd_texts(path: str | Path) -> Iterator[str]:
+    """The texts trimd wrote into a recording (notices, state changes), in file order;
+    each text's first chunk only."""
+    if is_dataflash(path):
+        return
+    for _, msg in TlogReader.open(path).messages():
+        if ((msg.get_srcSystem(), msg.get_srcComponent()) == (TRIMD_SYSTEM, TRIMD_COMPONENT)
+                and msg.get_type() == "STATUSTEXT" and getattr(msg, "chunk_seq", 0) == 0):
+            yield str(msg.text)
 
 
 class ReplayLink:

@@ -45,8 +45,9 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.errors import DataError
-from trimd.core.samples import Sample
+from trimd.core.samples import Confirmed, Sample
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM
 
 __all__ = ["MAX_TIME_JUMP_US", "TlogReader", "TlogStats"]
 
@@ -55,6 +56,9 @@ MAX_TIME_JUMP_US = 24 * 3600 * 1_000_000
 _V1, _V2 = 0xFE, 0xFD
 _MAGIC = re.compile(rb"[\xfd\xfe]")
 _STAMP = struct.Struct(">Q")
+#: What trimd's recorder writes for a command (:meth:`TlogRecorder.command`; a release
+#: is a text, and comes only after one of these).
+_COMMANDS = frozenset({"SET_ATTITUDE_TARGET", "MANUAL_CONTROL", "COMMAND_LONG"})
 
 
 @dataclass
@@ -210,9 +214,21 @@ class TlogReader:
         seqs[key] = seq
 
     def samples(self, decoder: MavlinkDecoder) -> Iterator[Sample]:
-        """Typed samples of every good record through ``decoder``; t_s from the first record."""
+        """Typed samples of every good record through ``decoder``; t_s from the first record.
+
+        In a trimd recording (it starts with trimd's session-start text), trimd's first
+        command is preceded by :class:`Confirmed` at its place in the file."""
         st = self.stats
+        recording, commanded = False, False
         for stamp, msg in self.messages():
             decoder.bad_frames = st.bad_frames
             assert st.first_us is not None
-            yield from decoder.decode(msg, (stamp - st.first_us) * 1e-6)
+            t_s = (stamp - st.first_us) * 1e-6
+            if (msg.get_srcSystem(), msg.get_srcComponent()) == (TRIMD_SYSTEM,
+                                                                 TRIMD_COMPONENT):
+                kind = msg.get_type()
+                recording |= kind == "STATUSTEXT" and msg.text == SESSION_START
+                if recording and not commanded and kind in _COMMANDS:
+                    commanded = True
+                    yield Confirmed(t_s)
+            yield from decoder.decode(msg, t_s)

@@ -1,7 +1,8 @@
 """The trimd terminal UI: the session runs in a worker on the app's loop; the TUI is
 one of its presenters. :func:`make_app` builds it for ``trimd run`` / ``trimd demo`` /
 ``trimd replay`` (which run it until the operator quits or a signal stops it) and for the
-tests."""
+tests. After a trim that ends with a proposal, ``trimd run``'s TUI offers apply and verify
+(:mod:`trimd.tui.followup`): a verify hold is a second session on the same screen."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from textual.events import Resize
 from textual.screen import Screen
 from textual.widgets import Footer
 
+from trimd.app.after_trim import AfterTrim
 from trimd.app.report import NewCommands
 from trimd.app.session import Session, SessionResult
 from trimd.ballast.propose import METHODS, Proposal
@@ -26,6 +28,7 @@ from trimd.core.events import Phase, Progress
 from trimd.core.profile import Profile
 from trimd.tui.attitude_panel import AttitudePanel
 from trimd.tui.event_log import EventLog
+from trimd.tui.followup import Followup
 from trimd.tui.help_screen import HelpScreen
 from trimd.tui.link_panel import HEARTBEAT_STALE_S, LinkPanel
 from trimd.tui.messages import (
@@ -35,6 +38,7 @@ from trimd.tui.messages import (
     SessionEnded,
     TelemetryChanged,
 )
+from trimd.tui.next_steps import NextSteps
 from trimd.tui.presenter import TuiPresenter
 from trimd.tui.quit_screen import QuitScreen
 from trimd.tui.replay_pace import PacedReplay
@@ -43,6 +47,7 @@ from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 from trimd.tui.telemetry import LiveState
 from trimd.tui.thrusters import ThrusterPanel
+from trimd.tui.verdict_panel import VerdictPanel
 
 __all__ = ["TrimApp", "make_app"]
 
@@ -57,7 +62,9 @@ _BEFORE_HOLDS = (Phase.CONNECT, Phase.PRECHECK, Phase.CONFIRM)
 class TrimApp(App[SessionResult]):
     """Runs ``session`` and shows it; ``result`` is set once the session has ended.
 
-    ``replay``: the session's link when it replays a recording (pause and speed keys)."""
+    ``replay``: the session's link when it replays a recording (pause and speed keys).
+    ``after``: where results go and how a verify hold starts (None: no apply or verify).
+    ``results``: every session's result, the trim's first (a verify hold's after it)."""
 
     CSS_PATH = "trimd.tcss"
     TITLE = "trimd"
@@ -69,6 +76,8 @@ class TrimApp(App[SessionResult]):
         Binding("m", "method", "Method"),
         Binding("v", "view", "Live/result"),
         Binding("r", "report", "Save report"),
+        Binding("p", "apply", "Apply ballast"),
+        Binding("y", "verify", "Verify"),
         # a replay's only (hidden over a live link)
         Binding("space", "pace('pause')", "Pause"),
         Binding("plus,equals_sign", "pace('faster')", "Faster", key_display="+"),
@@ -79,7 +88,8 @@ class TrimApp(App[SessionResult]):
 
     def __init__(self, session: Session, profile: Profile, *, link_description: str,
                  truth: str | None, report_dir: Path | None,
-                 clock: Callable[[], float], replay: PacedReplay | None) -> None:
+                 clock: Callable[[], float], replay: PacedReplay | None,
+                 after: AfterTrim | None = None) -> None:
         super().__init__()
         self.session = session
         self.profile = profile
@@ -89,6 +99,8 @@ class TrimApp(App[SessionResult]):
         self.replay = replay
         self.state = LiveState(clock)
         self.result: SessionResult | None = None
+        self.results: list[SessionResult] = []
+        self.followup = Followup(self, after)
         self.confirmed = False
         self._quitting = False
         self._progress: Progress | None = None
@@ -102,31 +114,47 @@ class TrimApp(App[SessionResult]):
                                 vehicle=self.profile.name,
                                 stale_after_s=HEARTBEAT_STALE_S)
                 yield Stepper(self.profile)
+                yield NextSteps()
                 yield EventLog()
             with Vertical(id="right"):
                 with Vertical(id="live"):
                     yield AttitudePanel(self.state)
                     yield ThrusterPanel(self.state, self.profile)
+                yield VerdictPanel()
                 yield ResultPanel(self.profile, truth=self.truth)
         yield Footer()
 
     def on_mount(self) -> None:
-        self.session.presenters.append(TuiPresenter(self, self.state))
-        # a task of its own, which the worker only waits on: closing the app cancels its
-        # workers, and the session must still end by the procedure's abort (releasing)
-        self._session_task = asyncio.ensure_future(self.session.run())
         self.set_interval(1 / REDRAW_HZ, self._redraw)
         self._show_pace()
-        self.run_worker(self._wait_session(), name="session", group="session")
+        self.run_session(self.session)
 
-    async def _wait_session(self) -> None:
-        self.post_message(SessionEnded(await asyncio.shield(self._session_task)))
+    def run_session(self, session: Session, *, verify: bool = False) -> None:
+        """Run ``session`` (the trim, or later a verify hold) and show it; the operator
+        confirms it afresh (unless it was confirmed up front)."""
+        if verify:
+            self.state.restart()
+            self.query_one(Stepper).restart(verify=True)
+            link = self.query_one(LinkPanel)
+            link.link_description, link.closed = session.link.description, False
+        self.session, self.result, self.confirmed = session, None, False
+        session.presenters.append(TuiPresenter(self, self.state))
+        # a task of its own, which the worker only waits on: closing the app cancels its
+        # workers, and the session must still end by the procedure's abort (releasing)
+        self._session_task = task = asyncio.ensure_future(session.run())
+        self.run_worker(self._wait_session(task), name="session", group="session")
+        self.refresh_bindings()
+
+    async def _wait_session(self, task: asyncio.Future[SessionResult]) -> None:
+        self.post_message(SessionEnded(await asyncio.shield(task)))
 
     async def on_unmount(self) -> None:
         """Whatever closes the app, the session ends (and releases) before it is gone."""
         if not self._session_task.done():
             self.session.abort("the terminal UI closed")
         self.result = await self._session_task
+        if self.result not in self.results:
+            self.results.append(self.result)
 
     # ---------------------------------------------------------------- session events
     @on(TelemetryChanged)
@@ -176,10 +204,12 @@ class TrimApp(App[SessionResult]):
     @on(SessionEnded)
     def _ended(self, message: SessionEnded) -> None:
         r = self.result = message.result
+        self.results.append(r)
         self.query_one(LinkPanel).closed = True
         where = f"; log {r.log_path}" if r.log_path else ""
         self.query_one(EventLog).add(self.state.t_s, "state",
                                      f"session ended: {r.phase.value}{where}")
+        self.followup.ended(r)
         self.refresh_bindings()
         if self._quitting:
             self.exit(r)
@@ -194,11 +224,16 @@ class TrimApp(App[SessionResult]):
         if action == "start":
             progress = self.query_one(Stepper).progress
             early = progress is None or progress.phase in _BEFORE_HOLDS
-            return self.result is None and not self.confirmed and early
+            # a replay confirms where the live session was confirmed (its recording says)
+            return self.result is None and not self.confirmed and early and not self.replay
         if action in ("method", "view"):
             return self.query_one(ResultPanel).estimate is not None
         if action == "pace":
             return self.replay is not None and self.result is None
+        if action == "apply":
+            return self.followup.can_apply
+        if action == "verify":
+            return self.followup.can_verify
         return True
 
     def action_start(self) -> None:
@@ -213,6 +248,8 @@ class TrimApp(App[SessionResult]):
         if self.result is None:
             self.session.abort("aborted by the operator")
             self.query_one(EventLog).add(self.state.t_s, "error", "ABORT requested")
+        else:  # a verify hold whose link is being opened does not start
+            self.followup.cancel()
 
     def stop(self, reason: str) -> None:
         """End the session for ``reason`` (releasing the vehicle, closing the log), then
@@ -244,7 +281,8 @@ class TrimApp(App[SessionResult]):
         status = f"{p.phase.value}: {p.reason}" if p.reason else p.phase.value
         report = Report(self.profile.name, self.link_description, status, log_path,
                         panel.estimate, panel.proposal, self.truth,
-                        list(self.query_one(EventLog).entries))
+                        list(self.query_one(EventLog).entries),
+                        self.query_one(VerdictPanel).verification)
         directory = self.report_dir or (Path(log_path).parent if log_path else Path.cwd())
         stem = f"{Path(log_path).stem}-report" if log_path else f"trimd-{self.profile.name}"
         try:
@@ -254,6 +292,16 @@ class TrimApp(App[SessionResult]):
             return
         self.query_one(EventLog).add(self.state.t_s, "info", f"report saved: {md.name}")
         self.notify(f"Report saved: {md} and {js.name}")
+
+    def action_apply(self) -> None:
+        """Record the proposal shown as the ballast installed on the vehicle."""
+        self.followup.apply()
+        self.refresh_bindings()
+
+    def action_verify(self) -> None:
+        """Once the ballast is on: a verify hold on the same link (after confirmation)."""
+        self.run_worker(self.followup.verify(), name="verify-open", group="verify",
+                        exclusive=True)
 
     def action_pace(self, change: str) -> None:
         """Replay: ``pause`` (or resume), ``faster`` or ``slower``."""
@@ -302,12 +350,13 @@ class TrimApp(App[SessionResult]):
 def make_app(session: Session, profile: Profile, *, link_description: str,
              truth: str | None = None, report_dir: Path | None = None,
              clock: Callable[[], float] = time.monotonic,
-             replay: PacedReplay | None = None) -> TrimApp:
+             replay: PacedReplay | None = None, after: AfterTrim | None = None) -> TrimApp:
     """The TUI over ``session`` (not started yet; the app starts it when mounted).
 
     ``report_dir``: where reports go (default: beside the session log, else the current
     directory). ``clock``: only for the heartbeat age shown (tests fix it; a replay passes
     its own sample time). ``replay``: the session's link when it replays a recording.
+    ``after``: what follows a trim (storing results, apply, verify; :class:`AfterTrim`).
     """
     return TrimApp(session, profile, link_description=link_description, truth=truth,
-                   report_dir=report_dir, clock=clock, replay=replay)
+                   report_dir=report_dir, clock=clock, replay=replay, after=after)

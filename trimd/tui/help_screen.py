@@ -24,6 +24,10 @@ PANELS = (
     ("Result", "weight, extra mass, centre of gravity ± 1σ; top view (▲ forward, ⊗ "
                "thrusters, lettered slots: yellow weights, cyan floats; CG0 → CG1 magnified); "
                "passive trim and net buoyancy after ballasting"),
+    ("Next steps", "after a trim with a proposal: p records the milp proposal as installed "
+                   "(trimd ballast apply), then, with the ballast fitted, y runs a verify hold"),
+    ("Verdict", "the verify hold: residual trim measured vs predicted, the quantities that "
+                "differ in red"),
     ("Messages", "events, warnings and commands, stamped with session time"),
 )
 

@@ -1,7 +1,8 @@
 """The trim report the operator saves from the TUI: markdown for people, JSON for tools
 (the estimate and proposal in the ``trimd solve --json`` / ``trimd ballast --json``
 shapes), written side by side. Both state the ballast method of the proposal shown and
-warn when that proposal is not feasible."""
+warn when that proposal is not feasible; after a verify hold, its verdict too (and a warning
+when it is not as predicted)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from trimd.app.report import format_estimate, format_proposal
+from trimd.app.report import format_estimate, format_proposal, format_verification
 from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 
@@ -32,6 +34,7 @@ class Report:
     proposal: Proposal | None
     truth: str | None
     events: Sequence[tuple[float, str, str]]
+    verification: Verification | None = None
 
 
 def _free_stem(directory: Path, stem: str) -> Path:
@@ -44,11 +47,15 @@ def _free_stem(directory: Path, stem: str) -> Path:
 
 
 def _warnings(r: Report) -> list[str]:
-    """What the reader must not miss: an infeasible proposal."""
-    p = r.proposal
-    if p is None or p.feasible:
-        return []
-    return [f"the {p.method} proposal is NOT FEASIBLE (best achievable): {p.message}"]
+    """What the reader must not miss: an infeasible proposal, a verify hold not as
+    predicted."""
+    p, v = r.proposal, r.verification
+    out = []
+    if p is not None and not p.feasible:
+        out.append(f"the {p.method} proposal is NOT FEASIBLE (best achievable): {p.message}")
+    if v is not None and not (v.as_predicted and v.level):
+        out.append(f"the verify hold: {v.message}")
+    return out
 
 
 def _to_dict(r: Report) -> dict[str, Any]:
@@ -59,6 +66,8 @@ def _to_dict(r: Report) -> dict[str, Any]:
         "estimate": None if r.estimate is None else estimate_to_dict(r.estimate),
         "proposal": None if r.proposal is None else proposal_to_dict(r.proposal),
         "truth": r.truth,
+        "verification": (None if r.verification is None
+                         else verification_to_dict(r.verification)),
         "events": [{"t_s": None if math.isnan(t) else t, "kind": k, "text": text}
                    for t, k, text in r.events],
     }
@@ -76,6 +85,9 @@ def _to_markdown(r: Report) -> str:
     if r.proposal is not None:
         out += ["", f"## Ballast proposal ({r.proposal.method})", "", "```text",
                 format_proposal(r.proposal), "```"]
+    if r.verification is not None:
+        out += ["", "## Verify hold", "", "```text", format_verification(r.verification),
+                "```"]
     if r.truth:
         out += ["", "## Simulator truth", "", r.truth]
     out += ["", "## Events", "", "| t [s] | kind | event |", "|---:|---|---|"]

@@ -1,5 +1,6 @@
 """Procedure panel: the steps with the current one highlighted, settle and collect
-progress bars, time left before the step times out, and the reason when it ends."""
+progress bars, time left before the step times out, and the reason when it ends. A verify
+hold has one hold (the level one) and ends in the verdict instead of a proposal."""
 
 from __future__ import annotations
 
@@ -46,8 +47,19 @@ class Stepper(Widget):
         super().__init__(id=id)
         self.profile = profile
         self.border_title = "Procedure"
+        self.holds = profile.holds
+        self.last_step = "solve → proposal"
         self._active = 0
         self._shape: tuple[int, Phase | None] = (0, None)
+
+    def restart(self, *, verify: bool) -> None:
+        """A new session: a verify hold (one level hold, then the verdict) or a trim."""
+        self.holds = self.profile.holds[:1] if verify else self.profile.holds
+        self.last_step = "compare → verdict" if verify else "solve → proposal"
+        self.border_title = "Verify hold" if verify else "Procedure"
+        self._active = 0
+        self.progress = None
+        self.refresh(layout=True)
 
     def watch_progress(self, progress: Progress | None) -> None:
         if progress is not None and not progress.phase.final:
@@ -77,14 +89,14 @@ class Stepper(Widget):
             mark, style = self._mark(i)
             text.append(f"{mark} {phase.value}  ", style=style)
         text.append("\n")
-        for k, hold in enumerate(self.profile.holds):
+        for k, hold in enumerate(self.holds):
             mark, style = self._mark(len(_PRE) + k)
-            text.append(f"{mark} hold {k + 1}/{len(self.profile.holds)}  roll {hold.roll_deg:g}°"
+            text.append(f"{mark} hold {k + 1}/{len(self.holds)}  roll {hold.roll_deg:g}°"
                         f" pitch {hold.pitch_deg:g}°\n", style=style)
             if p is not None and self._active == len(_PRE) + k and not p.phase.final:
                 text.append_text(self._bars(p, width))
-        mark, style = self._mark(len(_PRE) + len(self.profile.holds))
-        text.append(f"{mark} solve → proposal\n", style=style)
+        mark, style = self._mark(len(_PRE) + len(self.holds))
+        text.append(f"{mark} {self.last_step}\n", style=style)
         if p is not None:
             status = "bold red" if p.phase in (Phase.FAILED, Phase.ABORTED) else (
                 "bold green" if p.phase is Phase.DONE else "")

@@ -65,6 +65,10 @@ class LiveState:
 
     def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
         self.clock = clock
+        self.restart()
+
+    def restart(self) -> None:
+        """Forget everything (a new session: its time starts again at 0)."""
         self.attitude: Attitude | None = None
         self.depth: Depth | None = None
         self.thrusters: Thrusters | None = None

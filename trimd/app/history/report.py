@@ -46,7 +46,8 @@ def _install_text(r: InstallRecord) -> str:
 
 
 def _event_text(r: EventRecord) -> str:
-    text = r.values.get("text")
+    """An alert's ``text`` or a verify hold's ``message``, else its values."""
+    text = r.values.get("text") or r.values.get("message")
     body = str(text) if text else ", ".join(f"{k} {v}" for k, v in sorted(r.values.items()))
     return f"  {utc_text(r.t_unix)}  {body}"
 

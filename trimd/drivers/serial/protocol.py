@@ -27,6 +27,7 @@ from trimd.core.samples import (
     Attitude,
     Battery,
     Command,
+    Confirmed,
     Depth,
     Health,
     HoldAttitude,
@@ -347,6 +348,8 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
     if isinstance(sample, PilotInput):
         raise ValueError("a pilot taking over is sent as STA with control PILOT, not as a "
                          "sentence of its own")
+    if isinstance(sample, Confirmed):
+        raise ValueError("a recording's confirmation mark is no vehicle sentence")
     # a text the protocol cannot carry is made to fit: other characters become "?",
     # commas ";", and it is cut to _TEXT_CHARS characters
     text = "".join(";" if c == "," else c if " " <= c <= "~" and c not in "$*" else "?"

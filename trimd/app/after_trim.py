@@ -1,0 +1,89 @@
+"""What follows a trim: its result stored in the trim history, the ballast the operator
+installed recorded there (what ``trimd ballast apply`` does: :func:`trimd.app.apply.
+apply_ballast`), and a verify hold of the ballasted vehicle over the same link.
+
+``trimd run`` builds one :class:`AfterTrim` per invocation; the TUI offers "apply" and
+"verify" through it once a trim ends with a proposal. The verify hold is a new session on
+a link opened again from the same URL, confirmed by the same rule as the trim (up front
+with ``--yes``, else by the operator before anything is commanded), and recorded with its
+verify target (:mod:`trimd.app.verify`) so that ``trimd replay`` reproduces its verdict.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from trimd.app.apply import Applied, apply_ballast
+from trimd.app.history import History
+from trimd.app.history.trims import record_result
+from trimd.app.session import Presenter, Recorder, Session, SessionResult
+from trimd.app.verify import verify_procedure
+from trimd.ballast.propose import Proposal
+from trimd.core.errors import ProfileError
+from trimd.core.estimate import StaticEstimate
+from trimd.core.link import Link
+from trimd.core.profile import Profile
+
+__all__ = ["AfterTrim"]
+
+
+@dataclass(frozen=True)
+class AfterTrim:
+    """Where a vehicle's results go and how its verify hold starts.
+
+    Attributes
+    ----------
+    db : the trim history file; None with ``--no-history`` (nothing stored, no apply).
+    vehicle : the vehicle's key in the history.
+    profile : the vehicle's profile (its ``installed`` ballast: the history's).
+    confirmed : the operator confirmed up front (``--yes``): a verify hold does not wait
+        for a confirmation either.
+    open_link : opens the trim's link again (same URL).
+    recorder : the recorder of a verify hold of a target (None: not recorded).
+    """
+
+    db: Path | None
+    vehicle: str
+    profile: Profile
+    confirmed: bool
+    open_link: Callable[[], Awaitable[Link]]
+    recorder: Callable[[dict[str, Any]], Recorder | None]
+
+    def store(self, result: SessionResult) -> str | None:
+        """Store a session's estimate and proposal, or its verification, in the history;
+        a line for people, None when nothing was stored (no history, or a session that
+        produced neither). DataError when the file cannot take it."""
+        if self.db is None or (result.estimate is None and result.verification is None):
+            return None
+        with History(self.db) as history:
+            record_result(history, self.vehicle, self.profile.name, result)
+        return f"trim history: stored for vehicle {self.vehicle} in {history.path}"
+
+    def apply(self, estimate: StaticEstimate, proposal: Proposal) -> Applied:
+        """Record ``proposal`` (for ``estimate``) as the ballast now installed.
+        ProfileError without a history; DataError when the history cannot take it or
+        holds other ballast than the proposal started from."""
+        if self.db is None:
+            raise ProfileError("no trim history (--no-history): nothing can be recorded")
+        return apply_ballast(self.db, self.vehicle, self.profile, estimate=estimate,
+                             proposal=proposal)
+
+    async def verify_session(self, target: dict[str, Any],
+                             presenters: list[Presenter]) -> Session:
+        """A verify hold of ``target`` on the link opened again (not started). DataError
+        for a target that does not fit the profile, LinkError when the link does not open,
+        OSError when the recording cannot be created (the link is closed again)."""
+        procedure = verify_procedure(self.profile, target, confirmed=self.confirmed)
+        link = await self.open_link()
+        try:
+            recorder = self.recorder(target)
+        except OSError:
+            with contextlib.suppress(Exception):
+                await link.close()
+            raise
+        return Session(link, self.profile, recorder=recorder, presenters=presenters,
+                       confirmed=self.confirmed, procedure=procedure)

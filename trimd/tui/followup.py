@@ -1,0 +1,141 @@
+"""The TUI after a session: store its result in the trim history and, once a trim ends
+with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`).
+
+Apply records the ``milp`` proposal (pieces of the inventory; the other methods' ideal
+amounts cannot be installed as such) as the installed ballast, and shows it.
+Verify opens the trim's link again and hands the app a verify-hold session, which runs
+on the main screen as the trim did: nothing is commanded before the operator confirms
+(``s``, unless ``--yes``), ``a`` aborts, quitting asks first; its verdict then shows.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from trimd.app.after_trim import AfterTrim
+from trimd.app.apply import Applied
+from trimd.app.report import format_applied
+from trimd.app.session import SessionResult
+from trimd.app.verify import verify_target
+from trimd.ballast.propose import Proposal, propose_ballast
+from trimd.ballast.verify import Verification
+from trimd.core.errors import TrimdError
+from trimd.core.events import Phase
+from trimd.tui.event_log import EventLog
+from trimd.tui.next_steps import NextSteps
+from trimd.tui.result_panel import ResultPanel
+from trimd.tui.verdict_panel import VerdictPanel
+
+if TYPE_CHECKING:
+    from trimd.tui.app import TrimApp
+
+__all__ = ["APPLIED_METHOD", "Followup"]
+
+#: The proposal apply records: pieces of the inventory, what can be installed (the other
+#: methods give ideal continuous amounts), as ``trimd ballast apply`` records it.
+APPLIED_METHOD = "milp"
+
+
+class Followup:
+    """What the app does after each session; ``after`` None: nothing (a replay)."""
+
+    def __init__(self, app: TrimApp, after: AfterTrim | None) -> None:
+        self.app = app
+        self.after = after
+        self.trim: SessionResult | None = None  # the trim whose proposal is offered
+        self.applied: Applied | None = None
+        self.target: dict[str, Any] | None = None  # what a verify hold checks
+        self.opening = False
+
+    def _log(self, kind: str, text: str) -> None:
+        self.app.query_one(EventLog).add(self.app.state.t_s, kind, text)
+
+    def ended(self, r: SessionResult) -> None:
+        """A session ended: a verify hold shows its verdict (a replayed one too); with
+        ``after``, it is stored, and a trim with a proposal offers apply."""
+        if isinstance(r.verification, Verification):
+            self.app.query_one(VerdictPanel).show(r.verification)
+            self.app.add_class("-verdict", "-result")
+            self._log("result", r.verification.message)
+        if self.after is None:
+            return
+        try:
+            stored = self.after.store(r)
+        except TrimdError as exc:
+            self._log("error", f"not stored in the trim history: {exc}")
+            self.app.notify(f"not stored in the trim history: {exc}", severity="error")
+        else:
+            if stored:
+                self._log("info", stored)
+        steps = self.app.query_one(NextSteps)
+        if self.target is not None:  # the verify hold this offered ended
+            steps.verified(r.verification if isinstance(r.verification, Verification)
+                           else None, r.reason)
+        elif r.phase is Phase.DONE and isinstance(r.proposal, Proposal):
+            self.trim = r
+            if self.after.db is None:
+                steps.unavailable("apply and verify record in the trim history: "
+                                  "not with --no-history")
+            else:
+                steps.offer(APPLIED_METHOD, self.after.vehicle)
+
+    @property
+    def can_apply(self) -> bool:
+        return (self.after is not None and self.after.db is not None and self.trim is not None
+                and self.applied is None and self.app.result is not None)
+
+    @property
+    def can_verify(self) -> bool:
+        return self.target is not None and self.app.result is not None and not self.opening
+
+    def apply(self) -> None:
+        """Record the ``milp`` proposal as the installed ballast and show it."""
+        if self.after is None or self.trim is None or self.trim.estimate is None:
+            return
+        panel = self.app.query_one(ResultPanel)
+        try:
+            proposal = panel.proposals.get(APPLIED_METHOD) or propose_ballast(
+                self.trim.estimate, self.app.profile, method=APPLIED_METHOD)
+            self.applied = self.after.apply(self.trim.estimate, proposal)
+        except (TrimdError, ValueError) as exc:
+            self._log("error", f"apply: {exc}")
+            self.app.query_one(NextSteps).failed(f"apply: {exc}", "p", "apply again")
+            return
+        panel.proposals[APPLIED_METHOD] = proposal
+        panel.method = APPLIED_METHOD  # what was recorded is what is shown
+        self.target = verify_target(self.trim.estimate, self.applied.loads)
+        for line in format_applied(self.applied).splitlines():
+            self._log("info", line)
+        self.app.query_one(NextSteps).applied(self.applied)
+
+    def cancel(self) -> None:
+        """The operator aborted while the link was being opened: no verify hold starts."""
+        if self.opening:
+            self.app.workers.cancel_group(self.app, "verify")
+            self.opening = False
+            self._log("error", "verify cancelled by the operator before it started")
+            self.app.query_one(NextSteps).failed("verify cancelled", "y", "verify again")
+            self.app.refresh_bindings()
+
+    async def verify(self) -> None:
+        """Open the link again and start the verify hold on the main screen."""
+        if self.after is None or self.target is None:
+            return
+        self.opening = True
+        self.app.refresh_bindings()
+        steps = self.app.query_one(NextSteps)
+        steps.verifying("the link (opening…)")
+        try:
+            session = await self.after.verify_session(self.target, [])
+        except (TrimdError, OSError) as exc:
+            self._log("error", f"verify: {exc}")
+            steps.failed(f"verify: {exc}", "y", "verify again")
+            return
+        finally:
+            self.opening = False
+            self.app.refresh_bindings()
+        steps.verifying(getattr(session.link, "description", "the link"))
+        self.app.query_one(VerdictPanel).remove_class("-off")
+        self.app.remove_class("-verdict", "-result")
+        self._log("state", "verify hold: a level hold of the ballasted vehicle")
+        self.app.run_session(session, verify=True)

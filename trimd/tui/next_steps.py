@@ -1,0 +1,65 @@
+"""Next-steps panel: after a trim that ended with a proposal, what the operator can do —
+``p`` apply (record the milp proposal as the installed ballast in the trim history), then,
+once the ballast is on the vehicle, ``y`` verify (one level hold that measures what the
+ballast left); and how each went."""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.widgets import Static
+
+from trimd.app.apply import Applied
+from trimd.ballast.verify import Verification
+
+__all__ = ["NextSteps"]
+
+
+class NextSteps(Static):
+    """Hidden until :meth:`offer`; each later call replaces what it says."""
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self.border_title = "Next steps"
+
+    def _say(self, *lines: Text) -> None:
+        self.add_class("-shown")
+        self.update(Text("\n").join(lines))
+
+    def offer(self, method: str, vehicle: str) -> None:
+        """The trim is done: apply, then verify."""
+        self._say(Text.assemble(("p", "bold reverse"), f" apply: record the {method} "
+                                f"proposal as installed on {vehicle}"),
+                  Text("  then fit that ballast on the vehicle", style="dim"),
+                  Text.assemble(("y", "dim reverse"), (" verify: one level hold, measured "
+                                                       "vs predicted", "dim")))
+
+    def unavailable(self, why: str) -> None:
+        self._say(Text(why, style="dim"))
+
+    def applied(self, a: Applied) -> None:
+        """Recorded: what changed; verify is next."""
+        self._say(Text(f"recorded ({a.source}): " + ("; ".join(a.changes) or "no change"),
+                       style="green"),
+                  Text("fit that ballast on the vehicle, then", style="dim"),
+                  Text.assemble(("y", "bold reverse"), " verify: one level hold, measured "
+                                "vs predicted"))
+
+    def verifying(self, link: str) -> None:
+        self._say(Text(f"verify hold on {link}"),
+                  Text("s confirm · a ABORT · trimd commands only after confirmation",
+                       style="dim"))
+
+    def verified(self, v: Verification | None, reason: str) -> None:
+        """The verify hold ended: its verdict, or why it has none."""
+        if v is None:
+            first = Text(f"verify hold ended: {reason}", style="bold red")
+        elif v.as_predicted:
+            first = Text("verified: as predicted", style="bold green")
+        else:
+            first = Text("verified: NOT as predicted", style="bold red")
+        self._say(first, Text.assemble(("y", "bold reverse"), " verify again"))
+
+    def failed(self, text: str, key: str, again: str) -> None:
+        """``text`` went wrong; ``key`` does it ``again``."""
+        self._say(Text(text, style="bold red"), Text.assemble((key, "bold reverse"),
+                                                              f" {again}"))
