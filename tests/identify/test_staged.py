@@ -25,6 +25,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import experiments_from_samples
 from trimd.identify.experiment import Excite, stage_of_notice
 from trimd.identify.model import STAGES, prior_values
+from trimd.identify.report import best_values
 from trimd.identify.signals import design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import Validation, validate
@@ -207,9 +208,7 @@ def _judge_dofs(recordings: dict[str, tuple[list[Sample], list[Sample]]], prior:
         return experiments_from_samples(kept, prior)
 
     fits = fit_stages({st: exps(fit) for st, (fit, _) in recordings.items()}, prior)
-    values = prior_values(prior)
-    for f in reversed(fits):
-        values |= {p.name: p.value for p in f.parameters if p.determined}
+    values = prior_values(prior) | best_values(fits)
     true = prior_values(truth)
     reach = rates_reached(s for fit, _ in recordings.values() for s in fit)
     for dof in dofs:
