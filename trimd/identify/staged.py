@@ -8,10 +8,10 @@ determine. Stages without experiments are skipped.
 
 A stage that compares a single degree of freedom carries nothing: uvr without a DVL,
 where only yaw is measured. The yaw time constant (the Sabertooth's 0.16 s) is close to
-the thrusters' spin-up lag, and with nothing else to pin the lag the two trade off (about
-−1 % of I_z + N_ṙ per ms of lag; 17 % off on one of 3 unseen Sabertooths, where uvwpqr
-alone, in which heave, roll and pitch pin the lag, gave 1.2 %); uvwpqr refits yaw, and of
-the two estimates the one with the smaller standard deviation is used
+the thrusters' spin-up lag, and with nothing else to pin the lag the two trade off (the
+yaw inertia sum up to 16.8 % off in docs/identification.md's reduced Monte Carlo, 0.99 %
+since); uvwpqr, where heave, roll and pitch pin the lag, refits yaw, and of the two
+estimates the one with the smaller standard deviation is used
 (:func:`trimd.identify.report.best_values`).
 
 Pure computation: no I/O, no clock.
