@@ -43,6 +43,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.experiment import Excite
 from trimd.identify.model import DVL_DOFS, HYDRO_NAMES, STAGES, prior_values
+from trimd.identify.report import best_values
 from trimd.identify.signals import design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import validate
@@ -91,9 +92,7 @@ def _judge(truth: Profile, prior: Profile, recordings: dict[str, tuple[list[Samp
     t0 = time.perf_counter()
     fits = fit_stages({st: exps(fit) for st, (fit, _) in recordings.items()}, prior)
     t_fit = time.perf_counter() - t0
-    values = prior_values(prior)
-    for f in reversed(fits):
-        values |= {p.name: p.value for p in f.parameters if p.determined}
+    values = prior_values(prior) | best_values(fits)   # as `trimd identify` writes them
     true = prior_values(truth)
     dofs = range(6) if dvl else [d for d in range(6) if d not in DVL_DOFS]
     errors: dict[str, float] = {}

@@ -20,7 +20,7 @@ from trimd.core.samples import (
 )
 from trimd.identify.experiment import Excite
 from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values
-from trimd.identify.signals import axis_forces, design_signal
+from trimd.identify.signals import TARGET_SPEED, axis_authority, axis_forces, design_signal
 
 
 @pytest.mark.parametrize("stage", list(STAGES))
@@ -107,7 +107,7 @@ def test_attitude_hold_only_where_the_thrusters_turn_the_vehicle(sabertooth: Pro
     # the Sabertooth's surge, sway and yaw thrusters sit level with its CG: open loop
     free = design_signal(sabertooth, "uvr", duration_s=60.0, seed=0)
     assert free.hold == ()
-    assert all(d.amplitude == pytest.approx(0.6) for d in free.axes)
+    assert all(d.amplitude == pytest.approx(0.6) for d in free.axes if d.axis != 5)
     # the BlueROV2 Heavy's horizontal thrusters sit below it: roll and pitch are held and
     # the coupled amplitudes lowered so that the hold keeps their moment in the allowance
     held = design_signal(bluerov, "uvr", duration_s=60.0, seed=0, hold_bandwidth_rad_s=4.0)
@@ -143,9 +143,28 @@ def test_roll_and_pitch_doublets_ask_for_full_authority(sabertooth: Profile,
     Heavy."""
     stiff = design_signal(sabertooth, "uvwpqr", duration_s=60.0, seed=0)
     assert {d.axis: d.amplitude for d in stiff.axes if d.axis in (3, 4)} == {3: 1.0, 4: 1.0}
-    assert all(d.amplitude == pytest.approx(0.6) for d in stiff.axes if d.axis in (0, 1, 5))
+    assert all(d.amplitude == pytest.approx(0.6) for d in stiff.axes if d.axis in (0, 1))
     held = design_signal(bluerov, "uvwpqr", duration_s=60.0, seed=0)
     assert all(d.amplitude < 0.2 for d in held.axes if d.axis in (3, 4))
+
+
+def test_a_velocity_axis_is_driven_until_the_prior_reaches_the_target_speed(
+        sabertooth: Profile, bluerov: Profile) -> None:
+    """The Sabertooth's yaw damping holds it at 0.11 rad/s under 0.6 of its authority
+    (close to its gyro's noise): its yaw asks for all of it; an axis that already reaches
+    TARGET_SPEED keeps the asked amplitude, and the BlueROV2 Heavy's hold still lowers
+    its coupled axes."""
+    prior = prior_values(sabertooth)
+    authority = axis_authority(sabertooth)[5]
+    assert authority * 0.6 < (abs(prior["N_r"]) * TARGET_SPEED
+                              + abs(prior["N_r|r|"]) * TARGET_SPEED ** 2)
+    sig = design_signal(sabertooth, "uvr", duration_s=60.0, seed=0, amplitude=0.3)
+    amplitude = {d.axis: d.amplitude for d in sig.axes}
+    assert amplitude[5] == 1.0
+    assert amplitude[0] == pytest.approx(0.3)   # surge: 1.3 m/s under 0.6
+    assert max(abs(lv[5] - sig.offsets[5]) for lv in sig.levels) == pytest.approx(1.0)
+    held = design_signal(bluerov, "uvr", duration_s=60.0, seed=0)
+    assert all(d.amplitude < 0.6 for d in held.axes)
 
 
 def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:

@@ -63,7 +63,8 @@ def register(sub: Any) -> None:
     e.add_argument("--stage", required=True, choices=tuple(STAGES))
     e.add_argument("--signal", choices=KINDS, default="multistep")
     e.add_argument("--amplitude", type=bounded(0.0, 1.0), default=0.6, metavar="A",
-                   help="largest input, in (0, 1] (default 0.6)")
+                   help="largest input of the velocity axes, in (0, 1] (default 0.6; "
+                   "raised on an axis the profile says would not reach 0.4 m/s or rad/s)")
     e.add_argument("--duration", type=bounded(0.0, MAX_DURATION_S), default=120.0,
                    metavar="S", help=f"seconds of excitation, in (0, {MAX_DURATION_S:g}] "
                    "(default 120)")

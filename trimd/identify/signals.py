@@ -15,7 +15,11 @@ thruster authority): they only size the experiment, the fit never starts from th
   **multistep** (default: levels A·(μ + (1 − μ)·s·U) with a random sign s = ±1, a random
   level U ∈ {0.35, 0.7, 1}, and the mean fraction μ = 0.3), a **prbs** (U = 1) or a
   **doublet** train. The non-zero mean is what makes the quadratic damping identifiable
-  (Ljungberg 2020); the several levels separate it from the linear term. Hold times are
+  (Ljungberg 2020); the several levels separate it from the linear term. Where the
+  prior's steady speed at the amplitude A stays below :data:`TARGET_SPEED` (0.4 m/s or
+  rad/s, the fastest speed trimd judges a damping force at), A is raised until it reaches
+  it, at most to full authority (the Sabertooth yawed at 0.05–0.08 rad/s at A = 0.6,
+  close to its gyro's noise). Hold times are
   drawn uniformly in [max(0.5·T_i, 0.4 s), max(4·T_i, 2 s)]: the shortest holds put power
   near the corner frequency 1/T_i (transients: the mass), the longest reach the steady
   speed (the damping).
@@ -67,8 +71,8 @@ from trimd.core.model import restoring_forces, thrust_configuration, thrust_from
 from trimd.core.profile import Profile
 from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values, restoring_vector
 
-__all__ = ["KINDS", "AxisDesign", "HoldAxis", "Signal", "axis_authority", "axis_forces",
-           "design_signal"]
+__all__ = ["KINDS", "TARGET_SPEED", "AxisDesign", "HoldAxis", "Signal", "axis_authority",
+           "axis_forces", "design_signal"]
 
 FloatArray = NDArray[np.float64]
 _HEAVE = 2
@@ -83,6 +87,9 @@ _POSITION_AXES = (2, 3, 4)
 _MEAN_FRACTION = 0.3
 _LEVELS = (0.35, 0.7, 1.0)
 _TILT_AXES = (3, 4)
+#: The speed [m/s or rad/s] a velocity axis's largest level should reach by the prior
+#: (the faster of the two speeds the identification's damping forces are judged at).
+TARGET_SPEED = 0.4
 #: Shortest hold (or half-doublet) [s]: several samples and thruster spin-up times.
 _MIN_HOLD_S = 0.4
 #: Peak of t²/2·e^(−ωt)·ω² (at t = 2/ω): the largest error of a triple-pole PID loop after
@@ -181,6 +188,16 @@ def _steady_speed(force: float, lin: float, quad: float) -> float:
     if a < 1e-12:
         return force / max(b, 1e-12)
     return (-b + math.sqrt(b * b + 4 * a * force)) / (2 * a)
+
+
+def _velocity_amplitude(profile: Profile, i: int, amplitude: float) -> float:
+    """The amplitude of velocity axis ``i``: ``amplitude``, raised where the prior's
+    steady speed under it stays below :data:`TARGET_SPEED` until it reaches it, at most
+    1 (full authority)."""
+    prior = prior_values(profile)
+    lin, quad = abs(prior[HYDRO_NAMES[6 + i]]), abs(prior[HYDRO_NAMES[12 + i]])
+    needed = (lin * TARGET_SPEED + quad * TARGET_SPEED ** 2) / float(axis_authority(profile)[i])
+    return min(max(amplitude, needed), 1.0)
 
 
 def _design_axis(profile: Profile, i: int, kind: str, amplitude: float,
@@ -292,8 +309,9 @@ def design_signal(profile: Profile, stage: str, *, kind: str = "multistep",
     profile : priors for sizing, tilt limit (``procedure.max_tilt_deg``).
     stage : uvr, uwq or uvwpqr.
     kind : signal of the velocity axes, one of :data:`KINDS`.
-    amplitude : A in (0, 1], the largest input of each velocity axis (position-limited
-        axes use it too unless the deadband needs more); the attitude hold may lower both.
+    amplitude : A in (0, 1], the largest input of each velocity axis unless it needs more
+        to reach :data:`TARGET_SPEED` (position-limited axes use it too unless the
+        deadband needs more); the attitude hold may lower both.
     duration_s : length [s]; afterwards the inputs are the trim offsets.
     seed : random seed of hold times, signs and levels.
     depth_excursion_m : the depth envelope the heave doublets are sized to [m].
@@ -322,7 +340,8 @@ def design_signal(profile: Profile, stage: str, *, kind: str = "multistep",
     # vehicle such as the Sabertooth otherwise pitched 4–7° of 12.5° at 0.04–0.08 rad/s,
     # where the gyro's noise held the NRMSE of q below 90 % even for the true model)
     amplitudes = {i: 1.0 if i in _TILT_AXES else max(amplitude, floor)
-                  if i in _POSITION_AXES else amplitude for i in axes}
+                  if i in _POSITION_AXES else _velocity_amplitude(profile, i, amplitude)
+                  for i in axes}
     hold = _design_hold(profile, axes, amplitudes, max_tilt, hold_bandwidth_rad_s)
     depth_hold = _design_depth_hold(profile, axes)
     rng = np.random.default_rng(seed)

@@ -28,7 +28,7 @@ from trimd.identify.model import (
 from trimd.identify.nodvl import with_estimated_velocity
 from trimd.identify.problem import Problem
 
-__all__ = ["MIN_OUTPUT_SPREAD", "Validation", "nrmse", "validate"]
+__all__ = ["MIN_OUTPUT_SPREAD", "Validation", "gyro_bias", "nrmse", "validate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -96,14 +96,14 @@ def nrmse(y: FloatArray, y_hat: FloatArray) -> FloatArray:
 def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
              profile: Profile, stage: str, *, statics: Statics | None = None
              ) -> list[Validation]:
-    """Free-run simulation of each experiment with the parameter ``values`` (bias
-    parameters are not carried over: another session has another gyro bias) from its
-    measured initial state; NRMSE per output of ``stage`` the experiment's sensors observe,
-    at the samples of that output's own stream
-    (without a DVL not u and v: :func:`trimd.identify.model.observed`; the depth rate
-    ``z_dot`` instead of w), and which outputs
-    the experiment excited. ``statics``: the mass and restoring terms (default: the profile's
-    nominal vehicle)."""
+    """Free-run simulation of each experiment with the parameter ``values`` from its
+    measured initial state (the fit's gyro biases are not carried over: another session
+    has another gyro bias; the experiment's own, from its attitude, is added to the
+    simulated rates: :func:`gyro_bias`); NRMSE per output of ``stage`` the experiment's
+    sensors observe, at the samples of that output's own stream (without a DVL not u and
+    v: :func:`trimd.identify.model.observed`; the depth rate ``z_dot`` instead of w), and
+    which outputs the experiment excited. ``statics``: the mass and restoring terms
+    (default: the profile's nominal vehicle)."""
     fixed_by = statics or statics_of_profile(profile)
     prior = prior_values(profile) | {LAG: 0.0, LEAD: 0.5 * experiments[0].h_s}
     out = []
@@ -116,7 +116,9 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
                           np.ones(len(st.outputs)))
         judged = [j for j, s in enumerate(st.outputs)
                   if s in observed(st, e.dvl).states and e.measured[:, s].any()]
-        theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_") else 0.0
+        bias = gyro_bias(e)
+        theta = np.array([values.get(n, prior.get(n, 0.0)) if not n.startswith("b_")
+                          else bias[STATE_NAMES.index(n[2:n.index("[")]) - 3]
                           for n in problem.names])
         y_hat = problem.simulate(theta)[:, 0, 0]
         y = problem.y[:, 0].copy()
@@ -135,6 +137,27 @@ def validate(values: Mapping[str, float], experiments: Sequence[Experiment],
         excited = tuple(bool(np.std(y[m, j]) >= MIN_OUTPUT_SPREAD[n])
                         for j, (n, m) in enumerate(zip(names, own, strict=True)))
         out.append(Validation(e.label, names, fits, e.t_s[1:], y, y_hat, excited))
+    return out
+
+
+def gyro_bias(e: Experiment) -> FloatArray:
+    """The gyro's bias [rad/s] (p, q, r) in ``e`` from its own attitude, without any model:
+    the mean, over the attitude samples, of the measured body rates minus those the Euler
+    angles' rates give (Fossen eq. 2.28 inverted: p = φ̇ − ψ̇·sin θ,
+    q = θ̇·cos φ + ψ̇·cos θ·sin φ, r = −θ̇·sin φ + ψ̇·cos θ·cos φ). Left in, a bias of 3 mrad/s
+    took the NRMSE of a Sabertooth's pitch rate in a 2 min held-out log (0.03 rad/s std)
+    from 93.6 to 88.6 %, for the true model as for the fitted one."""
+    k = np.flatnonzero(e.measured[:, 3])
+    if len(k) < 3:
+        return np.zeros(3)
+    t = e.t_s[k]
+    phi, theta = e.eta[k, 3], e.eta[k, 4]
+    d_phi, d_theta, d_psi = (np.gradient(np.unwrap(e.eta[k, i]), t) for i in (3, 4, 5))
+    kinematic = np.column_stack([
+        d_phi - d_psi * np.sin(theta),
+        d_theta * np.cos(phi) + d_psi * np.cos(theta) * np.sin(phi),
+        -d_theta * np.sin(phi) + d_psi * np.cos(theta) * np.cos(phi)])
+    out: FloatArray = np.mean(e.nu[k, 3:6] - kinematic, axis=0)
     return out
 
 
