@@ -36,6 +36,7 @@ from trimd.core.events import (
 )
 from trimd.core.guards import Guard
 from trimd.core.model import thrust_configuration, thrusts_from_pwm
+from trimd.core.phases import Phases
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
@@ -43,7 +44,6 @@ from trimd.core.samples import (
     Depth,
     Health,
     HoldAttitude,
-    Release,
     Sample,
     Thrusters,
 )
@@ -90,7 +90,7 @@ class _Hold:
                            np.array(self.thrust).reshape(len(self.t), -1))
 
 
-class Procedure:
+class Procedure(Phases):
     """The trim procedure for one vehicle described by ``profile``.
 
     Parameters
@@ -439,18 +439,3 @@ class Procedure:
             return math.inf
         return limit - (self._t - self._t_phase)
 
-    def _enter(self, phase: Phase, text: str) -> list[Output]:
-        self.phase = phase
-        self._t_phase = self._t
-        self.reason = text
-        return [Notice(self._t, "state", text, phase)]
-
-    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
-        """End in ``phase``; ``cause`` lets a shell choose its exit code."""
-        if math.isnan(self._t):  # ended before any sample: at session time 0
-            self._t = 0.0
-        self.cause = cause
-        commanding = self.guard.commanding and not self.phase.final
-        self.guard.commanding = False
-        out: list[Output] = [Release()] if commanding else []
-        return out + self._enter(phase, reason)

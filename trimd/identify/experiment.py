@@ -29,11 +29,12 @@ from __future__ import annotations
 
 import math
 
-from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.events import Abort, Cause, Confirm, Event, Output, Phase, Progress, Tick
 from trimd.core.guards import Guard
+from trimd.core.phases import Phases
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Release, Sample, Thrusters
+from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample, Thrusters
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
@@ -67,7 +68,7 @@ MAX_PACED_INTERVAL_S = 0.11
 PRECHECK_S = 2.0
 
 
-class Excite:
+class Excite(Phases):
     """An excitation experiment of ``signal`` on the vehicle of ``profile``.
 
     Parameters
@@ -261,16 +262,3 @@ class Excite:
                                                              "no vehicle answered"), Cause.TIMEOUT)
         return []
 
-    def _enter(self, phase: Phase, text: str) -> list[Output]:
-        self.phase = phase
-        self._t_phase = self._t
-        self.reason = text
-        return [Notice(self._t, "state", text, phase)]
-
-    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
-        if math.isnan(self._t):  # ended before any sample: at session time 0
-            self._t = 0.0
-        self.cause = cause
-        out: list[Output] = [Release()] if self.guard.commanding else []
-        self.guard.commanding = False
-        return out + self._enter(phase, reason)
