@@ -11,7 +11,7 @@ from typing import Any
 from trimd.app.history import History
 from trimd.app.history.plot import write_history_plot
 from trimd.app.history.report import format_history, history_to_dict
-from trimd.cli.history_args import db_path
+from trimd.cli.history_args import add_db_arg, db_path
 from trimd.core.errors import DataError
 
 __all__ = ["register", "run"]
@@ -24,8 +24,7 @@ def register(sub: Any) -> None:
         "the ballast installed, watch alerts and verify holds (all vehicles unless "
         "--vehicle); --plot draws W − B and the centre of gravity over time.")
     p.add_argument("--vehicle", metavar="NAME", help="only this vehicle")
-    p.add_argument("--db", metavar="PATH", help="the trim history (default: "
-                   "$TRIMD_DATA_DIR/trimd.db, else ~/.local/share/trimd/trimd.db)")
+    add_db_arg(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="FILE", help="write a PNG of W − B and the centre of "
                    "gravity over time (needs one vehicle: --vehicle, or a history of one)")

@@ -8,13 +8,18 @@ import re
 
 from trimd.app.history import default_db_path, vehicle_key
 
-__all__ = ["add_history_args", "db_path", "vehicle_of"]
+__all__ = ["add_db_arg", "add_history_args", "db_path", "vehicle_of"]
+
+
+def add_db_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--db PATH``."""
+    p.add_argument("--db", metavar="PATH", help="the trim history (default: "
+                   "$TRIMD_DATA_DIR/trimd.db, else ~/.local/share/trimd/trimd.db)")
 
 
 def add_history_args(p: argparse.ArgumentParser) -> None:
     """Add ``--db PATH`` and ``--vehicle NAME``."""
-    p.add_argument("--db", metavar="PATH", help="the trim history (default: "
-                   "$TRIMD_DATA_DIR/trimd.db, else ~/.local/share/trimd/trimd.db)")
+    add_db_arg(p)
     p.add_argument("--vehicle", metavar="NAME", help="the vehicle's records in the history "
                    "(default: the profile's name, with #SYSID when a MAVLink system id is "
                    "given)")
