@@ -253,6 +253,32 @@ def test_slow_streams_are_compared_only_at_their_own_samples(sabertooth: Profile
                                            for n in problem.names]))) == problem.n_residuals
 
 
+def test_segments_start_at_samples_of_every_simulated_stream(sabertooth: Profile) -> None:
+    """A segment starts from the measured state: where the DVL (5 Hz beside attitude at
+    20 Hz) has a sample, never from its interpolation between samples, whatever the phase
+    of the DVL's samples and the segment length; segments do not overlap."""
+    t = np.arange(0.0, 20.0, 0.05)
+    # attitude from the second grid time: the experiment starts between two DVL samples
+    samples: list[Sample] = [Attitude(float(x), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                             for x in t[1:]]
+    samples += [Thrusters(float(x), tuple(1500.0 for _ in sabertooth.thrusters))
+                for x in t[::2]]
+    samples += [Velocity(float(x), float(np.sin(x)), 0.0, 0.0) for x in t[::4]]
+    samples += [Depth(float(x), 10.0) for x in t[::4]]
+    (e,) = experiments_from_samples(samples, sabertooth)
+    assert not e.measured[0, 0]
+    problem = Problem([e], STAGES["uvr"], sabertooth.mass_kg, restoring_vector(sabertooth),
+                      38, np.ones(3))
+    starts = problem.rows[0]
+    assert len(starts) >= 8
+    assert e.measured[starts, :3].all()
+    assert np.all(np.diff(starts) >= 38)
+    # the free run of validation starts at the first sample, measured or not
+    free_run = Problem([e], STAGES["uvr"], sabertooth.mass_kg, restoring_vector(sabertooth),
+                       None, np.ones(3))
+    assert free_run.rows[0].tolist() == [0]
+
+
 def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,
                                             sabertooth_uvr: tuple[list[Sample],
                                                                   list[Sample]]) -> None:

@@ -3,7 +3,8 @@ weighted simulation residuals and their finite-difference Jacobian in one batche
 
 Each output is compared only at the samples of its own stream (``Experiment.fresh``: a
 DVL at 5 Hz beside attitude at 20 Hz is compared every fourth step, never at its
-interpolated values between).
+interpolated values between), and each segment starts at a sample of every simulated
+stream that is measured (never from an interpolated state).
 
 Parameter vector (all named; each free or fixed): the 18 hydrodynamic parameters of
 :data:`trimd.identify.model.HYDRO_NAMES`, the thruster lag ``T_thr`` [s], the lead of the
@@ -34,6 +35,31 @@ __all__ = ["Problem", "bias_name"]
 
 FloatArray = NDArray[np.float64]
 _RATES = (3, 4, 5)
+
+
+def _measured_starts(experiment: Experiment, states: Sequence[int], length: int
+                     ) -> list[int]:
+    """Start indices of the segments of ``length`` samples cut from ``experiment``, each at
+    a sample where every simulated state that is measured at all is a sample of its own
+    stream (``Experiment.measured``), the next one at or after the previous segment's
+    end.
+
+    A segment starts from the measured state; between the samples of a slower stream (a
+    DVL at 5 Hz beside attitude at 20 Hz) that state is an interpolation, and its error
+    at the start of every segment biased the fitted thruster timing, which the inertia of
+    a fast DOF trades against (docs/identification.md, "Fast DOFs at slow streams")."""
+    fresh = experiment.measured[:, list(states)]
+    seen = fresh[:, fresh.any(axis=0)]
+    ok = np.flatnonzero(seen.all(axis=1)) if seen.shape[1] else np.arange(len(fresh))
+    out: list[int] = []
+    i = 0
+    n = len(experiment.t_s)
+    while True:
+        k = int(np.searchsorted(ok, i))
+        if k == len(ok) or ok[k] + length > n - 1:
+            return out
+        out.append(int(ok[k]))
+        i = int(ok[k]) + length
 
 
 def bias_name(state: int, experiment: int) -> str:
@@ -84,11 +110,12 @@ class Problem:
         L = d * max(1, (segment_steps or min(lengths) - 1) // d)   # samples per segment
         starts, owner = [], []
         offset = 0
-        for j, n in enumerate(lengths):
-            k = (n - 1) // L
-            starts += [offset + i * L for i in range(k)]
-            owner += [j] * k
-            offset += n
+        for j, e in enumerate(experiments):
+            own = ([0] if segment_steps is None
+                   else _measured_starts(e, stage.states, L))
+            starts += [offset + i for i in own]
+            owner += [j] * len(own)
+            offset += len(e.t_s)
         if not starts:
             raise DataError(f"experiments shorter than one segment ({L * self.h:g} s)")
         self.step = d * self.h
