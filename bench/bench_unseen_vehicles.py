@@ -4,9 +4,9 @@ Per shipped profile (the prior), ``TRIMD_BENCH_MC_N`` random vehicles (default 1
 over both profiles) whose every inertia sum, added mass and linear and quadratic damping
 coefficient is the profile's times a random factor in [0.5, 1.5]
 (:func:`trimd.identify.vehicles.perturbed`); for each, the three stages' excitation
-designed from the prior, ``TRIMD_BENCH_IDENT_S`` seconds each (default 600) of 50 Hz data
-(``TRIMD_BENCH_MC_RATES=sim``: the simulator's default stream rates) with default noise
-and a DVL, fitted with the staged procedure from the prior
+designed from the prior, ``TRIMD_BENCH_IDENT_S`` seconds each (default 600) of data at the
+stream rates ``trimd excite`` asks for (``TRIMD_BENCH_MC_RATES``: :data:`RATES`) with
+default noise and a DVL, fitted with the staged procedure from the prior
 (:func:`trimd.identify.staged.fit_stages`) and validated on 2 held-out minutes per stage;
 then the same recordings without their body velocity (no DVL), judged on heave, roll,
 pitch and yaw. Printed: per parameter the distribution of the relative error, per DOF the
@@ -26,7 +26,6 @@ which DOFs were judged below the target speed and at what rate.
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import os
 import time
 from collections.abc import Sequence
@@ -41,7 +40,7 @@ from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import Experiment, experiments_from_samples
-from trimd.identify.experiment import Excite
+from trimd.identify.experiment import STREAM_HZ, Excite
 from trimd.identify.model import DVL_DOFS, HYDRO_NAMES, STAGES, prior_values
 from trimd.identify.report import best_values
 from trimd.identify.signals import design_signal
@@ -50,9 +49,25 @@ from trimd.identify.validation import validate
 from trimd.identify.vehicles import damping_force, perturbed, rates_reached
 
 N = int(os.environ.get("TRIMD_BENCH_MC_N", 10))
-#: "50": every stream at 50 Hz (the default); "sim": the simulator's default stream rates
-#: (attitude 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz, as `trimd excite --link sim`).
-RATES = os.environ.get("TRIMD_BENCH_MC_RATES", "50")
+#: Stream rates of the recordings: "excite" (the default) what ``trimd excite`` asks of the
+#: simulator, attitude, thruster outputs and depth at
+#: :data:`trimd.identify.experiment.STREAM_HZ` (50 Hz) and the DVL at its own 5 Hz;
+#: "50" every stream at 50 Hz, the DVL too; "sim" the simulator's default rates (attitude
+#: 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz: a vehicle that ignores the request, or a
+#: ground station's log).
+RATES = os.environ.get("TRIMD_BENCH_MC_RATES", "excite")
+_RATES = {
+    "excite": dict(attitude_hz=STREAM_HZ, thrusters_hz=STREAM_HZ, depth_hz=STREAM_HZ),
+    "50": dict(attitude_hz=50.0, thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0),
+    "sim": {},
+}
+_RATE_WORDS = {
+    "excite": f"attitude, thrusters and depth at {STREAM_HZ:g} Hz (trimd excite's request), "
+              "DVL at 5 Hz",
+    "50": "every stream at 50 Hz",
+    "sim": "the simulator's default stream rates (attitude 20 Hz, thrusters 10 Hz, DVL and "
+           "depth 5 Hz)",
+}
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0
 SPEEDS = (0.15, 0.4)
@@ -60,13 +75,13 @@ PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES", "bluerov2-heavy,sabertooth-
 DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 
 
-def _record(truth: Profile, prior: Profile, stage: str, duration: float, seed: int
-            ) -> list[Sample]:
+def record(truth: Profile, prior: Profile, stage: str, duration: float, seed: int,
+           rates: str = RATES) -> list[Sample]:
+    """One excitation of ``stage`` designed from ``prior``, flown by ``truth`` on the
+    simulator (DVL on, default noise) at the stream ``rates`` (:data:`RATES`): every
+    sample."""
     sig = design_signal(prior, stage, duration_s=duration, seed=seed, depth_excursion_m=50.0)
-    config = SimConfig(seed=seed, dvl=True, depth_m=100.0)
-    if RATES == "50":
-        config = dataclasses.replace(config, attitude_hz=50.0, thrusters_hz=50.0,
-                                     velocity_hz=50.0, depth_hz=50.0)
+    config = SimConfig(seed=seed, dvl=True, depth_m=100.0, **_RATES[rates])
     vehicle = SimVehicle(truth, config)
     excite = Excite(prior, sig, confirmed=True, depth_excursion_m=50.0, stage=stage)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), prior, excite))
@@ -150,15 +165,14 @@ def main() -> None:
         prior = load_profile(name)
         print(f"{name} as prior: {N} vehicles ×[0.5, 1.5] per hydrodynamic parameter, "
               f"{FIT_S:g} s per stage, "
-              + ("every stream at 50 Hz" if RATES == "50" else "the simulator's default "
-                 "stream rates (attitude 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz)")
+              + _RATE_WORDS[RATES]
               + ", default noise")
         with_dvl, without = [], []
         for k in range(N):
             truth = perturbed(prior, np.random.default_rng(1000 + k), name=f"{name}-{k}")
             try:
-                recordings = {st: (_record(truth, prior, st, FIT_S, 10 * k + j),
-                                   _record(truth, prior, st, VALIDATE_S, 10 * k + j + 5))
+                recordings = {st: (record(truth, prior, st, FIT_S, 10 * k + j),
+                                   record(truth, prior, st, VALIDATE_S, 10 * k + j + 5))
                               for j, st in enumerate(STAGES)}
             except RuntimeError as exc:   # an experiment the envelope stopped
                 print(f"  vehicle {k}: {exc}")

@@ -98,6 +98,8 @@ def per_heartbeat(samples: list[Sample], kind: type) -> float:
     ("mavlink:udpin:127.0.0.1:0?sysid=0", "sysid='0'"),
     ("mavlink:udpin:127.0.0.1:0?timeout=soon", "timeout='soon'"),
     ("mavlink:udpin:127.0.0.1:0?pilot=sometimes", "hold, always"),
+    ("mavlink:udpin:127.0.0.1:0?rate=100", "rate='100': expected Hz between 1 and 50"),
+    ("mavlink:udpin:127.0.0.1:0?rate=fast", "rate='fast'"),
     ("mavlink:udpin:127.0.0.1:0?key=/nonexistent/key", "cannot read"),
     ("mavlink:/dev/trimd-no-such-tty", "cannot open mavlink:/dev/trimd-no-such-tty"),
     ("udpin:127.0.0.1:14550", "did you mean 'mavlink:udpin:127.0.0.1:14550'"),
@@ -375,6 +377,40 @@ def served(bluerov: Profile) -> Iterator[tuple[MavlinkLink, SimVehicle, threadin
     stop.set()
     thread.join(timeout=5)
     asyncio.run(link.close())
+
+
+@pytest.mark.parametrize(("query", "stream_hz", "expected"), [
+    ("", 50.0, 50.0),          # trimd excite's request
+    ("&rate=20", 50.0, 20.0),  # the URL's rate wins
+])
+def test_the_telemetry_rate_asked_for_is_what_arrives(
+        bluerov: Profile, query: str, stream_hz: float, expected: float) -> None:
+    """Attitude, thruster outputs and depth at the rate asked (``trimd excite`` asks for
+    50 Hz unless the URL says ``rate=``); the rest at trimd's usual rates."""
+    port = free_udp_port()
+    link = asyncio.run(open_link(f"mavlink:udpin:127.0.0.1:{port}?pilot=always&timeout=1"
+                                 + query, bluerov, stream_hz=stream_hz))
+    assert isinstance(link, MavlinkLink)
+    vehicle = SimVehicle(bluerov, SimConfig(armed=True, mode="MANUAL", seed=1))
+    server = MavlinkServer(vehicle, f"udpout:127.0.0.1:{port}", rate=RATE)
+    stop = threading.Event()
+    thread = threading.Thread(target=server.run, args=(stop,), daemon=True)
+    thread.start()
+
+    async def go() -> list[Sample]:
+        stream = link.samples()
+        await collect(link, lambda s: len(healths(s)) == 2, stream)
+        return await collect(link, lambda s: len(healths(s)) == 7, stream)
+
+    try:
+        got = asyncio.run(go())
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+        asyncio.run(link.close())
+    for kind in (Attitude, Thrusters, Depth):
+        assert per_heartbeat(got, kind) == pytest.approx(expected, rel=0.15), kind
+    assert per_heartbeat(got, Battery) == pytest.approx(2, rel=0.3)
 
 
 def test_rates_hold_release_and_link_lost(

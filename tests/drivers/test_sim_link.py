@@ -57,6 +57,25 @@ def test_open_link_refuses_a_bad_payload(sabertooth: Profile) -> None:
         asyncio.run(open_link("sim:payload=10@Keel", sabertooth))
 
 
+@pytest.mark.parametrize(("url", "per_10_s"), [
+    ("sim:dvl=1", {Attitude: 500, Thrusters: 500, Depth: 500, Velocity: 50}),
+    ("sim:dvl=1,thrusters_hz=20", {Attitude: 500, Thrusters: 200, Depth: 500, Velocity: 50}),
+])
+def test_the_simulated_vehicle_streams_at_the_rate_asked(
+        sabertooth: Profile, url: str, per_10_s: dict[type, int]) -> None:
+    """As a MAVLink link asks the vehicle (``trimd excite``: 50 Hz), the simulator streams
+    attitude, thruster outputs and depth at ``stream_hz`` unless its options set a rate;
+    the DVL keeps its own 5 Hz."""
+    async def scenario() -> Counter[type]:
+        link = await open_link(url, sabertooth, stream_hz=50.0)
+        got = Counter(type(s) for s in await _collect(link, 10.0))
+        await link.close()
+        return got
+
+    counts = asyncio.run(scenario())
+    assert {k: counts[k] for k in per_10_s} == per_10_s
+
+
 def test_link_streams_in_simulated_time_and_obeys(sabertooth: Profile) -> None:
     async def scenario() -> None:
         link = await open_link("sim:payload=10@AftSB,seed=3,dvl=1", sabertooth)

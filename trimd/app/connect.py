@@ -38,13 +38,15 @@ def parse_link_url(url: str) -> tuple[str, str]:
     raise LinkError(f"unknown link '{url}': {hint}")
 
 
-async def open_link(url: str, profile: Profile) -> Link:
-    """Open the link named by ``url`` for a vehicle described by ``profile``."""
+async def open_link(url: str, profile: Profile, *, stream_hz: float | None = None) -> Link:
+    """Open the link named by ``url`` for a vehicle described by ``profile``;
+    ``stream_hz``: the telemetry rate (attitude, thruster outputs, depth) to ask the vehicle
+    for where the URL does not say (MAVLink and the simulator; None: the driver's own)."""
     scheme, rest = parse_link_url(url)
     if scheme == "sim":
         from trimd.drivers.sim.link import open_sim_link
 
-        return open_sim_link(rest, profile)
+        return open_sim_link(rest, profile, stream_hz)
     if scheme == "serial":
         from trimd.drivers.serial.link import open_serial_link
 
@@ -52,7 +54,7 @@ async def open_link(url: str, profile: Profile) -> Link:
     if scheme == "mavlink":
         from trimd.drivers.mavlink.link import open_mavlink_link
 
-        return open_mavlink_link(rest, profile)
+        return open_mavlink_link(rest, profile, stream_hz)
     if scheme == "replay":
         from trimd.logs.replay import ReplayLink
 

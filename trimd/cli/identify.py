@@ -35,7 +35,7 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.excitation import DofExcitation, not_excited_message
-from trimd.identify.experiment import Excite, stage_of_notice
+from trimd.identify.experiment import STREAM_HZ, Excite, stage_of_notice
 from trimd.identify.fit import NEEDS_DVL, NOT_DETERMINED, FitOptions, StageFit
 from trimd.identify.model import HYDRO_NAMES, STAGES
 from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
@@ -114,7 +114,7 @@ def run_excite(args: argparse.Namespace) -> int:
                     stage=args.stage)
 
     async def go() -> SessionResult:
-        link = await open_link(args.link, profile)
+        link = await open_link(args.link, profile, stream_hz=STREAM_HZ)
         recorder = None
         if not args.no_record:
             path = Path(args.record) if args.record else default_record_path(profile)

@@ -38,7 +38,7 @@ from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample, Thrust
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
-__all__ = ["MAX_PACED_INTERVAL_S", "STAGE_NOTICE", "Excite", "stage_of_notice"]
+__all__ = ["MAX_PACED_INTERVAL_S", "STAGE_NOTICE", "STREAM_HZ", "Excite", "stage_of_notice"]
 
 #: The words before the stage's name in the notice that starts an excitation.
 STAGE_NOTICE = "stage "
@@ -64,6 +64,13 @@ def stage_of_notice(text: str) -> str | None:
 #: attitude hold's loop, up to 4 rad/s, needs updates at 10 Hz or faster).
 MAX_PACED_INTERVAL_S = 0.11
 
+#: Rate [Hz] of attitude, thruster outputs and depth that ``trimd excite`` asks the vehicle
+#: for (a ``rate=`` in a MAVLink URL, attitude_hz … in a ``sim:`` one, say otherwise): the
+#: fit knows when a command acted only to within the thruster record's interval, and a
+#: DOF faster than that interval (the Sabertooth's pitch, about 0.07 s) has its inertia
+#: determined only through that timing (docs/identification.md, "Fast DOFs at slow
+#: streams").
+STREAM_HZ = 50.0
 #: Telemetry seen for this long [s] before the experiment may start.
 PRECHECK_S = 2.0
 

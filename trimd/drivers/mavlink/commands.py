@@ -404,6 +404,8 @@ class Commander:
 
     def _request_stream(self, name: str, now: float) -> None:
         msg_id, hz, stream = STREAMS[name]
+        if self.options.stream_hz is not None and name in self._watched:
+            hz = self.options.stream_hz
 
         def answered(result: int | None) -> None:
             if name in self._watched and result is not None:

@@ -365,10 +365,12 @@ class MavlinkLink:
         self._wake.set()
 
 
-def open_mavlink_link(rest: str, profile: Profile) -> MavlinkLink:
-    """A :class:`MavlinkLink` for what follows ``mavlink:`` (``trimd.drivers.mavlink.url``)."""
+def open_mavlink_link(rest: str, profile: Profile, stream_hz: float | None = None
+                      ) -> MavlinkLink:
+    """A :class:`MavlinkLink` for what follows ``mavlink:`` (``trimd.drivers.mavlink.url``);
+    ``stream_hz``: the telemetry rate to ask for when the URL gives no ``rate``."""
     # heartbeats come at 1 Hz: never lost sooner than 3 s (the procedure releases on its
     # own after link_timeout_s without any telemetry)
     options = parse_mavlink_url(rest, default_timeout_s=max(
-        3.0, profile.procedure.link_timeout_s))
+        3.0, profile.procedure.link_timeout_s), default_stream_hz=stream_hz)
     return MavlinkLink(options, profile)

@@ -22,6 +22,8 @@ Syntax (``docs/mavlink.md``)::
                  ground station and must keep ArduSub's pilot-input failsafe quiet
                  (either way: never while another ground station's heartbeat is seen)
     depth=SOURCE vfr_hud (default), global_position or pressure (SCALED_PRESSURE2, Bar30)
+    rate=HZ      the rate [Hz, 1..50] trimd asks for ATTITUDE, SERVO_OUTPUT_RAW and the depth
+                 message (default 10, 10 and 5; ``trimd excite`` asks for 50 unless given)
 
 Everything else is refused with a :class:`~trimd.core.errors.LinkError` that says what would
 work: pymavlink itself opens a serial port for any string it does not recognise.
@@ -45,7 +47,7 @@ _NET = re.compile(r"^(udpin|udpout|udp|tcp):([^:?&]+):(\d+)$")
 _SERIAL = re.compile(r"^(/dev/[^,]+|/[^,]*tty[^,]*|COM\d+)(?:,(\d+))?$")
 _FORMS = ("udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device "
           "/dev/ttyXXX[,BAUD]")
-_KEYS = ("sysid", "timeout", "gcs", "key", "pilot", "depth")
+_KEYS = ("sysid", "timeout", "gcs", "key", "pilot", "depth", "rate")
 _DEPTH: tuple[DepthSource, ...] = ("vfr_hud", "global_position", "pressure")
 _PILOT: tuple[PilotPolicy, ...] = ("hold", "always")
 
@@ -62,6 +64,7 @@ class MavlinkOptions:
     key_path: str | None = None
     pilot: PilotPolicy = "hold"
     depth: DepthSource = "vfr_hud"
+    stream_hz: float | None = None   # rate= (None: trimd.drivers.mavlink.commands.STREAMS)
 
     @property
     def serial(self) -> bool:
@@ -92,8 +95,10 @@ def _connection(text: str) -> tuple[str, int]:
                     "e.g. mavlink:udpin:0.0.0.0:14550")
 
 
-def parse_mavlink_url(rest: str, *, default_timeout_s: float) -> MavlinkOptions:
+def parse_mavlink_url(rest: str, *, default_timeout_s: float,
+                      default_stream_hz: float | None = None) -> MavlinkOptions:
     """Parse what follows ``mavlink:``; LinkError naming the problem for anything unknown.
+    ``default_stream_hz`` is the ``rate`` when the URL does not give one.
 
     Examples
     --------
@@ -124,6 +129,15 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float) -> MavlinkOptions:
         if not 0.1 <= timeout_s <= 600:
             raise LinkError(f"mavlink option timeout={values['timeout']!r}: expected "
                             "seconds between 0.1 and 600")
+    stream_hz = default_stream_hz
+    if "rate" in values:
+        try:
+            stream_hz = float(values["rate"])
+        except ValueError:
+            stream_hz = -1.0
+        if not 1.0 <= stream_hz <= 50.0:
+            raise LinkError(f"mavlink option rate={values['rate']!r}: expected Hz between 1 "
+                            "and 50")
     for key, allowed in (("pilot", _PILOT), ("depth", _DEPTH)):
         if key in values and values[key] not in allowed:
             raise LinkError(f"mavlink option {key}={values[key]!r}: expected one of "
@@ -135,7 +149,7 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float) -> MavlinkOptions:
         gcs_sysid=_int("gcs", values["gcs"], 1, 255) if "gcs" in values else 255,
         key_path=values.get("key"),
         pilot=cast(PilotPolicy, values.get("pilot", "hold")),
-        depth=cast(DepthSource, values.get("depth", "vfr_hud")))
+        depth=cast(DepthSource, values.get("depth", "vfr_hud")), stream_hz=stream_hz)
 
 
 def load_signing_key(path: str) -> bytes:

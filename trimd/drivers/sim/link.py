@@ -19,7 +19,7 @@ from trimd.core.errors import LinkError, ProfileError
 from trimd.core.profile import Profile
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release, Sample
 from trimd.drivers.limits import check_command
-from trimd.drivers.sim.config import parse_sim_options
+from trimd.drivers.sim.config import SimConfig, parse_sim_options
 from trimd.drivers.sim.vehicle import SimVehicle
 
 __all__ = ["SimLink", "open_sim_link"]
@@ -89,15 +89,20 @@ class SimLink:
         return self.vehicle.describe_truth()
 
 
-def open_sim_link(options: str, profile: Profile) -> SimLink:
-    """A :class:`SimLink` for ``profile`` with the options of a ``sim:`` URL.
+def open_sim_link(options: str, profile: Profile, stream_hz: float | None = None
+                  ) -> SimLink:
+    """A :class:`SimLink` for ``profile`` with the options of a ``sim:`` URL;
+    ``stream_hz``: the rate of attitude, thruster outputs and depth asked for (as a
+    MAVLink link asks the vehicle), unless the options set those rates.
 
     Raises
     ------
     LinkError
         For an unknown option, a bad value or a payload the profile cannot take.
     """
-    config = parse_sim_options(options)
+    base = (SimConfig(attitude_hz=stream_hz, thrusters_hz=stream_hz, depth_hz=stream_hz)
+            if stream_hz is not None else None)
+    config = parse_sim_options(options, base)
     try:
         return SimLink(SimVehicle(profile, config))
     except (ProfileError, ValueError) as exc:
