@@ -21,7 +21,8 @@ from trimd.core.samples import Attitude, Depth, Sample, Thrusters, Velocity
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
-from trimd.identify.data import experiments_from_samples
+from trimd.identify.data import Experiment, experiments_from_samples
+from trimd.identify.depthrate import DepthRate, z_dot
 from trimd.identify.experiment import Excite
 from trimd.identify.fit import FitOptions, StageFit, fit_stage
 from trimd.identify.model import (
@@ -277,6 +278,35 @@ def test_segments_start_at_samples_of_every_simulated_stream(sabertooth: Profile
     free_run = Problem([e], STAGES["uvr"], sabertooth.mass_kg, restoring_vector(sabertooth),
                        None, np.ones(3))
     assert free_run.rows[0].tolist() == [0]
+
+
+def test_without_a_dvl_heave_is_compared_through_the_depth_sensors_filter() -> None:
+    """The depth rate the fit compares is the simulated one integrated, sampled at the
+    depth sensor's 5 Hz, interpolated and differentiated as the measured depth is: for the
+    true motion the two agree to the integration error, where the raw depth rate differs
+    from the filtered measurement by the filter's smoothing."""
+    h, n = 0.05, 801
+    t = h * np.arange(n)
+    omega = 2.0 * np.pi * 0.8           # a heave of 0.8 Hz: the filter smooths it
+    depth = 10.0 + 0.2 * np.sin(omega * t)
+    fresh = np.ones((n, 8), bool)
+    fresh[:, :3] = False
+    fresh[::4, 2] = True                # depth samples at 5 Hz
+    held = np.interp(t, t[::4], depth[::4])
+    eta = np.column_stack([np.full(n, np.nan), np.full(n, np.nan), held, np.zeros((n, 3))])
+    e = Experiment(t, eta, np.zeros((n, 6)), np.zeros((n, 6)), "heave", False, fresh, 0.1)
+    rows = np.arange(0, 720, 80)[None, :] + np.arange(81)[:, None]
+    rate = DepthRate([e], rows, h)
+    true_rate = (0.2 * omega * np.cos(omega * t))[rows]
+    simulated = rate.simulated(true_rate[:, None, :])[:, 0]
+    kept = rate.compared
+    assert kept.sum() > 100 and not kept[:3].any() and not kept[-3:].any()
+    assert kept[(rows[1:] % 4 != 0)].sum() == 0           # only at depth samples
+    error = np.abs(simulated - rate.measured)[kept]
+    smoothing = np.abs(true_rate[1:] - rate.measured)[kept]
+    assert error.max() < 0.01 * np.abs(true_rate).max()
+    assert smoothing.max() > 10 * error.max()
+    assert z_dot(*np.array([[0.5], [0.0], [0.2], [0.0], [0.0]])) == pytest.approx(0.2)
 
 
 def test_unknown_fixed_parameter_is_refused(sabertooth: Profile,

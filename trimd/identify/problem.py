@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import DataError
 from trimd.identify.data import Experiment
+from trimd.identify.depthrate import DepthRate, z_dot
 from trimd.identify.model import (
     HYDRO_NAMES,
     LAG,
@@ -126,8 +127,18 @@ class Problem:
         self.exo = x[self.rows]                                              # (L+1, K, 8)
         self.y = self.exo[1:][..., list(stage.outputs)]                      # (L, K, n_out)
         fresh = np.concatenate([e.measured for e in experiments])
+        compared = fresh[self.rows][1:][..., list(stage.outputs)]
+        #: without a DVL, heave is compared as the depth rate the depth sensor shows
+        self.depth_rate = (DepthRate(experiments, self.rows, self.step)
+                           if segment_steps is not None and 2 in stage.outputs
+                           and not all(e.dvl for e in experiments) else None)
+        if self.depth_rate is not None:
+            j = stage.outputs.index(2)
+            self.y = self.y.copy()
+            self.y[..., j] = self.depth_rate.measured
+            compared[..., j] = self.depth_rate.compared
         #: which residuals are compared: outputs at samples of their own stream, flat
-        self.compared = fresh[self.rows][1:][..., list(stage.outputs)].ravel()
+        self.compared = compared.ravel()
         self.weights = np.asarray(weights, float)
         #: largest thruster lead [s] (Experiment.lead_max_s)
         self.lead_max = max(e.lead_max_s for e in experiments)
@@ -184,7 +195,18 @@ class Problem:
         x = simulate(mass, Dl, Dq, self.q_rest, x0, self.exo, start, mid,
                      self.stage.states, self.step)
         y: FloatArray = x + b[None][..., list(self.stage.states)]
+        if self.depth_rate is not None:
+            y[..., self.stage.outputs.index(2)] = self.depth_rate.simulated(
+                z_dot(*(self._path(x, x0, i) for i in (0, 1, 2, 6, 7))))
         return y
+
+    def _path(self, x: FloatArray, x0: FloatArray, i: int) -> FloatArray:
+        """State component ``i`` at rows 0..L, (L + 1, B, K): simulated (``x``, from
+        ``x0``) or measured."""
+        states = self.stage.states
+        if i in states:
+            return np.concatenate([x0[None, ..., i], x[..., states.index(i)]])
+        return np.broadcast_to(self.exo[:, None, :, i], (x.shape[0] + 1, *x.shape[1:3]))
 
     def residuals(self, theta: FloatArray) -> FloatArray:
         """Weighted output errors (predicted − measured) where compared, flat, for one
