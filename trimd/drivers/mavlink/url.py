@@ -31,6 +31,7 @@ work: pymavlink itself opens a serial port for any string it does not recognise.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,6 +96,21 @@ def _connection(text: str) -> tuple[str, int]:
                     "e.g. mavlink:udpin:0.0.0.0:14550")
 
 
+def _number(values: dict[str, str], key: str, lo: float, hi: float, unit: str
+            ) -> float | None:
+    """The number ``values[key]`` in [lo, hi], None when absent; LinkError otherwise."""
+    if key not in values:
+        return None
+    try:
+        number = float(values[key])
+    except ValueError:
+        number = math.nan
+    if not lo <= number <= hi:
+        raise LinkError(f"mavlink option {key}={values[key]!r}: expected {unit} between "
+                        f"{lo:g} and {hi:g}")
+    return number
+
+
 def parse_mavlink_url(rest: str, *, default_timeout_s: float,
                       default_stream_hz: float | None = None) -> MavlinkOptions:
     """Parse what follows ``mavlink:``; LinkError naming the problem for anything unknown.
@@ -120,24 +136,8 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float,
         if not eq or not value:
             raise LinkError(f"mavlink option '{key}' needs a value: {key}=…")
         values[key] = value
-    timeout_s = default_timeout_s
-    if "timeout" in values:
-        try:
-            timeout_s = float(values["timeout"])
-        except ValueError:
-            timeout_s = -1.0
-        if not 0.1 <= timeout_s <= 600:
-            raise LinkError(f"mavlink option timeout={values['timeout']!r}: expected "
-                            "seconds between 0.1 and 600")
-    stream_hz = default_stream_hz
-    if "rate" in values:
-        try:
-            stream_hz = float(values["rate"])
-        except ValueError:
-            stream_hz = -1.0
-        if not 1.0 <= stream_hz <= 50.0:
-            raise LinkError(f"mavlink option rate={values['rate']!r}: expected Hz between 1 "
-                            "and 50")
+    timeout_s = _number(values, "timeout", 0.1, 600.0, "seconds")
+    stream_hz = _number(values, "rate", 1.0, 50.0, "Hz")
     for key, allowed in (("pilot", _PILOT), ("depth", _DEPTH)):
         if key in values and values[key] not in allowed:
             raise LinkError(f"mavlink option {key}={values[key]!r}: expected one of "
@@ -145,11 +145,12 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float,
     return MavlinkOptions(
         device=device, baud=baud,
         sysid=_int("sysid", values["sysid"], 1, 255) if "sysid" in values else None,
-        timeout_s=timeout_s,
+        timeout_s=default_timeout_s if timeout_s is None else timeout_s,
         gcs_sysid=_int("gcs", values["gcs"], 1, 255) if "gcs" in values else 255,
         key_path=values.get("key"),
         pilot=cast(PilotPolicy, values.get("pilot", "hold")),
-        depth=cast(DepthSource, values.get("depth", "vfr_hud")), stream_hz=stream_hz)
+        depth=cast(DepthSource, values.get("depth", "vfr_hud")),
+        stream_hz=default_stream_hz if stream_hz is None else stream_hz)
 
 
 def load_signing_key(path: str) -> bytes:
