@@ -86,14 +86,17 @@ class DepthRate:
         prev = np.take_along_axis(z, self._prev[:, None, :], axis=0)
         nxt = np.take_along_axis(z, self._next[:, None, :], axis=0)
         held = prev + self._a[:, None, :] * (nxt - prev)
+        # the ends (mode "nearest": a plain convolution, NaN-safe for a diverged trial) are
+        # never compared
         out: FloatArray = savgol_filter(held, self.window, 2, deriv=1, delta=self.step,
-                                        axis=0)
+                                        axis=0, mode="nearest")
         return out
 
     def simulated(self, zdot: FloatArray) -> FloatArray:
         """The simulated depth rate ``zdot`` at rows 0..L, (L + 1, B, K), as the depth
         sensor and the filter show it at rows 1..L, (L, B, K): integrated (trapezoid) to a
         depth from the segment's start, then as the measured depth."""
-        z = np.concatenate([np.zeros_like(zdot[:1]),
-                            np.cumsum(0.5 * self.step * (zdot[1:] + zdot[:-1]), axis=0)])
-        return self._filtered(z)[1:]
+        with np.errstate(over="ignore", invalid="ignore"):
+            z = np.concatenate([np.zeros_like(zdot[:1]),
+                                np.cumsum(0.5 * self.step * (zdot[1:] + zdot[:-1]), axis=0)])
+            return self._filtered(z)[1:]
