@@ -16,6 +16,7 @@ from textual import on
 from textual.app import App, ComposeResult, SystemCommand
 from textual.binding import Binding, BindingType
 from textual.containers import Horizontal, Vertical
+from textual.css.query import NoMatches
 from textual.events import Resize
 from textual.screen import Screen
 from textual.widgets import Footer
@@ -165,11 +166,16 @@ class TrimApp(App[SessionResult]):
         """Apply the latest telemetry to the panels (at REDRAW_HZ: light over SSH)."""
         if not self._dirty:
             return
+        try:
+            attitude, thrusters = self.query_one(AttitudePanel), self.query_one(ThrusterPanel)
+            stepper, link = self.query_one(Stepper), self.query_one(LinkPanel)
+        except NoMatches:   # closing: the panels are gone while the timer still ticks
+            return
         s, self._dirty = self.state, False
-        self.query_one(AttitudePanel).t_s = s.attitude.t_s if s.attitude else s.t_s
-        self.query_one(ThrusterPanel).t_s = s.thrusters.t_s if s.thrusters else s.t_s
-        self.query_one(Stepper).progress = self._progress
-        self.query_one(LinkPanel).show()
+        attitude.t_s = s.attitude.t_s if s.attitude else s.t_s
+        thrusters.t_s = s.thrusters.t_s if s.thrusters else s.t_s
+        stepper.progress = self._progress
+        link.show()
 
     @on(NoticeReceived)
     def _notice(self, message: NoticeReceived) -> None:
