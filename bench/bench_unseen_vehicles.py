@@ -56,17 +56,15 @@ N = int(os.environ.get("TRIMD_BENCH_MC_N", 10))
 #: 20 Hz, thrusters 10 Hz, DVL and depth 5 Hz: a vehicle that ignores the request, or a
 #: ground station's log).
 RATES = os.environ.get("TRIMD_BENCH_MC_RATES", "excite")
-_RATES = {
-    "excite": dict(attitude_hz=STREAM_HZ, thrusters_hz=STREAM_HZ, depth_hz=STREAM_HZ),
-    "50": dict(attitude_hz=50.0, thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0),
-    "sim": {},
-}
-_RATE_WORDS = {
-    "excite": f"attitude, thrusters and depth at {STREAM_HZ:g} Hz (trimd excite's request), "
-              "DVL at 5 Hz",
-    "50": "every stream at 50 Hz",
-    "sim": "the simulator's default stream rates (attitude 20 Hz, thrusters 10 Hz, DVL and "
-           "depth 5 Hz)",
+#: per RATES value: the SimConfig stream rates, and the words for the report
+_RATES: dict[str, tuple[dict[str, float], str]] = {
+    "excite": (dict(attitude_hz=STREAM_HZ, thrusters_hz=STREAM_HZ, depth_hz=STREAM_HZ),
+               f"attitude, thrusters and depth at {STREAM_HZ:g} Hz (trimd excite's request), "
+               "DVL at 5 Hz"),
+    "50": (dict(attitude_hz=50.0, thrusters_hz=50.0, velocity_hz=50.0, depth_hz=50.0),
+           "every stream at 50 Hz"),
+    "sim": ({}, "the simulator's default stream rates (attitude 20 Hz, thrusters 10 Hz, DVL "
+                "and depth 5 Hz)"),
 }
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
 VALIDATE_S = 120.0
@@ -81,7 +79,7 @@ def record(truth: Profile, prior: Profile, stage: str, duration: float, seed: in
     simulator (DVL on, default noise) at the stream ``rates`` (:data:`RATES`): every
     sample."""
     sig = design_signal(prior, stage, duration_s=duration, seed=seed, depth_excursion_m=50.0)
-    config = SimConfig(seed=seed, dvl=True, depth_m=100.0, **_RATES[rates])
+    config = SimConfig(seed=seed, dvl=True, depth_m=100.0, **_RATES[rates][0])
     vehicle = SimVehicle(truth, config)
     excite = Excite(prior, sig, confirmed=True, depth_excursion_m=50.0, stage=stage)
     result, samples = asyncio.run(run_experiment(SimLink(vehicle), prior, excite))
@@ -165,7 +163,7 @@ def main() -> None:
         prior = load_profile(name)
         print(f"{name} as prior: {N} vehicles ×[0.5, 1.5] per hydrodynamic parameter, "
               f"{FIT_S:g} s per stage, "
-              + _RATE_WORDS[RATES]
+              + _RATES[RATES][1]
               + ", default noise")
         with_dvl, without = [], []
         for k in range(N):

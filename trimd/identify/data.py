@@ -40,8 +40,8 @@ from trimd.core.profile import Profile
 from trimd.core.resample import zoh_align
 from trimd.core.samples import Attitude, Battery, Depth, Sample, Thrusters, Velocity
 
-__all__ = ["DEPTH_WINDOW_S", "DEPTH_WINDOW_SAMPLES", "Experiment", "depth_rate",
-           "experiments_from_samples", "heave_from_depth"]
+__all__ = ["DEPTH_WINDOW_S", "DEPTH_WINDOW_SAMPLES", "Experiment", "depth_rate", "depth_window",
+           "experiments_from_samples", "heave_from_depth", "z_dot"]
 
 FloatArray = NDArray[np.float64]
 
@@ -233,11 +233,27 @@ def depth_rate(eta: FloatArray, h: float, depth_h_s: float = 0.0,
     sensor sampling every ``depth_h_s`` [s] (0: every grid step): the derivative of a
     Savitzky–Golay fit (quadratic) over :data:`DEPTH_WINDOW_S` and at least ``samples``
     depth samples."""
-    n = len(eta)
-    span = max(DEPTH_WINDOW_S, samples * depth_h_s)
-    window = min(max(5, 2 * round(0.5 * span / h) + 1), n - (n + 1) % 2)
+    window = depth_window(len(eta), h, depth_h_s, samples)
     z_dot: FloatArray = savgol_filter(eta[:, 2], window, 2, deriv=1, delta=h)
     return z_dot
+
+
+def depth_window(n: int, h: float, depth_h_s: float = 0.0,
+                 samples: int = DEPTH_WINDOW_SAMPLES) -> int:
+    """Samples (odd, at least 5, at most ``n``) of the Savitzky–Golay window of
+    :func:`depth_rate` on ``n`` samples of step ``h`` [s]: :data:`DEPTH_WINDOW_S` and at
+    least ``samples`` samples of a depth sensor sampling every ``depth_h_s`` [s]."""
+    span = max(DEPTH_WINDOW_S, samples * depth_h_s)
+    return min(max(5, 2 * round(0.5 * span / h) + 1), n - (n + 1) % 2)
+
+
+def z_dot(u: FloatArray, v: FloatArray, w: FloatArray, phi: FloatArray, theta: FloatArray
+          ) -> FloatArray:
+    """Depth rate [m/s, NED down] of body velocity u, v, w [m/s] at roll and pitch φ, θ
+    [rad] (Fossen eq. 2.19, third row; :func:`heave_from_depth` inverts it at u = v = 0)."""
+    ct = np.cos(theta)
+    out: FloatArray = -np.sin(theta) * u + ct * np.sin(phi) * v + ct * np.cos(phi) * w
+    return out
 
 
 def heave_from_depth(eta: FloatArray, h: float, depth_h_s: float = 0.0) -> FloatArray:

@@ -4,14 +4,15 @@ Without body velocity the heave velocity in an experiment is derived from the de
 derivative of a Savitzky–Golay fit over :data:`trimd.identify.data.DEPTH_WINDOW_S`
 (:func:`trimd.identify.data.depth_rate`). That filter smooths: the derived w rises later
 and rounder after each thrust step than the true one, and a fit comparing the simulated w
-with it moved the thruster timing to match (the lag 2 ms long on a noise-free Sabertooth,
-its pitch inertia sum 4 % low through the timing it trades against). :class:`DepthRate`
-compares like with like: the simulated depth rate ż = −sin θ·u + cos θ·sin φ·v +
-cos θ·cos φ·w of each segment is integrated to a depth, kept at the depth sensor's samples
-and interpolated linearly between them as the measured depth is, and differentiated by the
-same filter; the measured depth of the segment goes through the same steps. Samples within
-half a filter window of a segment's ends (where the filter would see past the segment)
-are not compared.
+with it lengthened the thruster lag to match, which the inertia of a fast DOF trades
+against (docs/identification.md, "Without a DVL"). :class:`DepthRate` compares like with
+like: the simulated depth rate (:func:`trimd.identify.data.z_dot`) of each segment is
+integrated to a depth, kept at the depth sensor's samples and interpolated linearly
+between them as the measured depth is, and differentiated by the same filter; the
+measured depth of the segment goes through the same steps. Samples within half a filter
+window of a segment's ends (where the filter would see past the segment) are not
+compared. Validation does the same for one free run
+(:func:`trimd.identify.validation.validate`, with a wider window).
 
 Pure computation: no I/O, no clock.
 """
@@ -24,20 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
-from trimd.identify.data import DEPTH_WINDOW_S, DEPTH_WINDOW_SAMPLES, Experiment
+from trimd.identify.data import Experiment, depth_window
 
-__all__ = ["DepthRate", "z_dot"]
+__all__ = ["DepthRate"]
 
 FloatArray = NDArray[np.float64]
-
-
-def z_dot(u: FloatArray, v: FloatArray, w: FloatArray, phi: FloatArray, theta: FloatArray
-          ) -> FloatArray:
-    """Depth rate [m/s, NED down] of body velocity u, v, w [m/s] at roll and pitch φ, θ
-    [rad] (Fossen eq. 2.19, third row)."""
-    ct = np.cos(theta)
-    out: FloatArray = -np.sin(theta) * u + ct * np.sin(phi) * v + ct * np.cos(phi) * w
-    return out
 
 
 class DepthRate:
@@ -62,9 +54,7 @@ class DepthRate:
         depth = np.concatenate([e.eta[:, 2] for e in experiments])[rows]      # (L+1, K)
         fresh = np.concatenate([e.measured[:, 2] for e in experiments])[rows]
         n = rows.shape[0]
-        interval = max(e.interval_s(2) for e in experiments)
-        span = max(DEPTH_WINDOW_S, DEPTH_WINDOW_SAMPLES * interval)
-        self.window = min(max(5, 2 * round(0.5 * span / step) + 1), n - (n + 1) % 2)
+        self.window = depth_window(n, step, max(e.interval_s(2) for e in experiments))
         self.step = step
         # linear interpolation between the depth samples of each segment (held at the end)
         index = np.arange(n)[:, None] * np.ones((1, rows.shape[1]), np.intp)

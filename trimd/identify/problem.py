@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.errors import DataError
-from trimd.identify.data import Experiment
-from trimd.identify.depthrate import DepthRate, z_dot
+from trimd.identify.data import Experiment, z_dot
+from trimd.identify.depthrate import DepthRate
 from trimd.identify.model import (
     HYDRO_NAMES,
     LAG,

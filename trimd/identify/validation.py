@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.profile import Profile
-from trimd.identify.data import Experiment, depth_rate
+from trimd.identify.data import Experiment, depth_rate, z_dot
 from trimd.identify.model import (
     LAG,
     LEAD,
@@ -162,7 +162,7 @@ def gyro_bias(e: Experiment) -> FloatArray:
 
 
 def _depth_rate_of(stage: Stage, e: Experiment, y_hat: FloatArray) -> FloatArray:
-    """ż [m/s, down] = −sin θ·u + cos θ·sin φ·v + cos θ·cos φ·w of a simulation of
+    """ż [m/s, down] (:func:`trimd.identify.data.z_dot`) of a simulation of
     ``e`` (``y_hat``: the simulated ``stage.outputs`` at steps 1..N−1; the states it does
     not simulate from ``e``)."""
     x = e.x[1:]
@@ -170,10 +170,7 @@ def _depth_rate_of(stage: Stage, e: Experiment, y_hat: FloatArray) -> FloatArray
     def state(i: int) -> FloatArray:
         return y_hat[:, stage.outputs.index(i)] if i in stage.outputs else x[:, i]
 
-    u, v, w, phi, theta = (state(i) for i in (0, 1, 2, 6, 7))
-    z_dot: FloatArray = (-np.sin(theta) * u + np.cos(theta) * np.sin(phi) * v
-                         + np.cos(theta) * np.cos(phi) * w)
-    return z_dot
+    return z_dot(*(state(i) for i in (0, 1, 2, 6, 7)))
 
 
 def _as_measured(z_dot: FloatArray, e: Experiment) -> FloatArray:
