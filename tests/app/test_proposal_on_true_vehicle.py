@@ -1,7 +1,8 @@
 """The proposal put on the TRUE vehicle (issue 12, "the applied milp proposal"): full trims
 of a simulated BlueROV2 Heavy that its profile does not describe exactly
 (``truth=perturbed``: thrust curves 5 % off per thruster and direction, buoyancy 1 %,
-centre of buoyancy 5 mm) with realistic disturbances (``disturb=real``), then the
+centre of buoyancy 5 mm, each ESC's dead band up to 4 µs off, hunting at its edge) with
+realistic disturbances (``disturb=real``), then the
 session's milp proposal added to that true vehicle, thrusters off.
 
 What the operator acts on is the trim the vehicle is left at, and the ± of the predicted
@@ -45,4 +46,9 @@ def test_heavy_proposal_leaves_the_true_vehicle_as_predicted(bluerov: Profile) -
     rms = np.sqrt(np.mean(((a - p) / s) ** 2, axis=0))
     assert as_said.mean() >= 0.9, (as_said.mean(), a[~as_said], p[~as_said], s[~as_said])
     assert np.all((rms >= 0.6) & (rms <= 1.4)), rms
-    assert np.abs(a).max() < 1.5, a
+    # the ESC offsets (truth=perturbed) leave a Heavy's trim known only to ±1–3° at 95 %:
+    # wherever the true vehicle ends beyond twice the tolerance, the proposal said it was
+    # undecided (its 95 % interval wider than the tolerance: "undecided … verify")
+    beyond = np.any(np.abs(a) > 2 * bluerov.level_tol_deg, axis=1)
+    undecided = 1.96 * s.max(axis=1) > bluerov.level_tol_deg
+    assert np.all(undecided[beyond]), (a[beyond], s[beyond])

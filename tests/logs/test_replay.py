@@ -82,7 +82,7 @@ def test_truncated_recording_replays_up_to_the_damage(
     capsys.readouterr()
     data = log.read_bytes()
     cut = tmp_path / "cut.tlog"
-    cut.write_bytes(data[: len(data) // 2 + 7])
+    cut.write_bytes(data[: len(data) // 2 + 5])
     assert main(["replay", str(cut), "--json"]) == 1
     err = capsys.readouterr().err
     assert "truncated record at byte" in err and "Traceback" not in err

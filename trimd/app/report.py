@@ -19,6 +19,8 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
+_Z95 = 1.959964
+
 __all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
            "format_estimate", "format_proposal",
            "format_result", "format_verification"]
@@ -43,6 +45,7 @@ def format_estimate(est: StaticEstimate) -> str:
         *(f"net moment W·{a}_g − B·{a}_b  {v:.3f} ± {s:.3f} N·m"
           for a, v, s in zip("xyz", M, M_std, strict=True)),
         f"rows used: {', '.join(est.dofs_used)}",
+        *(f"note: {n}" for n in est.notes),
     ]
     return "\n".join(lines)
 
@@ -77,6 +80,11 @@ def format_proposal(p: Proposal) -> str:
         f"binding           {'; '.join(p.binding) or 'none'}",
         p.message,
     ]
+    known = _Z95 * max(t.roll_std_deg, t.pitch_std_deg)
+    if t.stable and p.level_tol_deg > 0 and known > p.level_tol_deg:
+        lines.append(f"undecided: the passive roll and pitch are known to ±{known:.2f}° at 95 %,"
+                     f" wider than the level tolerance ±{p.level_tol_deg:g}°: after "
+                     "ballasting, verify (trimd run --verify) to measure what is left")
     return "\n".join(lines)
 
 

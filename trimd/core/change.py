@@ -82,7 +82,7 @@ def threshold_for(false_alarms_per_h: float, segments_per_h: float, k: float = C
 @dataclass(frozen=True, eq=False)
 class Baseline:
     """What the trim is compared with: q [N, N·m], the variance of each component, and
-    (when known) its gain sensitivity (4, 2·n) (:attr:`SegmentEstimate.gain_sensitivity`);
+    (when known) its gain sensitivity (4, 4·n) (:attr:`SegmentEstimate.gain_sensitivity`);
     ``source`` says where it came from, for people."""
 
     q: FloatArray

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from trimd.core.estimate import HoldSamples, StaticEstimate, thrust_curve_std
+from trimd.core.estimate import HoldSamples, StaticEstimate, thrust_map_std
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
@@ -108,7 +108,7 @@ class StopRule:
         # a row whose noise is already well below its thrust curves' share is as known
         # as collecting can make it (as in estimate_decided)
         limits = np.maximum(self.row_limits()[rows],
-                            NOISE_SHARE * thrust_curve_std(hold, rows, self.profile))
+                            NOISE_SHARE * thrust_map_std(hold, rows, self.profile))
         return mean.resolved and bool(np.all(sigma <= limits))
 
     def estimate_decided(self, est: StaticEstimate) -> bool:

@@ -62,6 +62,7 @@ from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import (
+    band_offset_sensitivity,
     informative_rows,
     restoring_matrix,
     restoring_matrix_jacobian,
@@ -69,10 +70,10 @@ from trimd.core.model import (
 )
 from trimd.core.profile import Profile
 
-__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "HoldSamples", "HoldSummary",
-           "StaticEstimate", "attitude_error_factors", "check_samples", "drift_moments",
-           "estimate_static", "is_level", "measurable_dofs", "thrust_curve_std",
-           "thrust_gain_factors"]
+__all__ = ["BAND_SIGMA_SHARE", "MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "HoldSamples",
+           "HoldSummary", "StaticEstimate", "attitude_error_factors",
+           "check_samples", "drift_moments", "estimate_static", "is_level", "measurable_dofs",
+           "thrust_map_factors", "thrust_map_std"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -84,6 +85,9 @@ MIN_RELATIVE_SINGULAR = 0.02
 _LEVEL_RAD = np.radians(3.0)
 #: The moment rows (K, M, N) of τ and G(φ, θ).
 MOMENT_ROWS = np.array([False, False, False, True, True, True])
+#: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
+#: offset anywhere within ± the margin (uniform: 1/√3).
+BAND_SIGMA_SHARE = 1 / math.sqrt(3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,6 +139,8 @@ class StaticEstimate:
     ``cov`` is the covariance of [W, x_g, y_g, z_g] (N, m). Standard deviations are 1σ.
     ``q_cov_noise`` is the part of ``q_cov`` that collecting longer reduces (noise and
     wander); the rest is systematic (thrust curves, drift model). None: all of it.
+    ``q_cov_band`` is the part from thrusters at or near their dead band (ESC offsets);
+    ``notes`` say, for people, which rows and quantities rest on such thrusters.
     """
 
     q: FloatArray
@@ -152,6 +158,8 @@ class StaticEstimate:
     success: bool = True
     message: str = "ok"
     q_cov_noise: FloatArray | None = field(default=None, repr=False)
+    q_cov_band: FloatArray | None = field(default=None, repr=False)
+    notes: tuple[str, ...] = ()
 
     @property
     def weight_std_N(self) -> float:
@@ -255,37 +263,43 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
-def thrust_gain_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
-                         profile: Profile) -> list[tuple[FloatArray, FloatArray]]:
-    """Per hold, how its mean τ (the rows used) moves with each thruster's relative gain
-    error, forward and reverse: T_rows·diag(f̄±)·diag(σ_gain), two arrays (rows × n)
-    [N, N·m per 1σ of gain]; zero for a hold without per-thruster thrust."""
+def thrust_map_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+                       profile: Profile) -> list[FloatArray]:
+    """Per hold, how its mean τ (the rows used) moves with each systematic error of the
+    thrust map, one column per error, shape (rows, 4·n) [N, N·m per 1σ]: each thruster's
+    relative gain error forward, then reverse (T_rows·diag(f̄±)·diag(σ_gain)), then the
+    offset of its dead band's (its ESC's) negative edge, then its positive edge
+    (T_rows·diag(s̄±)·:data:`BAND_SIGMA_SHARE`, s̄ the hold's mean
+    :func:`trimd.core.model.band_offset_sensitivity`). The same column is the same error
+    in every hold. Zero for a hold without per-thruster thrust."""
+    n = len(profile.thrusters)
     T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
     sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
     out = []
     for h, r in zip(holds, used, strict=True):
         if h.thrust is None:
-            zero = np.zeros((int(r.sum()), T.shape[1]))
-            out.append((zero, zero))
+            out.append(np.zeros((int(r.sum()), 4 * n)))
             continue
         f = np.asarray(h.thrust, float)
-        if f.shape != (len(h.phi), T.shape[1]) or not np.all(np.isfinite(f)):
+        if f.shape != (len(h.phi), n) or not np.all(np.isfinite(f)):
             raise EstimationError(
                 f"hold {h.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
                 f"one row per sample and one column per thruster: ({len(h.phi)}, "
-                f"{T.shape[1]}) expected)")
+                f"{n}) expected)")
         forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
-        out.append((T[r] * (forward * sigma), T[r] * (reverse * sigma)))
+        negative, positive = band_offset_sensitivity(profile, f).mean(axis=1) * BAND_SIGMA_SHARE
+        out.append(np.concatenate([T[r] * (forward * sigma), T[r] * (reverse * sigma),
+                                   T[r] * negative, T[r] * positive], axis=1))
     return out
 
 
-def thrust_curve_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile
-                     ) -> FloatArray:
-    """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust curves' gain errors
-    alone (the profile's ``uncertainty_pct``): the part of its ± that no length of
-    collecting reduces. Zero for a hold without per-thruster thrust."""
-    forward, reverse = thrust_gain_factors([hold], [rows], profile)[0]
-    std: FloatArray = np.sqrt((forward**2).sum(axis=1) + (reverse**2).sum(axis=1))
+def thrust_map_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile
+                   ) -> FloatArray:
+    """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust map's systematic errors
+    alone (the curves' ``uncertainty_pct`` and the dead-band edges): the part of its ± that
+    no length of collecting reduces. Zero for a hold without per-thruster thrust."""
+    factors = thrust_map_factors([hold], [rows], profile)[0]
+    std: FloatArray = np.sqrt((factors**2).sum(axis=1))
     return std
 
 
@@ -382,14 +396,14 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # twice (the residuals depend on q)
     # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
     # whose noise is nil but whose thrust is uncertain is not exact
-    gains = thrust_gain_factors(holds, used, profile)
+    gains = thrust_map_factors(holds, used, profile)
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):
         drift = drift_moments(attitude, used, profile, float(q[0]))
         tilt = attitude_error_factors(attitude, used, profile, q)
         means = _residual_means(holds, used, q)
-        var = [np.diag(m.cov) + (g[0]**2).sum(axis=1) + (g[1]**2).sum(axis=1)
+        var = [np.diag(m.cov) + (g**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * d)**2 + (e**2).sum(axis=1)
                for m, g, d, e in zip(means, gains, drift, tilt, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
@@ -403,12 +417,13 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
                 zip(A, weights, means, strict=True)), np.zeros((4, 4)))
     q_cov_noise = H_inv @ meat @ H_inv
-    # the thrust curves' gain errors, shared by all holds: per direction of thrust,
-    # U = Σ_k A_kᵀ·W_k·T_k·diag(f̄_k·σ) and the meat gains U·Uᵀ
-    for d in range(2):
-        U = sum(((Ak.T * w**2) @ g[d] for Ak, w, g in zip(A, weights, gains, strict=True)),
-                np.zeros((4, len(profile.thrusters))))
-        meat = meat + U @ U.T
+    # the thrust map's errors (curve gains, dead-band edges), shared by all holds:
+    # U = Σ_k A_kᵀ·W_k·F_k with F_k the hold's factors, and the meat gains U·Uᵀ
+    n = len(profile.thrusters)
+    U = sum(((Ak.T * w**2) @ g for Ak, w, g in zip(A, weights, gains, strict=True)),
+            np.zeros((4, 4 * n)))
+    meat = meat + U @ U.T
+    q_cov_band = H_inv @ U[:, 2 * n:] @ U[:, 2 * n:].T @ H_inv
     # the drift model's error, one for all holds
     U_drift = sum(((Ak.T * w**2) @ (DRIFT_MODEL_ERROR * d) for Ak, w, d in
                    zip(A, weights, drift, strict=True)), np.zeros(4))
@@ -440,4 +455,37 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
         gravity_m_s2=profile.gravity_m_s2, holds=summaries,
         dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
-        residual_rms=residual_rms, q_cov_noise=q_cov_noise)
+        residual_rms=residual_rms, q_cov_noise=q_cov_noise, q_cov_band=q_cov_band,
+        notes=band_notes(holds, used, gains, means, q, q_cov, q_cov_band))
+
+
+def band_notes(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+               factors: Sequence[FloatArray], means: Sequence[MeanCovariance],
+               q: FloatArray, q_cov: FloatArray, q_cov_band: FloatArray) -> tuple[str, ...]:
+    """For people: each row of a hold whose variance is mostly its thrusters' dead band
+    (it was down-weighted: "hold 2, N row: 4 thrusters at or near the dead-band edge"),
+    and how much of the passive roll's and pitch's variance rests on the band when that
+    is most of it. ``factors`` from :func:`thrust_map_factors`."""
+    notes = []
+    for h, r, f, m in zip(holds, used, factors, means, strict=True):
+        n = f.shape[1] // 4
+        band = f[:, 2 * n:]
+        share = (band**2).sum(axis=1) / (np.diag(m.cov) + (f**2).sum(axis=1) + 1e-300)
+        for row, s, b in zip(np.flatnonzero(r), share, band, strict=True):
+            if s > 0.5:
+                c = b[:n]**2 + b[n:]**2  # each thruster's share of the row's band variance
+                count = int(np.sum(c > 0.1 * c.sum()))
+                notes.append(f"{h.label or 'hold'}, {TAU_NAMES[row]} row: {count} thruster"
+                             f"{'s' if count != 1 else ''} at or near the dead-band edge "
+                             f"({100 * s:.0f} % of its variance; down-weighted)")
+    k = float(q[3])
+    if k > 0:
+        for name, i in (("roll", 2), ("pitch", 1)):
+            share = q_cov_band[i, i] / q_cov[i, i] if q_cov[i, i] > 0 else 0.0
+            if share > 0.5:
+                notes.append(f"passive {name} ± {math.degrees(math.sqrt(q_cov[i, i]) / k):.2f}°"
+                             f" (1σ): {100 * share:.0f} % of its variance from thrusters at or "
+                             "near their dead band (the ESC offsets the profile's "
+                             "deadband_margin_us allows); a verify hold after ballasting "
+                             "measures what is left")
+    return tuple(notes)

@@ -39,6 +39,7 @@ def estimate_to_dict(est: StaticEstimate) -> dict[str, Any]:
         "holds": [{"label": h.label, "roll_deg": h.roll_deg, "pitch_deg": h.pitch_deg,
                    "samples": h.samples, "steady_window_s": [h.t_start_s, h.t_end_s]}
                   for h in est.holds],
+        "notes": list(est.notes),
     }
 
 
@@ -105,4 +106,5 @@ def estimate_from_dict(d: Any, source: str = "<estimate>") -> StaticEstimate:
         r_g_m=_array(d, "cg_m", (3,), source), cov=_covariance(d, "cov_W_cg", 4, source),
         m_ext_kg=scalars["m_ext_kg"], gravity_m_s2=scalars["gravity_m_s2"], holds=holds,
         dofs_used=tuple(str(x) for x in d.get("dofs_used", [])),
-        residual_rms=np.asarray(d.get("residual_rms", [math.nan] * 6), dtype=float))
+        residual_rms=np.asarray(d.get("residual_rms", [math.nan] * 6), dtype=float),
+        notes=tuple(str(n) for n in d.get("notes", [])))

@@ -15,6 +15,9 @@ from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
 
 __all__ = [
     "INFORMATIVE",
+    "band_at",
+    "band_edge_thrust",
+    "band_offset_sensitivity",
     "informative_rows",
     "pwm_from_thrust",
     "quaternion_from_euler",
@@ -308,6 +311,72 @@ def thrusts_from_pwm(profile: Profile, pwm_us: ArrayLike, voltage_V: ArrayLike |
     f: FloatArray = np.stack([thrust_from_pwm(t.curve, pwm[..., i], v)
                               for i, t in enumerate(profile.thrusters)], axis=-1)
     return f
+
+
+def band_edge_thrust(profile: Profile, voltage_V: float | None = None) -> FloatArray:
+    """Per thruster, the thrust [N] of its curve ``deadband_margin_us`` beyond each edge of
+    its dead band, shape (n, 2): (negative edge, positive edge), at ``voltage_V`` (default
+    the profile's nominal voltage)."""
+    v = profile.nominal_voltage_V if voltage_V is None else voltage_V
+    edge = np.zeros((len(profile.thrusters), 2))
+    for i, t in enumerate(profile.thrusters):
+        lo, hi = band_at(t.curve, v)
+        margin = t.curve.deadband_margin_us
+        edge[i] = thrust_from_pwm(t.curve, [lo - margin, hi + margin], v)
+    return edge
+
+
+def band_offset_sensitivity(profile: Profile, thrust_N: ArrayLike,
+                            voltage_V: float | None = None) -> FloatArray:
+    """How much each thrust sample [N] would change if its thruster's dead band (its
+    ESC's) started ``deadband_margin_us`` later, on the negative and on the positive side:
+    shape (2, N, n) [N] for ``thrust_N`` of shape (N, n) (profile order) read through the
+    curves at ``voltage_V`` (default nominal). A real ESC's band starts a few µs from the
+    table's and an output inside or at the edge of the band hunts there, delivering
+    whatever balances (docs/method.md §3, "The thrust map near the dead band"): a sample of
+    positive thrust f at PWM p moves by the larger of f(p) − f(p − margin) and
+    f(p + margin) − f(p) — the whole edge thrust near the band, the local slope times the
+    margin further out — and a sample inside the
+    band (exactly zero, its side unknown) by the edge thrust on either side, shared out
+    as 1/√2 to each (one edge's variance in all).
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> p = load_profile("sabertooth-dh2")
+    >>> s = band_offset_sensitivity(p, [[0.0, 3.0, 100.0, -100.0, 0.0, 0.0]])
+    >>> [round(float(v), 2) for v in s[1, 0, :4]], [round(float(v), 2) for v in s[0, 0, :4]]
+    ([4.84, 6.84, 6.84, 0.0], [4.09, 0.0, 0.0, 5.79])
+    """
+    v = profile.nominal_voltage_V if voltage_V is None else voltage_V
+    f = np.atleast_2d(np.asarray(thrust_N, float))
+    out = np.zeros((2, *f.shape))
+    edge = band_edge_thrust(profile, v)
+    for i, t in enumerate(profile.thrusters):
+        c, m, fi = t.curve, t.curve.deadband_margin_us, f[:, i]
+        p = pwm_from_thrust(c, fi, v)
+        pos, neg, zero = fi > 0, fi < 0, fi == 0
+        out[1, pos, i] = np.maximum(fi[pos] - thrust_from_pwm(c, p[pos] - m, v),
+                                    thrust_from_pwm(c, p[pos] + m, v) - fi[pos])
+        out[0, neg, i] = np.maximum(thrust_from_pwm(c, p[neg] + m, v) - fi[neg],
+                                    fi[neg] - thrust_from_pwm(c, p[neg] - m, v))
+        out[1, zero, i] = edge[i, 1] / math.sqrt(2)
+        out[0, zero, i] = -edge[i, 0] / math.sqrt(2)
+    return out
+
+
+def band_at(curve: ThrustCurve, voltage_V: float) -> tuple[float, float]:
+    """The dead band (low, high) [µs] of ``curve`` at ``voltage_V``, interpolated between
+    tables as the thrust is (:func:`thrust_from_pwm`)."""
+    volts = [t.voltage_V for t in curve.tables]
+    w = float(np.interp(voltage_V, volts, np.arange(len(volts))))
+    k = min(int(w), len(volts) - 1)
+    lo0, hi0 = curve.tables[k].deadband_us
+    if k + 1 == len(volts):
+        return lo0, hi0
+    lo1, hi1 = curve.tables[k + 1].deadband_us
+    f = w - k
+    return lo0 * (1 - f) + lo1 * f, hi0 * (1 - f) + hi1 * f
 
 
 def quaternion_from_euler(phi: float, theta: float, psi: float

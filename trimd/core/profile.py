@@ -52,12 +52,16 @@ class ThrustCurve:
     ``uncertainty_pct`` is the relative standard deviation [%] of a real thruster's thrust
     about the table, separately for each thruster and each direction of thrust (a table
     from the maker, a worn propeller, a fouled duct): a gain error every hold shares.
+    ``deadband_margin_us`` is how far [µs] a real ESC's dead band may start from the
+    table's: within it of a band edge (or inside the band) a sample's thrust is uncertain
+    by up to the edge thrust (docs/method.md §3, "The thrust map near the dead band").
     """
 
     name: str
     tables: tuple[ThrustTable, ...]
     neutral_us: float = 1500.0
     uncertainty_pct: float = 5.0
+    deadband_margin_us: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)

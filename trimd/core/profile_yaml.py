@@ -126,7 +126,7 @@ _KNOWN_KEYS = {
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct",
+    "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct", "deadband_margin_us",
     *RETIRED_PROCEDURE_KEYS,
     "installed", "slot", "piece",
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
@@ -168,7 +168,8 @@ def _thrust_curve(name: str, node: _Node) -> ThrustCurve:
     if uncertainty >= 100:
         raise node.fail("uncertainty_pct", "expected a relative standard deviation below "
                                            f"100 %, got {uncertainty}")
-    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0), uncertainty)
+    margin = node.number("deadband_margin_us", 5.0, minimum=0.0)
+    curve = ThrustCurve(name, tables, node.number("neutral_us", 1500.0), uncertainty, margin)
     node.done()
     return curve
 

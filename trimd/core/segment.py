@@ -42,7 +42,7 @@ from trimd.core.estimate import (
     drift_moments,
     is_level,
     measurable_dofs,
-    thrust_gain_factors,
+    thrust_map_factors,
 )
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
@@ -72,8 +72,9 @@ class SegmentEstimate:
         ``observable`` hold the prior.
     q_cov : covariance of ``q`` with every source (noise, thrust curves, drift model).
     q_cov_noise : the noise-and-wander part alone (independent between segments).
-    gain_sensitivity : how ``q`` moves with each thruster's relative gain error, shape
-        (4, 2·n): forward then reverse, per 1σ of the curve's ``uncertainty_pct``.
+    gain_sensitivity : how ``q`` moves with each systematic error of the thrust map, shape
+        (4, 4·n), per 1σ (:func:`trimd.core.estimate.thrust_map_factors`: gains forward,
+        reverse, dead-band edges positive, negative).
     observable : which of the four components this segment determines.
     resolved : the segment was long enough for its own correlation time.
     """
@@ -142,7 +143,7 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     observable = (o0, o1, o2, o3)
     B_o = A @ V_o
     tau = h.tau[:, used].mean(axis=0)
-    forward, reverse = thrust_gain_factors([h], [used], profile)[0]
+    factors = thrust_map_factors([h], [used], profile)[0]
     q = prior.copy()
     weights = np.ones(int(used.sum()))
     for _ in range(3):
@@ -153,12 +154,12 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
                                        restoring_matrix(h.phi, h.theta)[:, used], q)
         mc = mean_covariance(e)
         tilt = attitude_error_factors([(phi, theta)], [used], profile, q)[0]
-        var = (np.diag(mc.cov) + (forward**2).sum(axis=1) + (reverse**2).sum(axis=1)
+        var = (np.diag(mc.cov) + (factors**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * drift)**2 + (tilt**2).sum(axis=1))
         weights = 1 / np.sqrt(np.maximum(var, 1e-12 * max(float(var.max()), 1e-300)))
     J = V_o @ L  # q = prior + J·(τ̄ − drift − A·prior)
     noise = J @ mc.cov @ J.T
-    gain = np.concatenate([J @ forward, J @ reverse], axis=1)
+    gain = J @ factors
     d = J @ (DRIFT_MODEL_ERROR * drift)
     reference = J @ tilt
     cov = noise + gain @ gain.T + np.outer(d, d) + reference @ reference.T

@@ -79,6 +79,11 @@ class SimConfig:
         components [m/s] (each), added to the ``current_m_s`` one.
     gyro_wander_deg_s, gyro_wander_tau_s : varying gyro bias of p, q, r [deg/s] (each),
         added to the constant ``gyro_bias_rad_s`` one (bias instability).
+    torque_wander_deg, torque_wander_tau_s : disturbance torques about roll and pitch
+        (waves, tether, current on the frame), each a Gauss–Markov process sized so that
+        the attitude loop leaves this RMS attitude wander [deg] (computed from the
+        linearised loop, :func:`trimd.drivers.sim.wander.torque_std_for_wander`); the
+        thrusters fight them, so effort wanders with them.
     thruster_dither_us, thruster_dither_tau_s : PWM dither of each thruster's output [µs]
         (ESC and controller jitter), before rounding to integer µs; reported PWM includes
         it.
@@ -98,6 +103,15 @@ class SimConfig:
         direction [mm].
     thrust_err : each thruster's true thrust = (1 ± thrust_err)·profile curve, the sign
         drawn separately per thruster and per direction (forward, reverse) [fraction].
+    esc_band_us : each edge of each thruster's true dead band (its ESC's) lies up to this
+        far from the profile's, uniform in ±esc_band_us per thruster and edge [µs]; the
+        curve beyond the band keeps its table points.
+    esc_hunt : a thruster whose output falls inside its true dead band hunts at the band's
+        edge, as an autopilot's integrator makes it do: it reports the first PWM out of
+        the band on the output's side while the thrust it delivers (time-averaged over the
+        hunting) rises linearly from 0 at neutral to the thrust of that first PWM, so the
+        delivered thrust is whatever balances (:class:`~trimd.drivers.sim.thrusters.
+        ThrusterBank`).
 
     What happens during the dive (:mod:`trimd.drivers.sim.scenario`):
 
@@ -147,6 +161,8 @@ class SimConfig:
     current_wander_tau_s: float = 60.0
     gyro_wander_deg_s: float = 0.0
     gyro_wander_tau_s: float = 120.0
+    torque_wander_deg: float = 0.0
+    torque_wander_tau_s: float = 5.0
     thruster_dither_us: float = 0.0
     thruster_dither_tau_s: float = 0.3
     clock_jump_s: float = 0.0
@@ -154,6 +170,8 @@ class SimConfig:
     buoyancy_err: float = 0.0
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0
+    esc_band_us: float = 0.0
+    esc_hunt: bool = False
     leak_N_min: float = 0.0
     leak_start_s: float = 300.0
     leak_at: str = ""
@@ -179,9 +197,11 @@ DISTURB_REAL: dict[str, Any] = {
     "attitude_hz": 10.0, "thrusters_hz": 4.0,
 }
 
-#: ``truth=perturbed``: the vehicle of issue 12 that its profile does not describe
-#: exactly (buoyancy 1 % off, centre of buoyancy 5 mm off, thrust 5 % off the table).
-TRUTH_PERTURBED: dict[str, Any] = {"buoyancy_err": 0.01, "cob_err_mm": 5.0, "thrust_err": 0.05}
+#: ``truth=perturbed``: a vehicle that its profile does not describe exactly (buoyancy
+#: 1 % off, centre of buoyancy 5 mm off, thrust 5 % off the table, each ESC's dead band up
+#: to 4 µs off the profile's with its output hunting at the band edge).
+TRUTH_PERTURBED: dict[str, Any] = {"buoyancy_err": 0.01, "cob_err_mm": 5.0, "thrust_err": 0.05,
+                                   "esc_band_us": 4.0, "esc_hunt": True}
 
 _FIELDS = {f.name: f for f in dataclasses.fields(SimConfig)}
 

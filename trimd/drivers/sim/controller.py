@@ -88,6 +88,12 @@ class Controller:
         self._i = [0.0] * 6
         self._saturated = [False] * 6
 
+    def gains(self, axis: int) -> tuple[float, float, float]:
+        """(Kp, Ki, Kd) of the attitude PID of ``axis`` (0 roll, 1 pitch, 2 yaw) [N·m per
+        rad, rad·s, rad/s]."""
+        kp, ki, kd, _, _ = self._pids[axis]
+        return kp, ki, kd
+
     def set_target(self, phi: float, theta: float, psi: float) -> None:
         """Attitude to hold: roll, pitch, yaw [rad]."""
         self.target = (phi, theta, psi)

@@ -87,9 +87,12 @@ class Disturbances:
     current_m_s : varying part of the water current, north and east [m/s] (NED).
     gyro_rad_s : varying part of the gyro bias, p, q, r [rad/s] (body FRD).
     dither_us : PWM added to each thruster's output [µs], ``()`` when off.
+    torque_Nm : disturbance torque about roll and pitch [N·m] (body FRD), of standard
+        deviations ``torque_std_Nm`` (:mod:`trimd.drivers.sim.wander` sizes them).
     """
 
-    def __init__(self, config: SimConfig, n_thrusters: int) -> None:
+    def __init__(self, config: SimConfig, n_thrusters: int,
+                 torque_std_Nm: tuple[float, float] = _ZERO2) -> None:
         c = config
         dt = c.dt_s
 
@@ -105,14 +108,18 @@ class Disturbances:
         self._current = process(4, c.current_wander_m_s, c.current_wander_tau_s, 2)
         self._gyro = process(5, math.radians(c.gyro_wander_deg_s), c.gyro_wander_tau_s, 3)
         self._dither = process(6, c.thruster_dither_us, c.thruster_dither_tau_s, n_thrusters)
+        self._torque = process(7, 1.0 if any(torque_std_Nm) else 0.0, c.torque_wander_tau_s, 2)
+        self._torque_std = torque_std_Nm
         self.ahrs_rad: tuple[float, ...] = _ZERO2
         self.setpoint_rad: tuple[float, ...] = _ZERO2
         self.depth_m = 0.0
         self.current_m_s: tuple[float, ...] = _ZERO2
         self.gyro_rad_s: tuple[float, ...] = _ZERO3
         self.dither_us: tuple[float, ...] = ()
+        self.torque_Nm: tuple[float, ...] = _ZERO2
         self.active = any(p is not None for p in (self._ahrs, self._setpoint, self._depth,
-                                                  self._current, self._gyro, self._dither))
+                                                  self._current, self._gyro, self._dither,
+                                                  self._torque))
         self.step()
 
     def step(self) -> None:
@@ -131,3 +138,6 @@ class Disturbances:
             self.gyro_rad_s = self._gyro.step()
         if self._dither is not None:
             self.dither_us = self._dither.step()
+        if self._torque is not None:
+            unit = self._torque.step()
+            self.torque_Nm = (unit[0] * self._torque_std[0], unit[1] * self._torque_std[1])

@@ -334,7 +334,8 @@ class MavlinkServer:
 
     def _send_servo_output_raw(self) -> None:
         raw = [0] * 16
-        for t, pwm in zip(self.vehicle.profile.thrusters, self.vehicle.pwm_us, strict=True):
+        for t, pwm in zip(self.vehicle.profile.thrusters, self.vehicle.thrusters.reported_us,
+                          strict=True):
             if t.channel <= 16:
                 raw[t.channel - 1] = pwm
         self.mav.servo_output_raw_send(self._ms() * 1000, 0, *raw)

@@ -5,7 +5,13 @@ Outputs are normalised per thruster to [−1, 1] and become integer PWM as ArduS
 flipped about neutral for a reversed thruster (MOT_n_DIRECTION = −1), neutral when
 disarmed. The physical thrust follows the profile's thrust curve at the battery voltage
 (deadband included: a small output can give no thrust at all) through a first-order
-spin-up lag, and τ = T·f (Fossen eq. 11.3).
+spin-up lag, and τ = T·f (Fossen eq. 11.3). With ``hunt`` (``SimConfig.esc_hunt``) an
+output inside a thruster's true dead band hunts at the band edge: the thruster reports the
+first PWM out of the band on the output's side and delivers, averaged over the hunting,
+thrust rising linearly from 0 at neutral to that PWM's thrust (what an autopilot's
+integrator settles on: whatever balances). The reported PWM then reads, through the
+profile's curve, a thrust that can be off by the whole edge thrust (docs/method.md §3,
+"The thrust map near the dead band").
 
 Mixing of the six axis inputs (X, Y, Z, K, M, N order, each in [−1, 1]):
 
@@ -47,6 +53,20 @@ def _pwm_range(profile: Profile, i: int) -> tuple[int, int, float]:
     lo = min(min(tb.pwm_us) for tb in t.curve.tables)
     hi = max(max(tb.pwm_us) for tb in t.curve.tables)
     return math.ceil(lo), math.floor(hi), t.curve.neutral_us
+
+
+def _true_band(table: Sequence[float], pwm_range: tuple[int, int, float]
+               ) -> tuple[int, int, int]:
+    """(first PWM below, first PWM above the zero-thrust band around neutral, neutral)
+    [µs] of one thruster's thrust ``table`` (one value per integer PWM of ``pwm_range``)."""
+    lo, hi, neutral_us = pwm_range
+    neutral = round(neutral_us)
+    below = above = neutral
+    while below > lo and table[below - lo] == 0.0:
+        below -= 1
+    while above < hi and table[above - lo] == 0.0:
+        above += 1
+    return below, above, neutral
 
 
 class Mixer:
@@ -135,13 +155,24 @@ class ThrusterBank:
     profile : thruster geometry and curves.
     voltage_V : battery voltage [V] for the thrust curves.
     lag_s : spin-up time constant [s] (0 for none).
+    hunt : outputs inside the dead band hunt at its edge (module docstring).
+
+    Attributes
+    ----------
+    reported_us : the PWM [µs] each thruster reports for the last command (the command,
+        or the band edge it hunts at).
     """
 
-    def __init__(self, profile: Profile, voltage_V: float, lag_s: float) -> None:
+    def __init__(self, profile: Profile, voltage_V: float, lag_s: float,
+                 hunt: bool = False) -> None:
         self.ranges = [_pwm_range(profile, i) for i in range(len(profile.thrusters))]
         self._table = [tuple(float(f) for f in thrust_from_pwm(t.curve, np.arange(lo, hi + 1),
                                                                 voltage_V))
                        for t, (lo, hi, _) in zip(profile.thrusters, self.ranges, strict=True)]
+        #: per thruster: (first PWM below the band, first above it, neutral) [µs], or None
+        self._band = [_true_band(table, r) if hunt else None
+                      for table, r in zip(self._table, self.ranges, strict=True)]
+        self.reported_us: tuple[int, ...] = tuple(round(r[2]) for r in self.ranges)
         self._T = tuple(tuple(float(v) for v in row)
                         for row in thrust_configuration(profile.thrusters))
         self.lag_s = lag_s
@@ -155,10 +186,35 @@ class ThrusterBank:
                       for table, p, (lo, hi, _) in zip(self._table, pwm_us, self.ranges,
                                                        strict=True)])
 
+    def _hunting(self, pwm_us: Sequence[int]) -> tuple[float, ...]:
+        """Thrust [N] of ``pwm_us`` with outputs in the dead band hunting at its edge; sets
+        :attr:`reported_us`."""
+        target = list(self.thrust(pwm_us))
+        reported = list(pwm_us)
+        for i, (band, p) in enumerate(zip(self._band, pwm_us, strict=True)):
+            if band is None:
+                continue
+            below, above, neutral = band
+            if below < p < above and p != neutral:
+                edge = above if p > neutral else below
+                reported[i] = edge
+                target[i] = self.thrust_at(i, edge) * (p - neutral) / (edge - neutral)
+        self.reported_us = tuple(reported)
+        return tuple(target)
+
+    def thrust_at(self, i: int, pwm_us: int) -> float:
+        """Static thrust [N] of thruster ``i`` at one integer PWM [µs]."""
+        lo, hi, _ = self.ranges[i]
+        return self._table[i][min(max(pwm_us, lo), hi) - lo]
+
     def step(self, pwm_us: Sequence[int], dt: float) -> tuple[float, ...]:
         """Advance the spin-up lag by ``dt`` [s] towards the thrust of ``pwm_us``; return
         τ [N, N·m] (body FRD) of the thrust reached."""
-        target = self.thrust(pwm_us)
+        if any(b is not None for b in self._band):
+            target = self._hunting(pwm_us)
+        else:
+            target = self.thrust(pwm_us)
+            self.reported_us = tuple(pwm_us)
         if dt != self._lag_dt:
             self._lag_dt = dt
             self._lag_factor = 1.0 if self.lag_s <= 0 else 1.0 - math.exp(-dt / self.lag_s)

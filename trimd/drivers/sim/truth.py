@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from trimd.core.profile import Profile, ThrustCurve
 from trimd.drivers.sim.config import SimConfig
 
-__all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile"]
+__all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "perturb_profile"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
@@ -35,11 +35,14 @@ class TruthOffset:
     r_b_offset_m : true r_b − profile r_b [m] (body FRD).
     thrust_factors : per thruster (profile order), true / profile thrust for a forward
         (PWM above neutral) and a reverse output.
+    band_offsets_us : per thruster, true − profile dead-band edge (low, high) [µs]; empty
+        when the bands are the profile's.
     """
 
     buoyancy_factor: float
     r_b_offset_m: tuple[float, float, float]
     thrust_factors: tuple[tuple[float, float], ...]
+    band_offsets_us: tuple[tuple[float, float], ...] = ()
 
 
 def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, TruthOffset]:
@@ -59,7 +62,8 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     ...     np.subtract(true.r_b_m, p.r_b_m))), 6)
     (0.01, 5.0)
     """
-    if not (config.buoyancy_err or config.cob_err_mm or config.thrust_err):
+    if not (config.buoyancy_err or config.cob_err_mm or config.thrust_err
+            or config.esc_band_us):
         n = len(profile.thrusters)
         return profile, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.0, 1.0),) * n)
     rng = np.random.default_rng([config.seed, _STREAM])
@@ -69,12 +73,17 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     signs = rng.choice((-1.0, 1.0), size=(len(profile.thrusters), 2))
     dx, dy, dz = (float(v) for v in 1e-3 * config.cob_err_mm * direction)
     k = config.thrust_err
+    band = config.esc_band_us * rng.uniform(-1.0, 1.0, size=(len(profile.thrusters), 2))
     error = TruthOffset(buoyancy_factor=1.0 + sign_b * config.buoyancy_err,
                         r_b_offset_m=(dx, dy, dz),
                         thrust_factors=tuple((1.0 + k * float(f), 1.0 + k * float(r))
-                                             for f, r in signs))
-    thrusters = tuple(dataclasses.replace(t, curve=_scaled(t.curve, *f))
-                      for t, f in zip(profile.thrusters, error.thrust_factors, strict=True))
+                                             for f, r in signs),
+                        band_offsets_us=tuple((float(lo), float(hi)) for lo, hi in band)
+                        if config.esc_band_us else ())
+    offsets = error.band_offsets_us or ((0.0, 0.0),) * len(profile.thrusters)
+    thrusters = tuple(dataclasses.replace(t, curve=offset_band(_scaled(t.curve, *f), *b))
+                      for t, f, b in zip(profile.thrusters, error.thrust_factors, offsets,
+                                         strict=True))
     x_b, y_b, z_b = profile.r_b_m
     r_b = (x_b + dx, y_b + dy, z_b + dz)
     true = dataclasses.replace(profile, buoyancy_N=profile.buoyancy_N * error.buoyancy_factor,
@@ -89,6 +98,23 @@ def _scaled(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
         dataclasses.replace(table, thrust_N=tuple(f * (forward if f > 0 else reverse)
                                                   for f in table.thrust_N))
         for table in curve.tables))
+
+
+def offset_band(curve: ThrustCurve, low_us: float, high_us: float) -> ThrustCurve:
+    """``curve`` as an ESC whose zero band is offset: every table point below neutral and
+    the band's low edge move by ``low_us``, every point above neutral and the high edge by
+    ``high_us`` [µs] (positive: later in PWM). Near the band the thrust of one PWM then
+    differs by up to the edge thrust, further out by the curve's slope times the offset."""
+    if not (low_us or high_us):
+        return curve
+    neutral = curve.neutral_us
+    tables = []
+    for table in curve.tables:
+        lo, hi = table.deadband_us
+        tables.append(dataclasses.replace(
+            table, deadband_us=(lo + low_us, hi + high_us),
+            pwm_us=tuple(p + (high_us if p > neutral else low_us) for p in table.pwm_us)))
+    return dataclasses.replace(curve, tables=tuple(tables))
 
 
 def passive_trim_deg(net: ArrayLike) -> tuple[float, float]:

@@ -17,6 +17,7 @@ RK4 advances the state with τ and the water current held over the step.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -35,6 +36,7 @@ from trimd.drivers.sim.scenario import Scenario
 from trimd.drivers.sim.sensors import Reading, Sensors
 from trimd.drivers.sim.thrusters import Mixer, ThrusterBank
 from trimd.drivers.sim.truth import implied_mass, passive_trim_deg, perturb_profile
+from trimd.drivers.sim.wander import torque_std_for_wander
 
 __all__ = ["SAMPLE_KINDS", "SimVehicle", "Truth"]
 
@@ -106,12 +108,13 @@ class SimVehicle:
         self.body = RigidBody(self.true_profile, self.mass, damping=c.damping)
         self.voltage_V = c.voltage_V or profile.nominal_voltage_V
         self.mixer = Mixer(profile, self.voltage_V)
-        self.thrusters = ThrusterBank(self.true_profile, self.voltage_V, c.thruster_lag_s)
-        self.disturbances = Disturbances(c, len(profile.thrusters))
-        self.sensors = Sensors(c, self.disturbances)
+        self.thrusters = ThrusterBank(self.true_profile, self.voltage_V, c.thruster_lag_s,
+                                      hunt=c.esc_hunt)
         self.controller = Controller(profile, self.mixer, c.dt_s, station=c.station,
                                      attitude_bandwidth=c.attitude_bandwidth_rad_s,
                                      depth_bandwidth=c.depth_bandwidth_rad_s)
+        self.disturbances = Disturbances(c, len(profile.thrusters), self._torque_std())
+        self.sensors = Sensors(c, self.disturbances)
         self.dt_s = c.dt_s
         self.steps = 0
         self.x = initial_state(c.depth_m, psi=c.heading_rad)
@@ -121,6 +124,22 @@ class SimVehicle:
         self.tau: tuple[float, ...] = (0.0,) * 6
         self.reading: Reading = self.sensors.read(0.0, self.x)
         self.controller.reset(self.reading)
+
+    def _torque_std(self) -> tuple[float, float]:
+        """Roll and pitch disturbance torques [N·m, 1σ] that leave the configured
+        ``torque_wander_deg`` through the attitude loop (:mod:`trimd.drivers.sim.wander`)."""
+        c, p = self.config, self.true_profile
+        if not c.torque_wander_deg:
+            return (0.0, 0.0)
+        stiffness = float(self.mass.net[3])
+        std = []
+        for axis in (0, 1):
+            kp, ki, kd = self.controller.gains(axis)
+            std.append(torque_std_for_wander(
+                math.radians(c.torque_wander_deg), c.torque_wander_tau_s,
+                p.inertia_kg_m2[axis] + p.added_mass[3 + axis], -p.linear_damping[3 + axis],
+                stiffness, kp, ki, kd))
+        return (std[0], std[1])
 
     @property
     def t_s(self) -> float:
@@ -147,6 +166,9 @@ class SimVehicle:
             self.pwm_us = mixer.pwm(mixer.outputs(self.controller.update(reading, self.mode)),
                                     d.dither_us)
         self.tau = tau = self.thrusters.step(self.pwm_us, dt)
+        dK, dM = d.torque_Nm
+        if dK or dM:
+            tau = (tau[0], tau[1], tau[2], tau[3] + dK, tau[4] + dM, tau[5])
         self.x = self.body.rk4(x, tau, sensors.current(t), dt)
         self.steps += 1
 
@@ -212,7 +234,7 @@ class SimVehicle:
         if kind == "attitude":
             return Attitude(t, r.phi, r.theta, r.psi, r.p, r.q, r.r)
         if kind == "thrusters":
-            return Thrusters(t, tuple(float(p) for p in self.pwm_us))
+            return Thrusters(t, tuple(float(p) for p in self.thrusters.reported_us))
         if kind == "depth":
             return Depth(t, r.depth_m)
         if kind == "velocity":
