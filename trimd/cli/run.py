@@ -34,7 +34,7 @@ from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
-from trimd.core.errors import DataError, ProfileError
+from trimd.core.errors import DataError, ProfileError, UsageError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
@@ -239,9 +239,8 @@ def run(args: argparse.Namespace) -> int:
     if args.sysid is not None:
         scheme, _, rest = args.link.partition(":")
         if scheme != "mavlink" or "sysid=" in rest:
-            print("trimd run: --sysid is for a mavlink: link without ?sysid= in its URL",
-                  file=sys.stderr)
-            return 2
+            raise UsageError("--sysid is for a mavlink: link without ?sysid= in its URL",
+                             "trimd run")
         args.link += f"{'&' if '?' in rest else '?'}sysid={args.sysid}"
     return _start(args, truth=False)
 
