@@ -50,6 +50,9 @@ def _result_json(text: str, path: str | Path) -> object:
         if not results:
             raise DataError(f"{path}: no result line (trimd run --json)") from None
         data = results[-1]
+    if isinstance(data, dict) and data.get("type") == "error":
+        raise DataError(f"{path}: holds the error of the command that wrote it: "
+                        f"{data.get('message')}")
     return data
 
 

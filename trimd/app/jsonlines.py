@@ -2,38 +2,38 @@
 (docs/operator.md, "JSON output").
 
 Strict JSON: a number that is not finite (NaN, ±inf, which Python's ``json`` would print
-as the non-JSON ``NaN`` and ``Infinity``) becomes null.
+as the non-JSON ``NaN`` and ``Infinity``) becomes null
+(:func:`trimd.core.jsonsafe.json_finite`).
 """
 
 from __future__ import annotations
 
 import json
-import math
 import sys
 from typing import Any, TextIO
 
-__all__ = ["error_line", "json_line", "print_json"]
+from trimd.core.jsonsafe import json_finite
 
-
-def _strict(x: Any) -> Any:
-    if isinstance(x, float):
-        return x if math.isfinite(x) else None
-    if isinstance(x, dict):
-        return {k: _strict(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_strict(v) for v in x]
-    return x
+__all__ = ["error_line", "json_line", "print_json", "print_result"]
 
 
 def json_line(obj: dict[str, Any]) -> str:
     """``obj`` as one line of strict JSON."""
-    return json.dumps(_strict(obj), allow_nan=False)
+    return json.dumps(json_finite(obj), allow_nan=False)
 
 
 def print_json(obj: dict[str, Any], stream: TextIO | None = None) -> None:
     """Print ``obj`` as one line of strict JSON to ``stream`` (default: the standard
     output of the moment), flushed: a reader sees each line as it comes."""
     print(json_line(obj), file=stream or sys.stdout, flush=True)
+
+
+def print_result(as_json: bool, obj: dict[str, Any], text: str) -> None:
+    """A command's answer on stdout: ``obj`` as a JSON line, or ``text`` for people."""
+    if as_json:
+        print_json(obj)
+    else:
+        print(text)
 
 
 def error_line(message: str, exit_code: int) -> dict[str, Any]:

@@ -19,7 +19,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from trimd.app.jsonlines import print_json
+from trimd.app.jsonlines import print_result
 from trimd.app.logholds import format_hold, hold_to_dict, log_holds
 from trimd.core.errors import DataError
 from trimd.core.holdfinder import FoundHold
@@ -180,10 +180,7 @@ def format_report(r: dict[str, Any]) -> str:
 
 def print_report(report: dict[str, Any], as_json: bool) -> None:
     """The report on stdout: a ``log`` JSON line, or the text for people."""
-    if as_json:
-        print_json({"type": "log", **report})
-    else:
-        print(format_report(report))
+    print_result(as_json, {"type": "log", **report}, format_report(report))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -28,6 +28,7 @@ from trimd.app.files import (
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.installed import current_installed
+from trimd.app.jsonlines import print_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure, verify_target
@@ -215,8 +216,8 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
             print(text)
         if result.log_path:
             print(f"session log: {result.log_path}", file=sys.stderr)
-    if truth_text and not args.json:
-        print("\n" + truth_text)
+    if truth_text:
+        print_result(args.json, {"type": "truth", "text": truth_text}, "\n" + truth_text)
     if not tui:
         _store(_after_trim(args, profile), results[-1])
     return _exit_code(results[-1])
