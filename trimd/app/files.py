@@ -50,6 +50,9 @@ def _result_json(text: str, path: str | Path) -> object:
         if not results:
             raise DataError(f"{path}: no result line (trimd run --json)") from None
         data = results[-1]
+    if isinstance(data, dict) and data.get("type") == "error":
+        raise DataError(f"{path}: holds the error of the command that wrote it: "
+                        f"{data.get('message')}")
     return data
 
 
@@ -65,13 +68,21 @@ def _estimate_json(text: str, path: str | Path) -> object:
     return data
 
 
+def _read_text(path: str | Path, what: str) -> str:
+    """The text of the file at ``path``; DataError naming it and ``what`` it should hold
+    when it cannot be read or is not UTF-8 text."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read {what} ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a text file ({what} expected, as JSON)") from None
+
+
 def read_estimate(path: str | Path) -> StaticEstimate:
     """The estimate in ``path`` (any form :func:`_estimate_json` takes); DataError naming
     the file for anything unusable."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read estimate ({exc.strerror})") from None
+    text = _read_text(path, "estimate")
     try:
         return estimate_from_dict(_estimate_json(text, path), str(path))
     except DataError:
@@ -85,11 +96,7 @@ def read_installed(path: str | Path, profile: Profile) -> list[SlotLoad]:
     """The ballast a trim proposed, as installed: the ``proposal`` of ``trimd run``'s
     report or of the last ``result`` line of ``trimd run --json`` in ``path``. DataError
     naming the file when it holds no proposal or one for slots ``profile`` lacks."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read the trim ({exc.strerror})") from None
-    return installed_from_json(text, path, profile)
+    return installed_from_json(_read_text(path, "the trim"), path, profile)
 
 
 def installed_from_json(text: str, path: str | Path, profile: Profile) -> list[SlotLoad]:

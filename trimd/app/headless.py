@@ -4,7 +4,6 @@ the confirmation prompt at a terminal, and the signals that stop a session."""
 from __future__ import annotations
 
 import asyncio
-import json
 import math
 import os
 import signal
@@ -12,6 +11,7 @@ import sys
 from collections.abc import Callable
 from typing import Any, TextIO
 
+from trimd.app.jsonlines import print_json
 from trimd.app.report import (
     NewCommands,
     NewWarnings,
@@ -27,7 +27,14 @@ from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.samples import Health, Sample, VehicleText
 
-__all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "stop_on_signals"]
+__all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "result_to_dict",
+           "stop_on_signals"]
+
+
+def result_to_dict(estimate: StaticEstimate, proposal: object | None) -> dict[str, Any]:
+    """The ``result`` line: the estimate and the ballast proposal (null without one)."""
+    return {"type": "result", "estimate": estimate_to_dict(estimate),
+            "proposal": proposal_to_dict(proposal) if isinstance(proposal, Proposal) else None}
 
 
 class HeadlessPresenter:
@@ -47,14 +54,16 @@ class HeadlessPresenter:
         self._new_commands = NewCommands()
 
     def _emit(self, text: str, obj: dict[str, Any]) -> None:
-        line = json.dumps(obj) if self.json_lines else text
-        print(line, file=self.stream or sys.stdout, flush=True)
+        if self.json_lines:
+            print_json(obj, self.stream)
+        else:
+            print(text, file=self.stream or sys.stdout, flush=True)
 
     def output(self, out: Output, progress: Progress) -> None:
         t = out.t_s if isinstance(out, Notice) else progress.t_s
         if isinstance(out, Notice):
             if out.result is not None:
-                self._result(out.result.estimate, out.result.proposal)
+                self.result(out.result.estimate, out.result.proposal)
                 return
             if isinstance(out.verification, Verification):
                 self._emit(format_verification(out.verification),
@@ -90,11 +99,10 @@ class HeadlessPresenter:
                           "settled_fraction": p.settled_fraction, "samples": p.samples,
                           "time_left_s": p.time_left_s})
 
-    def _result(self, estimate: StaticEstimate, proposal: object | None) -> None:
+    def result(self, estimate: StaticEstimate, proposal: object | None) -> None:
+        """The estimate and the proposal: a ``result`` line, or their tables."""
         if self.json_lines:
-            self._emit("", {"type": "result", "estimate": estimate_to_dict(estimate),
-                            "proposal": proposal_to_dict(proposal)
-                            if isinstance(proposal, Proposal) else None})
+            self._emit("", result_to_dict(estimate, proposal))
             return
         text = format_estimate(estimate)
         if isinstance(proposal, Proposal):
@@ -121,7 +129,7 @@ class StdinConfirm:
 
     async def _ask(self) -> None:
         print("type 'yes' to let trimd command the vehicle, anything else aborts: ",
-              end="", flush=True)
+              end="", file=sys.stderr, flush=True)
         answer = await _read_line(sys.stdin.fileno())
         if answer.strip().lower() == "yes":
             self.session.confirm()

@@ -5,11 +5,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from trimd.app.files import read_estimate
 from trimd.app.history.installed import current_installed
+from trimd.app.jsonlines import print_result
 from trimd.app.report import format_proposal
 from trimd.ballast.lp import STAGE_NODES
 from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
@@ -54,6 +54,6 @@ def run(args: argparse.Namespace) -> int:
     installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
     proposal = propose_ballast(read_estimate(args.estimate), profile, args.method,
                                node_limit=args.node_limit, installed=installed)
-    print(json.dumps(proposal_to_dict(proposal), allow_nan=False) if args.json
-          else format_proposal(proposal))
+    print_result(args.json, {"type": "proposal", **proposal_to_dict(proposal)},
+                 format_proposal(proposal))
     return 0

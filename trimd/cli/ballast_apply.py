@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import re
 from typing import Any
 
 from trimd.app.apply import apply_ballast
 from trimd.app.files import read_estimate
+from trimd.app.jsonlines import print_result
 from trimd.app.report import format_applied
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import ProfileError
@@ -72,18 +72,15 @@ def run(args: argparse.Namespace) -> int:
     applied = apply_ballast(db_path(args), vehicle_of(args, profile.name), profile,
                             estimate=estimate, edits=parse_set(args.set, profile))
     trim = applied.trim
-    if args.json:
-        print(json.dumps({
-            "vehicle": applied.vehicle, "db": str(applied.db), "source": applied.source,
-            "before_from": applied.before_from,
-            "installed": [{"slot": x.slot, "piece": x.piece, "count": x.count}
-                          for x in applied.installed],
-            "changes": list(applied.changes),
-            "predicted": None if trim is None or not trim.stable else {
-                "roll_deg": trim.roll_deg, "pitch_deg": trim.pitch_deg,
-                "trim_std_deg": [trim.roll_std_deg, trim.pitch_std_deg],
-                "net_buoyancy_N": trim.net_buoyancy_N,
-                "net_buoyancy_pct": trim.net_buoyancy_pct}}, allow_nan=False))
-        return 0
-    print(format_applied(applied))
+    print_result(args.json, {
+        "type": "installed", "vehicle": applied.vehicle, "db": str(applied.db),
+        "source": applied.source, "before_from": applied.before_from,
+        "installed": [{"slot": x.slot, "piece": x.piece, "count": x.count}
+                      for x in applied.installed],
+        "changes": list(applied.changes),
+        "predicted": None if trim is None or not trim.stable else {
+            "roll_deg": trim.roll_deg, "pitch_deg": trim.pitch_deg,
+            "trim_std_deg": [trim.roll_std_deg, trim.pitch_std_deg],
+            "net_buoyancy_N": trim.net_buoyancy_N,
+            "net_buoyancy_pct": trim.net_buoyancy_pct}}, format_applied(applied))
     return 0

@@ -4,13 +4,13 @@ history holds for a vehicle (docs/operator.md, "The trim history")."""
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 from trimd.app.history import History
 from trimd.app.history.plot import write_history_plot
 from trimd.app.history.report import format_history, history_to_dict
+from trimd.app.jsonlines import print_result
 from trimd.cli.history_args import add_db_arg, db_path
 from trimd.core.errors import DataError
 
@@ -32,9 +32,9 @@ def register(sub: Any) -> None:
 
 
 def _nothing(args: argparse.Namespace, path: Path, message: str) -> int:
-    """Say that there is nothing to list (``--json``: an object with no vehicles)."""
-    print(json.dumps({"db": str(path), "vehicles": [], "message": message}) if args.json
-          else message)
+    """Say that there is nothing to list (``--json``: a history with no vehicles)."""
+    print_result(args.json, {"type": "history", "db": str(path), "vehicles": [],
+                             "message": message}, message)
     return 0
 
 
@@ -57,8 +57,10 @@ def run(args: argparse.Namespace) -> int:
                 raise DataError(f"--plot draws one vehicle; pick one with --vehicle "
                                 f"({', '.join(vehicles)})")
             n = write_history_plot(history, vehicles[0], Path(args.plot))
-            print(f"wrote {args.plot}: {n} trim(s) of {vehicles[0]}")
+            print_result(args.json, {"type": "plot", "file": args.plot,
+                                     "vehicle": vehicles[0], "trims": n},
+                         f"wrote {args.plot}: {n} trim(s) of {vehicles[0]}")
             return 0
-        print(json.dumps(history_to_dict(history, vehicles), allow_nan=False) if args.json
-              else format_history(history, vehicles))
+        print_result(args.json, {"type": "history", **history_to_dict(history, vehicles)},
+                     format_history(history, vehicles))
     return 0

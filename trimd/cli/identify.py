@@ -12,7 +12,8 @@ excite none of a stage's degrees of freedom), 3 link error. ``trimd identify`` e
 when some degree of freedom of a fitted stage was excited by none of the logs: it still
 prints (and with ``--out`` writes) what it identified, the rest keeps the profile's
 values, but the result is incomplete and a script must not take the fragment for a full
-result.
+result. ``trimd identify --json`` prints one ``identification`` line instead of the
+tables: the summary (as ``summary.json``) and the fragment's YAML text.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from typing import Any
 
 from trimd.app.experiment import run_experiment
 from trimd.app.files import read_statics
+from trimd.app.jsonlines import print_result
 from trimd.app.session import SessionResult
 from trimd.cli.argtypes import bounded, integer
 from trimd.core.errors import DataError
@@ -96,6 +98,8 @@ def register(sub: Any) -> None:
                    "lines (default: the profile's nominal vehicle, r_g = 0)")
     i.add_argument("--out", metavar="DIR", help="write fragment.yaml, summary.json and PNG "
                    "plots (measured vs simulated per output, residuals) here")
+    i.add_argument("--json", action="store_true", help="print one JSON object: the summary "
+                   "(as summary.json) and the profile fragment")
     i.set_defaults(func=run_identify)
 
 
@@ -203,7 +207,6 @@ def run_identify(args: argparse.Namespace) -> int:
         for e in held_out:
             validations.setdefault(stage, []).extend(
                 validate(values(stage), [e], profile, stage, statics=statics))
-    print("\n\n".join(format_fit(f, validations.get(f.stage, ())) for f in fits))
     missing = _missing(fits)
     comments = [f"{d.name}: not excited in the fitted logs, the profile's values kept"
                 for _, ds in missing for d in ds]
@@ -216,7 +219,10 @@ def run_identify(args: argparse.Namespace) -> int:
         comments.append(f"{', '.join(blind)}: need a DVL (no body velocity in these logs), "
                         "the profile's values kept")
     fragment = profile_fragment(best, profile, comments)
-    print("\n" + fragment)
+    print_result(args.json, {"type": "identification", **summary_dict(fits, validations),
+                             "fragment": fragment},
+                 "\n\n".join(format_fit(f, validations.get(f.stage, ())) for f in fits)
+                 + "\n\n" + fragment)
     if args.out:
         shown = [v for vs in validations.values() for v in vs] or [
             v for stage, es in experiments.items()   # without held-out logs: the fitted ones

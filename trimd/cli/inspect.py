@@ -3,40 +3,37 @@
 Reads a MAVLink ``.tlog`` or an ArduSub DataFlash ``.BIN`` (:func:`trimd.logs.log.open_log`)
 and reports its format, duration, vehicle and firmware, frame,
 streams and their rates, modes and armed periods, bad frames and sequence gaps, attitude
-and depth ranges, and the steady attitude segments (:func:`trimd.core.steady.detect_steady`).
-A steady segment is an *attitude hold* when the vehicle was armed (or the log does not
-say) in a mode that holds attitude; the report ends by saying whether the log holds any.
-Exit 0 for a readable log (holds or not); an unreadable or empty log is a DataError
-(exit 2).
+and depth ranges, and, with ``--profile``, the steady attitude holds
+(:func:`trimd.app.logholds.log_holds`: the live settling test over the log's attitude
+plateaus, the holds ``trimd replay`` estimates from); the report ends by saying whether
+the log holds any, or why not. Without a profile no hold is looked for: the settling test
+reads the thrusters' effort, which needs the profile's thrusters. Exit 0 for a readable
+log (holds or not); an unreadable or empty log is a DataError (exit 2).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from trimd.app.jsonlines import print_result
+from trimd.app.logholds import format_hold, hold_to_dict, log_holds
+from trimd.core.errors import DataError
+from trimd.core.holdfinder import FoundHold
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
-from trimd.core.samples import Attitude, Depth, Health, VehicleText
-from trimd.core.steady import SteadyCriteria, detect_steady
+from trimd.core.samples import Attitude, Depth, Health, Sample, VehicleText
 from trimd.drivers.mavlink.decode import VehicleParams
 from trimd.logs.log import open_log
 
-__all__ = ["HOLD_MODES", "format_report", "inspect_log", "register", "run"]
+__all__ = ["format_report", "inspect_log", "log_report", "print_report", "register", "run"]
 
-#: ArduSub modes in which the autopilot holds an attitude (a steady segment may be a hold).
-HOLD_MODES = frozenset({"STABILIZE", "ALT_HOLD", "AUTO", "GUIDED", "CIRCLE", "POSHOLD",
-                        "SURFTRAK"})
-#: Steady-state tolerances without a profile (a profile's ``procedure`` overrides them).
-DEFAULT_TOL_DEG, DEFAULT_RATE_TOL_DEG_S, DEFAULT_MIN_STEADY_S = 1.0, 1.0, 10.0
-#: Attitude resolution of ArduSub logs (DataFlash ATT is in centidegrees) [deg].
-LOG_RESOLUTION_DEG = 0.01
+#: Why a report without a profile lists no holds.
+NO_PROFILE = ("not looked for without --profile (the settling test reads the thrusters' "
+              "effort, which needs the profile's thrusters)")
 #: Vehicle messages the report for people lists (the JSON report has all).
 _TEXTS_SHOWN = 12
 _SAMPLE_STREAMS = {"ATTITUDE", "SERVO_OUTPUT_RAW", "VFR_HUD", "GLOBAL_POSITION_INT",
@@ -72,42 +69,24 @@ def _periods(health: list[Health], end_s: float) -> tuple[list[dict[str, Any]], 
     return modes, armed
 
 
-def _state_at(health: list[Health], t_s: float) -> Health | None:
-    times = [h.t_s for h in health]
-    i = int(np.searchsorted(times, t_s, side="right")) - 1
-    return health[i] if i >= 0 else None
-
-
-def _steady(att: list[Attitude], health: list[Health], profile: Profile | None,
-            armed_known: bool) -> list[dict[str, Any]]:
-    if len(att) < 3:
-        return []
-    proc = profile.procedure if profile else None
-    tol = math.radians(proc.attitude_tol_deg if proc else DEFAULT_TOL_DEG)
-    rate_tol = math.radians(proc.rate_tol_deg_s if proc else DEFAULT_RATE_TOL_DEG_S)
-    step = math.radians(LOG_RESOLUTION_DEG)
-    criteria = SteadyCriteria(min_duration_s=proc.min_steady_s if proc else
-                              DEFAULT_MIN_STEADY_S, drift_tol=(tol, tol),
-                              resolution=(step, step))
-    t = np.array([a.t_s for a in att])
-    angles = np.array([[a.phi, a.theta] for a in att])
-    _, segments = detect_steady(t, angles, criteria, rates_rad_s=np.array(
-        [[a.p, a.q, a.r] for a in att]), rate_tol_rad_s=rate_tol)
-    out = []
-    for seg in segments:
-        state = _state_at(health, seg.t_start_s)
-        mean = np.degrees(angles[seg.start:seg.stop].mean(axis=0))
-        out.append({"start_s": seg.t_start_s, "end_s": seg.t_end_s,
-                    "roll_deg": float(mean[0]), "pitch_deg": float(mean[1]),
-                    "mode": state.mode if state else None,
-                    "armed": state.armed if state and armed_known else None,
-                    "hold": bool(state and (state.armed or not armed_known)
-                                 and state.mode in HOLD_MODES)})
-    return out
+def _holds(samples: list[Sample], profile: Profile | None) -> tuple[list[FoundHold], str]:
+    """The log's steady holds and, when there is none, why."""
+    if profile is None:
+        return [], NO_PROFILE
+    try:
+        return log_holds(samples, profile), ""
+    except DataError as exc:
+        return [], str(exc)
 
 
 def inspect_log(path: str | Path, profile: Profile | None = None) -> dict[str, Any]:
     """The report of one log as a JSON-ready dict (times [s] from the log's start)."""
+    return log_report(path, profile)[0]
+
+
+def log_report(path: str | Path, profile: Profile | None = None
+               ) -> tuple[dict[str, Any], list[FoundHold]]:
+    """:func:`inspect_log` and the holds it lists (none without a profile)."""
     p = Path(path)
     log = open_log(p, profile)
     samples = list(log.samples())
@@ -132,10 +111,12 @@ def inspect_log(path: str | Path, profile: Profile | None = None) -> dict[str, A
         "roll_deg": _range([math.degrees(a.phi) for a in att]),
         "pitch_deg": _range([math.degrees(a.theta) for a in att]),
         "depth_m": _range(depth),
-        "steady": _steady(att, health, profile, info.pop("armed_known")),
     })
-    info["holds"] = sum(s["hold"] for s in info["steady"])
-    return info
+    info.pop("armed_known")
+    found, why = _holds(samples, profile)
+    info["holds"] = None if profile is None else [hold_to_dict(h) for h in found]
+    info["no_holds_because"] = why or None
+    return info, found
 
 
 def _range(values: list[float]) -> list[float] | None:
@@ -190,18 +171,19 @@ def format_report(r: dict[str, Any]) -> str:
                   for m in texts[:_TEXTS_SHOWN]]
     lines.append(f"attitude: roll {_fmt_range(r['roll_deg'], '°')}, "
                  f"pitch {_fmt_range(r['pitch_deg'], '°')}; depth {_fmt_range(r['depth_m'], 'm')}")
-    for s in r["steady"]:
-        lines.append(f"steady {s['start_s']:.1f}–{s['end_s']:.1f} s: roll {s['roll_deg']:.2f}°, "
-                     f"pitch {s['pitch_deg']:.2f}° in {s['mode'] or '?'}, "
-                     f"{ {True: 'armed', False: 'disarmed', None: 'armed?'}[s['armed']]}"
-                     f"{' — attitude hold' if s['hold'] else ''}")
-    lines.append(f"{r['holds']} steady attitude hold(s) found." if r["holds"] else
-                 "No steady attitude holds in this log (nothing to estimate from).")
+    holds = r["holds"] or []
+    lines += [format_hold(h) for h in holds]
+    lines.append(f"{len(holds)} steady attitude hold(s) found." if holds else
+                 f"No steady attitude holds in this log: {r['no_holds_because']}.")
     return "\n".join(lines)
+
+
+def print_report(report: dict[str, Any], as_json: bool) -> None:
+    """The report on stdout: a ``log`` JSON line, or the text for people."""
+    print_result(as_json, {"type": "log", **report}, format_report(report))
 
 
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile) if args.profile else None
-    report = inspect_log(args.log, profile)
-    print(json.dumps(report) if args.json else format_report(report))
+    print_report(inspect_log(args.log, profile), args.json)
     return 0

@@ -5,8 +5,13 @@
   terminal attached (and no ``--headless`` / ``--json``) it opens the TUI, with pause
   and speed keys; the recording's own times drive the procedure at any pace.
 * A foreign log (QGroundControl / MAVProxy ``.tlog``, ArduSub DataFlash ``.bin``) needs
-  ``--profile``; trimd reports what the log holds and estimates from the steady attitude
-  holds it finds. A log without holds ends with that statement and exit code 1.
+  ``--profile``; trimd reports what the log holds (the report of ``trimd inspect``) and
+  estimates from the steady attitude holds that report lists
+  (:func:`trimd.app.logholds.log_holds`). A log without holds ends with why and exit
+  code 1.
+
+``--json``: only JSON lines on stdout — a recording's lines as ``trimd run --json``
+prints them; for a foreign log a ``log`` line (the report) and a ``result`` line.
 """
 
 from __future__ import annotations
@@ -18,28 +23,23 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import yaml
 
 from trimd.app.headless import HeadlessPresenter
-from trimd.app.report import format_estimate, format_proposal, format_result
+from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import bounded
-from trimd.cli.inspect import HOLD_MODES, format_report, inspect_log
+from trimd.cli.inspect import log_report, print_report
 from trimd.cli.run import wants_tui
-from trimd.core.effort import thrust_at
-from trimd.core.errors import DataError, EstimationError
-from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.errors import DataError, EstimationError, NoResultError
+from trimd.core.estimate import StaticEstimate, estimate_static
 from trimd.core.events import Phase
-from trimd.core.holdfinder import find_holds
 from trimd.core.link import Link
-from trimd.core.model import thrust_configuration
 from trimd.core.procedure import VERIFY_DONE
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
-from trimd.core.samples import Attitude, Battery, Health, Sample, Thrusters
 from trimd.logs.replay import (
     ReplayLink,
     recorded_profile_yaml,
@@ -125,50 +125,19 @@ def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> Tri
                     link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
-def _while_holding(samples: list[Sample]) -> list[Attitude]:
-    """The attitude samples taken while the vehicle was armed in a mode that holds
-    attitude (all of them when the log reports neither mode nor arming)."""
-    state: Health | None = None
-    seen = any(isinstance(s, Health) for s in samples)
-    out = []
-    for s in samples:
-        if isinstance(s, Health):
-            state = s
-        elif isinstance(s, Attitude) and (not seen or (
-                state is not None and state.armed and state.mode in HOLD_MODES)):
-            out.append(s)
-    return out
-
-
-def _holds(samples: list[Sample], profile: Profile, name: str) -> list[HoldSamples]:
-    """The steady holds of a log, found as the live procedure finds them; each thruster's
-    thrust rides along (the thrust curves' share of the ±)."""
-    att = _while_holding(samples)
-    thr = [s for s in samples if isinstance(s, Thrusters)]
-    if not att or not thr:
-        raise DataError(f"{name}: no attitude while armed in a holding mode, or no thruster "
-                        "outputs, to estimate from")
-    t = np.array([s.t_s for s in thr])
-    thrust, ok = thrust_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
-    tau = thrust[ok] @ thrust_configuration(profile.thrusters).T
-    return find_holds(att, t[ok], tau, profile, thrust[ok])
-
-
 def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:
-    print(format_report(inspect_log(path, profile)))
-    samples = list(ReplayLink(path, profile).read_samples())
+    """The log's report, then the estimate and proposal from the holds it lists (the
+    same presenter as a recording's result); NoResultError when it lists none."""
+    report, found = log_report(path, profile)
+    print_report(report, args.json)
+    if not found:
+        raise NoResultError(f"cannot estimate from this log: {report['no_holds_because']}")
     try:
-        holds = _holds(samples, profile, path)
-        if not holds:
-            raise DataError("no steady attitude hold with thruster outputs found (each needs "
-                            f"{profile.procedure.min_steady_s:g} s settled, then samples to "
-                            "collect)")
-        est = estimate_static(holds, profile)
-    except (EstimationError, DataError) as exc:
-        print(f"trimd: cannot estimate from this log: {exc}", file=sys.stderr)
-        return 1
-    print("\n" + format_estimate(est))
-    print("\n" + format_proposal(propose_ballast(est, profile, method=args.ballast)))
+        est = estimate_static([h.samples for h in found], profile)
+    except EstimationError as exc:
+        raise NoResultError(f"cannot estimate from this log: {exc}") from None
+    HeadlessPresenter(json_lines=args.json).result(
+        est, propose_ballast(est, profile, method=args.ballast))
     return 0
 
 

@@ -28,13 +28,14 @@ from trimd.app.files import (
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.installed import current_installed
+from trimd.app.jsonlines import print_result
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
-from trimd.core.errors import DataError, ProfileError
+from trimd.core.errors import DataError, ProfileError, UsageError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
@@ -215,8 +216,8 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
             print(text)
         if result.log_path:
             print(f"session log: {result.log_path}", file=sys.stderr)
-    if truth_text and not args.json:
-        print("\n" + truth_text)
+    if truth_text:
+        print_result(args.json, {"type": "truth", "text": truth_text}, "\n" + truth_text)
     if not tui:
         _store(_after_trim(args, profile), results[-1])
     return _exit_code(results[-1])
@@ -239,9 +240,8 @@ def run(args: argparse.Namespace) -> int:
     if args.sysid is not None:
         scheme, _, rest = args.link.partition(":")
         if scheme != "mavlink" or "sysid=" in rest:
-            print("trimd run: --sysid is for a mavlink: link without ?sysid= in its URL",
-                  file=sys.stderr)
-            return 2
+            raise UsageError("--sysid is for a mavlink: link without ?sysid= in its URL",
+                             "trimd run")
         args.link += f"{'&' if '?' in rest else '?'}sysid={args.sysid}"
     return _start(args, truth=False)
 

@@ -1,12 +1,14 @@
-"""``trimd solve HOLDS.csv --profile P [--json]``: the static estimate from recorded holds."""
+"""``trimd solve HOLDS.csv --profile P [--json]``: the static estimate from recorded holds;
+``--json``: one ``estimate`` line (the estimate's JSON shape, with ``ballast``: the
+proposal, when asked for)."""
 
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from trimd.app.holdfile import read_hold_csv
+from trimd.app.jsonlines import print_result
 from trimd.app.report import format_estimate, format_proposal
 from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
 from trimd.core.estimate import estimate_static
@@ -33,13 +35,10 @@ def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
     est = estimate_static(read_hold_csv(args.holds, profile), profile)
     proposal = propose_ballast(est, profile, method=args.ballast) if args.ballast else None
-    if args.json:
-        out = estimate_to_dict(est)
-        if proposal is not None:
-            out["ballast"] = proposal_to_dict(proposal)
-        print(json.dumps(out))
-    else:
-        print(format_estimate(est))
-        if proposal is not None:
-            print("\n" + format_proposal(proposal))
+    out = {"type": "estimate", **estimate_to_dict(est)}
+    text = format_estimate(est)
+    if proposal is not None:
+        out["ballast"] = proposal_to_dict(proposal)
+        text += "\n\n" + format_proposal(proposal)
+    print_result(args.json, out, text)
     return 0

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import os
 import sys
 import time
 from datetime import UTC, datetime
@@ -29,6 +28,7 @@ from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.baseline import latest_baseline
+from trimd.app.jsonlines import print_json
 from trimd.app.watch import (
     Record,
     format_record,
@@ -41,7 +41,7 @@ from trimd.cli.argtypes import bounded
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.cli.run import wants_tui
 from trimd.core.change import Baseline, baseline_from_estimate
-from trimd.core.errors import DataError, LinkError
+from trimd.core.errors import DataError, LinkError, UsageError
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
@@ -138,7 +138,10 @@ class _Store:
 
 def _emitter(as_json: bool, store: _Store) -> Any:
     def emit(r: Record) -> None:
-        print(json.dumps(r.to_dict()) if as_json else format_record(r), flush=True)
+        if as_json:
+            print_json(r.to_dict())
+        else:
+            print(format_record(r), flush=True)
         store(r)
     return emit
 
@@ -147,9 +150,9 @@ def _finish(watch: TrimWatch, args: argparse.Namespace, source: str,
             plot: str | None) -> int:
     text = verdict(watch)
     if args.json:
-        print(json.dumps({"type": "verdict", "source": source, "vehicle": watch.vehicle,
-                          "segments": len(watch.segments), "alerts": len(watch.alerts),
-                          "rejected": watch.rejected, "h_sigma": watch.h, "text": text}))
+        print_json({"type": "verdict", "source": source, "vehicle": watch.vehicle,
+                    "segments": len(watch.segments), "alerts": len(watch.alerts),
+                    "rejected": watch.rejected, "h_sigma": watch.h, "text": text})
     else:
         print(f"{source}: {text}")
     if plot:
@@ -202,18 +205,9 @@ def _plot_path(plot: str | None, k: int, n: int) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        return _run(args)
-    except BrokenPipeError:  # the reader went away (``| head``): stop quietly
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
-
-
-def _run(args: argparse.Namespace) -> int:
     if bool(args.logs) == bool(args.link):
-        print("trimd watch: give either --link URL (live) or LOG files (post-dive)",
-              file=sys.stderr)
-        return 2
+        raise UsageError("give either --link URL (live) or LOG files (post-dive)",
+                         "trimd watch")
     profile = load_profile(args.profile)
     store = _Store(args, profile)
     try:

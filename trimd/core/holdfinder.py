@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +28,7 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Attitude
 from trimd.core.settling import UNSTEADY_GRACE_S, HoldSettling
 
-__all__ = ["find_holds", "find_segments"]
+__all__ = ["FoundHold", "find_holds", "find_segments", "locate_holds"]
 
 FloatArray = NDArray[np.float64]
 
@@ -125,6 +126,33 @@ def find_segments(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort
                 _plateau_samples(attitude, t_effort, tau_effort, profile))]
 
 
+@dataclass(frozen=True)
+class FoundHold:
+    """A hold and where it was collected: the first and last collected sample time [s]
+    of each plateau it joins, in time order."""
+
+    samples: HoldSamples
+    plateaus_s: tuple[tuple[float, float], ...]
+
+
+def locate_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
+                 profile: Profile, thrust: FloatArray | None = None) -> list[FoundHold]:
+    """:func:`find_holds` with the plateaus each hold joins."""
+    tol = math.radians(profile.procedure.attitude_tol_deg)
+    groups: list[tuple[float, float, list[tuple[Attitude, int]], list[tuple[float, float]]]] = []
+    for phi, theta, got, _ in _plateau_samples(attitude, t_effort, tau_effort, profile):
+        span = (got[0][0].t_s, got[-1][0].t_s)
+        for g in groups:
+            if abs(g[0] - phi) <= tol and abs(g[1] - theta) <= tol:
+                g[2].extend(got)
+                g[3].append(span)
+                break
+        else:
+            groups.append((phi, theta, got, [span]))
+    return [FoundHold(_hold(got, tau_effort, thrust, f"hold {k + 1}"), tuple(spans))
+            for k, (_, _, got, spans) in enumerate(groups)]
+
+
 def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
                profile: Profile, thrust: FloatArray | None = None) -> list[HoldSamples]:
     """The steady holds in time-ordered ``attitude`` samples and thruster effort
@@ -133,14 +161,4 @@ def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: F
     attitude (within ``attitude_tol_deg``) are one hold. ``thrust`` (n, n_thrusters) [N],
     each thruster's thrust behind each effort sample, rides along into
     :attr:`HoldSamples.thrust` (the thrust curves' share of the ±)."""
-    tol = math.radians(profile.procedure.attitude_tol_deg)
-    groups: list[tuple[float, float, list[tuple[Attitude, int]]]] = []
-    for phi, theta, got, _ in _plateau_samples(attitude, t_effort, tau_effort, profile):
-        for g in groups:
-            if abs(g[0] - phi) <= tol and abs(g[1] - theta) <= tol:
-                g[2].extend(got)
-                break
-        else:
-            groups.append((phi, theta, got))
-    return [_hold(got, tau_effort, thrust, f"hold {k + 1}")
-            for k, (_, _, got) in enumerate(groups)]
+    return [h.samples for h in locate_holds(attitude, t_effort, tau_effort, profile, thrust)]
