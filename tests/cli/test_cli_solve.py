@@ -92,7 +92,10 @@ def test_solve_with_hold_column_and_pwm(tmp_path: Path, bluerov: Profile, batter
     path.write_text("\n".join(lines) + "\n")
     # the holds balance g(η) exactly: a vehicle that holds station (no drift to correct)
     profile = tmp_path / "heavy.yaml"
-    profile.write_text((PROFILES / "bluerov2-heavy.yaml").read_text() + "holds_station: true\n")
+    # (and no dead-band margin: its share is test_intervals_cover_thrust_map_errors')
+    text = (PROFILES / "bluerov2-heavy.yaml").read_text().replace(
+        "uncertainty_pct: 5.0", "uncertainty_pct: 5.0\n    deadband_margin_us: 0.0")
+    profile.write_text(text + "holds_station: true\n")
     out = run_json(capsys, "solve", str(path), "--profile", str(profile))
     assert out["m_ext_kg"] == pytest.approx(0.4, abs=1e-6)
     np.testing.assert_allclose(out["cg_m"], r_g, atol=1e-7)

@@ -16,7 +16,7 @@ LOGS = ("mcqueen-small.tlog", "mcqueen-bad-crc.tlog", "mcqueen-small.BIN",
 #: why each real log has no steady segment
 WHY = {"mcqueen-small.tlog": "modes seen: MANUAL", "mcqueen-bad-crc.tlog": "modes seen: MANUAL",
        "mcqueen-small.BIN": "no thruster outputs",
-       "gat-00000029_filtered.BIN": "no stretch had attitude and thruster effort steady"}
+       "gat-00000029_filtered.BIN": "the steady stretches did not: 1 too short"}
 
 
 @pytest.mark.parametrize("name", LOGS)

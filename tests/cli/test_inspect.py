@@ -30,6 +30,9 @@ def test_real_logs_end_with_a_clear_statement(name: str, capsys: pytest.CaptureF
     # with a profile the holds are looked for, and the report says why there are none
     assert main(["inspect", str(ARDUSUB_LOGS / name), "--profile", "bluerov2-heavy"]) == 0
     last = capsys.readouterr().out.rstrip().splitlines()[-1]
+    if name == "gat-00000029_filtered.BIN":   # a level hover in SURFTRAK, 35.3–69.7 s
+        assert last == "1 steady attitude hold(s) found.", last
+        return
     assert last.startswith("No steady attitude holds in this log: ") and NO_PROFILE not in last
     assert any(why in last for why in ("never armed", "no attitude plateau settled",
                                        "no outputs of the profile's thrusters")), last

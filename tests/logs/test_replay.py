@@ -62,12 +62,23 @@ def test_replay_link_in_trimd_run(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 
 @pytest.mark.parametrize("name", ["mcqueen-small.tlog", "mcqueen-bad-crc.tlog",
-                                  "mcqueen-small.BIN", "gat-00000029_filtered.BIN"])
+                                  "mcqueen-small.BIN"])
 def test_real_logs_without_holds_end_clearly(name: str,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["replay", str(ARDUSUB_LOGS / name), "--profile", "bluerov2-heavy"]) == 1
     out = capsys.readouterr().out
     assert "No steady attitude holds" in out and " s (starts at" in out  # duration
+
+
+def test_a_live_dive_with_one_level_hover_ends_clearly(capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    """The Seattle pier dive hovers level in SURFTRAK for 35 s: one steady hold (its effort
+    only wanders), level, so z_g cannot be estimated, and the replay says so."""
+    assert main(["replay", str(ARDUSUB_LOGS / "gat-00000029_filtered.BIN"), "--profile",
+                 "bluerov2-heavy"]) == 1
+    captured = capsys.readouterr()
+    assert "1 steady attitude hold(s) found." in captured.out
+    assert "every hold was level" in captured.err and "Traceback" not in captured.err
 
 
 def test_foreign_log_needs_a_profile(capsys: pytest.CaptureFixture[str]) -> None:
