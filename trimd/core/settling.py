@@ -150,9 +150,8 @@ class HoldSettling:
         self.phi, self.theta = phi, theta
         self.tol = math.radians(limits.attitude_tol_deg)
         self.rate_tol = math.radians(limits.rate_tol_deg_s)
-        self.steady_since = math.nan
-        self._unsteady_since = math.nan
-        self._attitude_since = self._attitude_unsteady_since = math.nan
+        self._settled = GraceTimer()            # the whole hold
+        self._attitude_steady = GraceTimer()    # the attitude alone (the effort waiver)
         self._rates: deque[tuple[float, float, float]] = deque()
         self._attitude = StreamSteadiness(np.full(2, ATTITUDE_DRIFT_SHARE * self.tol))
         self._effort = StreamSteadiness(floor)
@@ -168,18 +167,16 @@ class HoldSettling:
         """A new attitude sample; is the hold settled now? ``have_tau``: fresh thruster
         outputs are held at this sample."""
         if not have_tau or not self.in_tolerance(a):
-            self.steady_since = self._unsteady_since = math.nan
             self._steady(a)
+            self._settled.reset()
             return False
-        if self._steady(a):
-            self._unsteady_since = math.nan
-            if math.isnan(self.steady_since):
-                self.steady_since = a.t_s
-        elif math.isnan(self._unsteady_since):
-            self._unsteady_since = a.t_s
-        elif a.t_s - self._unsteady_since > UNSTEADY_GRACE_S:
-            self.steady_since = math.nan
-        return not math.isnan(self.steady_since)
+        self._settled.update(a.t_s, self._steady(a))
+        return self._settled.on
+
+    @property
+    def steady_since(self) -> float:
+        """Since when [s] the hold has been settled (NaN: it is not)."""
+        return self._settled.since
 
     def _steady(self, a: Attitude) -> bool:
         rates = self._rates
@@ -189,13 +186,34 @@ class HoldSettling:
         mean_rate = max(abs(sum(r[1] for r in rates)), abs(sum(r[2] for r in rates))) / len(rates)
         attitude_steady = (self._attitude.update(a.t_s, (a.phi, a.theta))
                            and self.in_tolerance(a) and mean_rate <= self.rate_tol)
-        if attitude_steady:
-            self._attitude_unsteady_since = math.nan
-            if math.isnan(self._attitude_since):
-                self._attitude_since = a.t_s
-        elif math.isnan(self._attitude_unsteady_since):
-            self._attitude_unsteady_since = a.t_s
-        elif a.t_s - self._attitude_unsteady_since > UNSTEADY_GRACE_S:
-            self._attitude_since = math.nan
+        self._attitude_steady.update(a.t_s, attitude_steady)
         return attitude_steady and (self._effort.steady or (
-            a.t_s - self._attitude_since >= EFFORT_WAIVER_S and self._effort.only_wanders()))
+            a.t_s - self._attitude_steady.since >= EFFORT_WAIVER_S
+            and self._effort.only_wanders()))
+
+
+class GraceTimer:
+    """Since when [s] a condition has held, forgiving lapses of up to
+    :data:`UNSTEADY_GRACE_S` (the statistical tests' false alarms): ``since`` is NaN while
+    it does not hold."""
+
+    def __init__(self) -> None:
+        self.since = self._lapse = math.nan
+
+    @property
+    def on(self) -> bool:
+        return not math.isnan(self.since)
+
+    def reset(self) -> None:
+        self.since = self._lapse = math.nan
+
+    def update(self, t_s: float, ok: bool) -> None:
+        """The condition at ``t_s`` [s]."""
+        if ok:
+            self._lapse = math.nan
+            if math.isnan(self.since):
+                self.since = t_s
+        elif math.isnan(self._lapse):
+            self._lapse = t_s
+        elif t_s - self._lapse > UNSTEADY_GRACE_S:
+            self.since = math.nan
