@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from trimd.core.decision import StopRule
+from trimd.core.design import plan_extra_hold
 from trimd.core.effort import MAX_THRUSTER_AGE_S
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
@@ -37,7 +38,7 @@ from trimd.core.events import (
 from trimd.core.guards import Guard
 from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.phases import Phases
-from trimd.core.profile import Profile
+from trimd.core.profile import HoldSetpoint, Profile
 from trimd.core.samples import (
     Attitude,
     Battery,
@@ -137,6 +138,7 @@ class Procedure(Phases):
         self._psi = 0.0
         self._settling: HoldSettling | None = None
         self._look = 0
+        self._weighed = False
 
     # ---------------------------------------------------------------- public interface
     def step(self, event: Event) -> list[Output]:
@@ -347,7 +349,30 @@ class Procedure(Phases):
                               "the proposal is known"))
         if len(self._holds) < len(self.holds):
             return out + self._next_hold()
+        if not self.verify and not self._weighed:
+            self._weighed = True
+            out += self._weigh_extra_hold()
+            if len(self._holds) < len(self.holds):
+                return out + self._next_hold()
         return out + self._solve()
+
+    def _weigh_extra_hold(self) -> list[Output]:
+        """After the planned holds: when the dead band keeps the trim undecided, weigh a
+        mirrored hold (:func:`trimd.core.design.plan_extra_hold`), add it when it is
+        predicted to decide, and say what was chosen and why."""
+        holds = self._hold_samples()
+        last = self._holds[-1]
+        try:
+            plan = plan_extra_hold(holds, estimate_static(holds, self.profile), self.profile,
+                                   self.profile.level_tol_deg,
+                                   (math.degrees(last.phi), math.degrees(last.theta)))
+        except EstimationError:
+            return []
+        if plan is None:
+            return []
+        if plan.add:
+            self.holds = (*self.holds, HoldSetpoint(plan.roll_deg, plan.pitch_deg))
+        return [Notice(self._t, "info", plan.message)]
 
     def _decided(self) -> bool:
         """Is what the operator acts on known well enough (:class:`StopRule`)? Before the
