@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench lint install clean
+.PHONY: demo test test-fast bench lint install clean
 
 # MAVProxy (the ground-station-in-the-loop tests) without its declared dependencies, which
 # pull in GUI libraries: its --daemon --non-interactive mode needs only pymavlink.
@@ -26,8 +26,15 @@ lint: $(STAMP)
 	$(BIN)/ruff check trimd tests bench examples
 	$(BIN)/mypy
 
+# The whole suite on every core (pytest-xdist), the 15 slowest tests listed at the end;
+# test-fast leaves out the tests marked slow (the inner loop).
+PYTEST := $(BIN)/python -m pytest -n auto --dist worksteal --durations=15
+
 test: lint
-	$(BIN)/python -m pytest
+	$(PYTEST)
+
+test-fast: lint
+	$(PYTEST) -m "not slow"
 
 bench: $(STAMP)
 	$(BIN)/python -m bench

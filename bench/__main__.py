@@ -1,4 +1,7 @@
-"""Run every benchmark module (or those named on the command line)."""
+"""Run every benchmark module, or those named on the command line: a module's exact name
+(``bench_sim``) picks that one, any other word every module whose name contains it
+(``sim``: bench_sim, bench_sim_coverage …). ``TRIMD_BENCH_TINY=1``: each at a tiny size
+(:mod:`bench.size`)."""
 
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ def main() -> int:
                    if m.name.startswith("bench_"))
     wanted = sys.argv[1:]
     for name in names:
-        if wanted and not any(w in name for w in wanted):
+        if wanted and not any(w == name or (w not in names and w in name) for w in wanted):
             continue
         print(f"== {name}", flush=True)
         importlib.import_module(f"bench.{name}").main()

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from bench.size import size
 from bench.timing import best_time
 from trimd.ballast.lp import STAGE_NODES, build_programme, piece_items, solve_programme
 from trimd.ballast.propose import propose_ballast
@@ -40,7 +41,8 @@ def _estimate(profile: Profile, mass_kg: float, r_m: tuple[float, float, float]
     return estimate_static(holds, profile)
 
 
-def _spread(profile: Profile, max_kg: float, n: int = 20) -> tuple[list[float], list[float]]:
+def _spread(profile: Profile, max_kg: float, n: int = size(20, 2)
+            ) -> tuple[list[float], list[float]]:
     """milp and relaxation solve times [s] over ``n`` seeded random payloads."""
     rng = np.random.default_rng(1)
     pos = np.array([s.position_m for s in profile.slots if s.max_weight_kg > 0])
@@ -57,7 +59,7 @@ def _spread(profile: Profile, max_kg: float, n: int = 20) -> tuple[list[float], 
 
 def _degenerate(profile: Profile) -> None:
     """milp wall time [s] (one run each) on the degenerate cases, with the default limit."""
-    for label, moment in DEGENERATE.items():
+    for label, moment in size(DEGENERATE, dict(list(DEGENERATE.items())[:1])).items():
         est = _estimate(profile, 0.0, (0.0, 0.0, 0.0))
         q = np.r_[40.0, moment]
         est = dataclasses.replace(est, q=q, weight_N=est.buoyancy_N + 40.0,
@@ -84,7 +86,7 @@ def main() -> None:
               f"{p.trim.pitch_deg:+.3f}°); linprog on the relaxation {t_lp * 1e3:.1f} ms "
               f"({relaxed:.2f} fractional pieces); ratio {t_milp / t_lp:.1f}×")
         t_m, t_r = _spread(profile, max_kg)
-        print(f"{name}, 20 random payloads ≤ {max_kg:g} kg: milp median "
+        print(f"{name}, {len(t_m)} random payloads ≤ {max_kg:g} kg: milp median "
               f"{np.median(t_m) * 1e3:.1f} ms, max {max(t_m) * 1e3:.1f} ms; linprog on the "
               f"relaxation median {np.median(t_r) * 1e3:.1f} ms, max {max(t_r) * 1e3:.1f} ms")
     _degenerate(load_profile("sabertooth-dh2"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bench.size import size
 from bench.timing import best_time
 from trimd.core.estimate import HoldSamples, estimate_static
 from trimd.core.model import restoring_forces, restoring_matrix
@@ -18,7 +19,7 @@ def main() -> None:
     for k, deg in enumerate((0.0, 20.0)):
         a = np.radians(deg)
         tau = restoring_forces(a, a, W, profile.buoyancy_N, r_g, profile.r_b_m)
-        n = 10_000
+        n = size(10_000, 200)
         holds.append(HoldSamples(np.arange(n) * 0.02 + 300 * k,
                                  a + 1e-3 * rng.standard_normal(n),
                                  a + 1e-3 * rng.standard_normal(n),
@@ -29,8 +30,8 @@ def main() -> None:
     t_ref = best_time(lambda: np.linalg.lstsq(A, y, rcond=None))
     # the reference is one unweighted solve over every row of every sample; the estimator
     # also weights the rows, drops the tilted hold's force rows and propagates covariances
-    print(f"estimate_static 2 holds × 10 000 samples: {t_est * 1e3:.1f} ms; "
-          f"one numpy.linalg.lstsq over all 120 000 × 4 rows of the same holds: "
+    print(f"estimate_static 2 holds × {len(holds[0].t_s):,} samples: {t_est * 1e3:.1f} ms; "
+          f"one numpy.linalg.lstsq over all {len(y):,} × 4 rows of the same holds: "
           f"{t_ref * 1e3:.1f} ms; ratio {t_est / t_ref:.1f}×")
 
 

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from bench.size import size
 from trimd.app.experiment import run_experiment
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
@@ -30,8 +31,8 @@ from trimd.identify.problem import Problem
 from trimd.identify.signals import design_signal
 from trimd.identify.validation import validate
 
-FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
-VALIDATE_S = 120.0
+FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 20.0)))
+VALIDATE_S = size(120.0, 10.0)
 
 #: docs/method.md §5: thesis estimates of the Sabertooth parameters (simulation).
 THESIS = {"X_u": -117.8, "Y_v": -289.1, "X_u|u|": -280.7, "Y_v|v|": -979.3,

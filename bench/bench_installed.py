@@ -9,11 +9,12 @@ import time
 
 import numpy as np
 
+from bench.size import size
 from tests.ballast.test_installed import _random_case, final_attitude, scenario
 from trimd.core.profile_yaml import load_profile
 
 
-def main(n: int = 50) -> None:
+def main(n: int = size(50, 2)) -> None:
     profile = load_profile("bluerov2-heavy")
     rng = np.random.default_rng(2026)
     rows, seconds = [], []

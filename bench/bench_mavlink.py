@@ -16,12 +16,13 @@ from pathlib import Path
 
 from pymavlink import mavutil
 
+from bench.size import size
 from bench.timing import best_time
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.mavlink.decode import MavlinkDecoder
 from trimd.logs.tlog import TlogReader
 
-MESSAGES = 200_000
+MESSAGES = size(200_000, 2_000)
 SOURCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "ardusub" / "mcqueen-small.tlog"
 
 

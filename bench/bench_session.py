@@ -16,24 +16,25 @@ from pathlib import Path
 
 from pymavlink import mavutil
 
+from bench.size import size
 from bench.timing import best_time
 from trimd.app.connect import open_link
 from trimd.app.session import Session
 from trimd.core.profile import Profile
-from trimd.core.profile_yaml import load_profile
+from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.logs.recorder import TlogRecorder
 from trimd.logs.replay import ReplayLink
 
-HOUR_S = 3600.0
+HOUR_S = size(3600.0, 60.0)   # "one hour": a minute in a tiny run
 
 
 def demo(tmp: Path) -> tuple[float, float]:
     """Wall time [s] and simulated time [s] of the demo session."""
     profile = load_profile("sabertooth-dh2")
-    text = Path(profile.source).read_text(encoding="utf-8")
+    text = read_profile_text("sabertooth-dh2")[0]
 
     async def go() -> float:
         link = await open_link("sim:payload=10@AftSB", profile)
@@ -51,7 +52,7 @@ def demo(tmp: Path) -> tuple[float, float]:
 def record_hour(profile: Profile, path: Path) -> int:
     """One hour of the simulated vehicle holding level, recorded as a session would."""
     link = SimLink(SimVehicle(profile, SimConfig(payload="0.3@W-aft-ctr", dvl=True)))
-    recorder = TlogRecorder(path, profile, Path(profile.source).read_text(encoding="utf-8"))
+    recorder = TlogRecorder(path, profile, read_profile_text(profile.name)[0])
 
     async def go() -> int:
         n = 0

@@ -14,6 +14,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from bench.size import size
 from bench.timing import best_time
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.config import SimConfig, with_presets
@@ -22,7 +23,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 
 FloatArray = NDArray[np.float64]
 
-SIM_S = 20.0
+SIM_S = size(20.0, 1.0)
 
 
 def numpy_derivative(body: RigidBody, x: FloatArray, tau: FloatArray, v_c: FloatArray,

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from bench.size import size
 from tests.helpers import sim_trim
 from trimd.ballast.propose import Proposal
 from trimd.core.events import Phase
@@ -110,7 +111,7 @@ def coverage(runs: list[Run]) -> tuple[np.ndarray, np.ndarray, int]:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", "200"))
+    seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", size(200, 1)))
     options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real,truth=perturbed")
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
     wanted = os.environ.get("TRIMD_COVERAGE_CASES", "")

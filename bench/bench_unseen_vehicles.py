@@ -32,6 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from bench.size import size
 from trimd.app.experiment import run_experiment
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
@@ -48,7 +49,7 @@ from trimd.identify.staged import fit_stages
 from trimd.identify.validation import validate
 from trimd.identify.vehicles import damping_force, perturbed, rates_reached
 
-N = int(os.environ.get("TRIMD_BENCH_MC_N", 10))
+N = int(os.environ.get("TRIMD_BENCH_MC_N", size(10, 1)))
 #: Stream rates of the recordings: "excite" (the default) what ``trimd excite`` asks of the
 #: simulator, attitude, thruster outputs and depth at
 #: :data:`trimd.identify.experiment.STREAM_HZ` (50 Hz) and the DVL at its own 5 Hz;
@@ -66,10 +67,11 @@ _RATES: dict[str, tuple[dict[str, float], str]] = {
     "sim": ({}, "the simulator's default stream rates (attitude 20 Hz, thrusters 10 Hz, DVL "
                 "and depth 5 Hz)"),
 }
-FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", 600.0))
-VALIDATE_S = 120.0
+FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 20.0)))
+VALIDATE_S = size(120.0, 10.0)
 SPEEDS = (0.15, 0.4)
-PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES", "bluerov2-heavy,sabertooth-dh2").split(",")
+PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES",
+                          size("bluerov2-heavy,sabertooth-dh2", "sabertooth-dh2")).split(",")
 DOFS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 
 

@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 
+from bench.size import size
 from trimd.app.watch import watch_link
 from trimd.core.change import COMPONENTS
 from trimd.core.profile_yaml import load_profile
@@ -65,10 +66,11 @@ def innovations(watch: TrimWatch) -> np.ndarray:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", "3"))
-    hours = float(os.environ.get("TRIMD_WATCH_HOURS", "2"))
+    seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", size(3, 1)))
+    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.1)))
     options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
-    leak_seeds = int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", "2"))
+    leak_seeds = int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1)))
+    leak_s = size(1200.0, 480.0)
     print(f"no change: {seeds} dive(s) of {hours:g} h, sim:{options}")
     total_h, alarms, crossings, segments, z = 0.0, 0, 0, 0, []
     for seed in range(seeds):
@@ -91,10 +93,11 @@ def main() -> None:
     print(f"false alarms: {alarms} in {total_h:g} h = {alarms / total_h:.3f} per hour "
           f"({segments / total_h:.1f} segments per hour); RMS standardised innovation "
           f"W − B {rms[0]:.2f}, x net {rms[1]:.2f}, y net {rms[2]:.2f}")
-    print(f"leak {LEAK_N_MIN} N/min from {LEAK_START_S:g} s: {leak_seeds} dive(s) of 20 min")
+    print(f"leak {LEAK_N_MIN} N/min from {LEAK_START_S:g} s: {leak_seeds} dive(s) of "
+          f"{leak_s / 60:g} min")
     for seed in range(leak_seeds):
         w = dive(f"{options},seed={100 + seed},leak_N_min={LEAK_N_MIN},"
-                 f"leak_start_s={LEAK_START_S}", 1200.0)
+                 f"leak_start_s={LEAK_START_S}", leak_s)
         first = next((a.alert for a in w.alerts if a.alert.component == 0), None)
         if first is None:
             print(f"  seed {100 + seed}: no alert")

@@ -21,13 +21,17 @@ from typing import Any
 
 import numpy as np
 import pytest
-from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from tests.drivers.test_mavlink_link import TRIMD, fast_profile, free_udp_port, wait_bound
+from tests.drivers.test_mavlink_link import (
+    TRIMD,
+    fast_profile,
+    free_udp_port,
+    switch_off_pilot_failsafe,
+    wait_bound,
+)
 from tests.helpers import REPO
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.config import SimConfig
-from trimd.drivers.sim.mavlink_server import open_mavlink2
 from trimd.drivers.sim.vehicle import SimVehicle
 
 MAVPROXY = [sys.executable, "-m", "MAVProxy.mavproxy"]
@@ -76,7 +80,7 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
              f"mavlink:udpout:127.0.0.1:{serve}", "--rate", "10", "--options",
              "armed=true,mode=ALT_HOLD"],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env))
-        if through_mavproxy:
+        if through_mavproxy:   # through MAVProxy's --out to the helper port
             switch_off_pilot_failsafe(helper_port)
         out, err = run.communicate(timeout=240)
     finally:
@@ -91,23 +95,6 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
     assert run.returncode == 0, err
     lines = [json.loads(x) for x in out.splitlines()]
     return lines[-1], lines, took, tlog
-
-
-def switch_off_pilot_failsafe(port: int) -> None:
-    """PARAM_SET FS_PILOT_INPUT = 0 through MAVProxy's ``--out`` to udp ``port`` until the
-    vehicle confirms: the 10× simulator's 3 s failsafe is 0.3 s of wall time, which trimd's
-    MANUAL_CONTROL through MAVProxy can miss on a loaded machine."""
-    conn = open_mavlink2(f"udpin:127.0.0.1:{port}", 254, 1)
-    deadline = time.monotonic() + 60.0                    # hang guard
-    try:
-        while time.monotonic() < deadline:
-            conn.mav.param_set_send(1, 1, b"FS_PILOT_INPUT", 0, mavlink2.MAV_PARAM_TYPE_INT8)
-            msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.2)
-            if msg is not None and msg.param_id == "FS_PILOT_INPUT" and msg.param_value == 0:
-                return
-        raise AssertionError("the vehicle never confirmed FS_PILOT_INPUT = 0")
-    finally:
-        conn.close()
 
 
 def error(result: dict[str, Any]) -> tuple[np.ndarray, float]:

@@ -4,7 +4,10 @@ once when the pilot takes over.
 The simulated ArduSub is served on two endpoints behind one router (as BlueOS does): trimd
 on one, a pymavlink ground station with QGroundControl's ids (255/190) on the other. The
 router passes each station's packets to the other, so the pilot's station sees exactly
-what trimd sends. Wall-clock limits only keep a broken link from hanging the suite.
+what trimd sends. Wall-clock limits only keep a broken link from hanging the suite;
+moments are taken where they happen (the vehicle's time when the server handles a
+request, the order in which the pilot's station received messages), never from when a
+busy test thread got round to look.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import os
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +29,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.drivers.test_mavlink_link import (
     TRIMD,
+    WALL_LIMIT_S,
     collect,
     fast_profile,
     free_udp_port,
@@ -104,6 +108,33 @@ class PilotStation(threading.Thread):
         """Messages of ``kind`` received after wall time ``after``."""
         return [m for t, m in list(self.received) if t > after and m.get_type() == kind]
 
+    def wait_for(self, cond: Callable[[], bool]) -> None:
+        """Until ``cond()`` holds (what the station received so far; hang guard only)."""
+        deadline = time.monotonic() + WALL_LIMIT_S
+        while not cond():
+            if time.monotonic() > deadline:
+                raise AssertionError("the pilot's station gave up waiting")
+            time.sleep(0.01)
+
+
+class Handled:
+    """What the served simulator handled, with the vehicle's time [s] it handled it at
+    (wraps :meth:`MavlinkServer.handle`)."""
+
+    def __init__(self, server: MavlinkServer) -> None:
+        self.seen: list[tuple[float, str]] = []
+        handle = server.handle
+
+        def recording(msg: Any) -> None:
+            self.seen.append((server.vehicle.t_s, msg.get_type()))
+            handle(msg)
+
+        server.handle = recording  # type: ignore[method-assign]
+
+    def first(self, kind: str) -> float | None:
+        """The vehicle's time the first message of ``kind`` was handled at."""
+        return next((t for t, k in list(self.seen) if k == kind), None)
+
 
 # ------------------------------------------------------------------ units
 def test_stick_deflection_counts_from_ardusub_neutral() -> None:
@@ -143,9 +174,11 @@ def test_stations_come_go_and_only_sticks_to_the_vehicle_count() -> None:
 
 # ------------------------------------------------------------------ in-process, routed
 @pytest.fixture()
-def beside_pilot(bluerov: Profile) -> Iterator[tuple[MavlinkLink, PilotStation, SimVehicle]]:
+def beside_pilot(bluerov: Profile
+                 ) -> Iterator[tuple[MavlinkLink, PilotStation, SimVehicle, Handled]]:
     """trimd's link (the default pilot=hold: neutral sticks during a hold if it were
-    alone) and a pilot's station, both on the served simulator, armed in MANUAL."""
+    alone) and a pilot's station, both on the served simulator, armed in MANUAL; what
+    the simulator handled."""
     trimd_port, pilot_port = free_udp_port(), free_udp_port()
     link = asyncio.run(open_link(f"mavlink:udpin:127.0.0.1:{trimd_port}?timeout=2", bluerov))
     assert isinstance(link, MavlinkLink)
@@ -153,12 +186,13 @@ def beside_pilot(bluerov: Profile) -> Iterator[tuple[MavlinkLink, PilotStation, 
                                             mode="MANUAL", seed=1))
     server = MavlinkServer(vehicle, [f"udpout:127.0.0.1:{trimd_port}",
                                      f"udpin:127.0.0.1:{pilot_port}"], rate=RATE)
+    handled = Handled(server)
     pilot = PilotStation(pilot_port)
     stop = threading.Event()
     thread = threading.Thread(target=server.run, args=(stop,), daemon=True)
     thread.start()
     pilot.start()
-    yield link, pilot, vehicle
+    yield link, pilot, vehicle, handled
     pilot.stop.set()
     stop.set()
     thread.join(timeout=5)
@@ -168,8 +202,9 @@ def beside_pilot(bluerov: Profile) -> Iterator[tuple[MavlinkLink, PilotStation, 
 
 @pytest.mark.parametrize("takeover", ["sticks", "mode"])
 def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
-        beside_pilot: tuple[MavlinkLink, PilotStation, SimVehicle], takeover: str) -> None:
-    link, pilot, vehicle = beside_pilot
+        beside_pilot: tuple[MavlinkLink, PilotStation, SimVehicle, Handled],
+        takeover: str) -> None:
+    link, pilot, vehicle, _ = beside_pilot
     target = (0.0, math.radians(15), 0.3)
 
     async def go() -> tuple[list[Sample], float]:
@@ -186,8 +221,9 @@ def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
         seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
         assert not any(isinstance(x, PilotInput) for x in seen)
         await link.send(HoldAttitude(*target))
-        t_end = vehicle.t_s + 15.0
-        seen += await collect(link, lambda s: vehicle.t_s >= t_end, stream)
+        t_end = vehicle.t_s + 15.0   # and the router passed on a few of trimd's targets
+        seen += await collect(link, lambda s: vehicle.t_s >= t_end and len(
+            pilot.got("SET_ATTITUDE_TARGET")) > 10, stream)
         if takeover == "sticks":
             pilot.sticks = (400, 0, 500, 0)                  # forward, 40 %
         else:
@@ -210,15 +246,22 @@ def test_beside_a_pilot_trimd_sends_no_sticks_and_yields_at_once(
 
     taken = [s for s in samples if isinstance(s, PilotInput)]
     assert len(taken) == 1
-    after = [euler_from_quaternion(*m.q) for m in pilot.got("SET_ATTITUDE_TARGET", t_yielded)]
+    # the targets the pilot's station received, in order, and those after trimd yielded
+    # (one trimd sent just before may still have been on its way through the router)
+    pitch = [euler_from_quaternion(*m.q)[1] for m in pilot.got("SET_ATTITUDE_TARGET")]
+    after = [euler_from_quaternion(*m.q)[1] for m in pilot.got("SET_ATTITUDE_TARGET", t_yielded)]
     if takeover == "sticks":
         assert taken[0].source.startswith("stick input from sysid 255 (40% of full")
-        # one level target at most (ArduSub would hold the tilted one for 5 s), then silence
-        assert len(after) <= 1 and all(abs(a[1]) < 1e-6 for a in after)
+        # one level target (ArduSub would hold the tilted one for 5 s), then silence:
+        # the last target is the level one, and at most one came after trimd yielded
+        # besides a tilted one under way
+        assert abs(pitch[-1]) < 1e-6 and abs(pitch[-2] - target[1]) < 1e-6, pitch[-3:]
+        assert sum(abs(a) < 1e-6 for a in after) <= 1 and len(after) <= 2, after
         assert healths(samples)[-1].mode == "ALT_HOLD"       # the pilot's mode, not restored
     else:
         assert taken[0].source == "mode changed to MANUAL by another station"
-        assert after == []
+        assert all(abs(a - target[1]) < 1e-6 for a in pitch), pitch    # no level one
+        assert len(after) <= 1, after                      # one under way at most
         assert healths(samples)[-1].mode == "MANUAL"
     assert pilot.got("COMMAND_LONG", t_yielded) == []          # no mode "restored" over it
 
@@ -229,21 +272,23 @@ def vehicle_rate(msgs: list[Any], t0: float, t1: float) -> float:
 
 
 def test_a_station_lowering_the_rates_is_noticed_and_asked_again(
-        beside_pilot: tuple[MavlinkLink, PilotStation, SimVehicle]) -> None:
-    link, pilot, vehicle = beside_pilot
-    t: dict[str, float] = {}
+        beside_pilot: tuple[MavlinkLink, PilotStation, SimVehicle, Handled]) -> None:
+    link, pilot, vehicle, handled = beside_pilot
 
     async def go() -> list[Sample]:
         stream = link.samples()
         t_end = vehicle.t_s + 12.0
         await collect(link, lambda s: vehicle.t_s >= t_end, stream)
-        t["low"] = vehicle.t_s
         pilot.request_streams(2)
-        t_end = vehicle.t_s + 25.0
-        return await collect(link, lambda s: vehicle.t_s >= t_end, stream)
+        return await collect(link, lambda s: (
+            (low := handled.first("REQUEST_DATA_STREAM")) is not None
+            and vehicle.t_s >= low + 25.5), stream)
 
     samples = asyncio.run(go())
-    low = t["low"]
+    low = handled.first("REQUEST_DATA_STREAM")   # the vehicle's time the request took effect
+    assert low is not None
+    # what the vehicle sent up to low + 25 s has reached the pilot's station
+    pilot.wait_for(lambda: any(m.time_boot_ms / 1000 >= low + 25 for m in pilot.got("ATTITUDE")))
     attitude = pilot.got("ATTITUDE")
     before, during, after = (vehicle_rate(attitude, low - 5, low),
                              vehicle_rate(attitude, low + 0.3, low + 1.5),

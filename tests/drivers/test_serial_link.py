@@ -1,9 +1,10 @@
 """The serial driver: on pyserial's ``loop://``, and end to end against the simulated vehicle
 served over a real pseudo-terminal (in a thread, and as ``trimd sim`` in a subprocess).
 
-Rates, holds and time to link-lost are judged on the samples' own stamps (the vehicle's
-clock on the ``time.monotonic()`` base); wall-clock limits only keep a broken link from
-hanging the suite.
+Rates and holds are judged on the samples' own stamps (the vehicle's clock on the
+``time.monotonic()`` base), link-lost as no earlier than its timeout and by its cause;
+wall-clock limits only keep a broken link from hanging the suite (how soon something
+happens on the wall clock depends on the machine's load: never asserted).
 """
 
 from __future__ import annotations
@@ -131,7 +132,7 @@ def test_handshake_vehicle_clock_and_silence_on_loop(sabertooth: Profile) -> Non
         (lost,) = await collect(link, lambda s: isinstance(s, Health))
         assert isinstance(lost, Health) and not lost.connected
         assert "no data from the vehicle" in lost.detail
-        assert 0.3 <= lost.t_s - stamps[4] < 0.3 + 1.0
+        assert lost.t_s - stamps[4] >= 0.3            # not before the timeout
         assert link.parser.counts["unknown"] >= 1 and link.parser.counts["ok"] == 9
         assert lost.bad_frames == link.parser.bad_lines
         write(frame("VHVER,2,future"))
@@ -156,12 +157,13 @@ def test_loss_stops_the_hold_and_holds_beyond_the_tilt_limit_are_refused(
     tty.setraw(master)
     received = b""
 
-    def heard(seconds: float, *, talking: bool = False) -> bytes:
-        """What trimd wrote to the vehicle over ``seconds`` of wall time (the vehicle
-        sending its status every 50 ms when ``talking``)."""
+    def heard(until: Callable[[bytes], bool], *, talking: bool = False) -> bytes:
+        """What trimd wrote to the vehicle until ``until(what)`` holds (the vehicle
+        sending its status every 50 ms when ``talking``; hang guard only)."""
         nonlocal received
         start, got = time.monotonic(), b""
-        while time.monotonic() < start + seconds:
+        while not until(got):
+            assert time.monotonic() < start + WALL_LIMIT_S, got[-200:]
             if talking:
                 t_ms = 1000 + round((time.monotonic() - start) * 1000)
                 os.write(master, frame(f"VHSTA,{t_ms},ALT_HOLD,1,HOLD"))
@@ -170,6 +172,10 @@ def test_loss_stops_the_hold_and_holds_beyond_the_tilt_limit_are_refused(
         received += got
         return got
 
+    def lines(got: bytes, start: bytes) -> int:
+        """Whole sentences in ``got`` that start with ``start``."""
+        return sum(line.startswith(start) for line in got.split(b"\n")[:-1])
+
     async def go() -> None:
         link = open_serial_link(os.ttyname(slave), sabertooth, timeout_s=0.3)
         os.write(master, frame("VHVER,1,bench") + frame("VHSTA,1000,ALT_HOLD,1,HOLD"))
@@ -177,11 +183,13 @@ def test_loss_stops_the_hold_and_holds_beyond_the_tilt_limit_are_refused(
         with pytest.raises(LinkError, match=r"roll 30\.0°.*beyond the profile's max_tilt"):
             await link.send(HoldAttitude(30 * DEG, 0.0, 0.0))
         await link.send(HoldAttitude(10 * DEG, 5 * DEG, 0.0))
-        assert heard(1.2, talking=True).count(b"$TRHLD,10.000,5.000") >= 2  # repeated
+        heard(lambda got: lines(got, b"$TRHLD,10.000,5.000") >= 2, talking=True)  # repeated
         await collect(link, lambda s: isinstance(s, Health) and not s.connected)
-        heard(0.1)                                   # a sentence may be under way
-        after = heard(1.2)
-        assert b"TRHLD" not in after and after.count(b"$TRHBT") >= 2
+        # the vehicle silent, trimd lost it: from the next whole sentence on, heartbeats
+        # only (a hold sentence may have been under way)
+        heard(lambda got: got.endswith(b"\n"))
+        after = heard(lambda got: lines(got, b"$TRHBT") >= 2)
+        assert b"TRHLD" not in after
         await link.close()
 
     try:
@@ -249,13 +257,16 @@ def test_served_vehicle_rates_hold_release_and_link_lost(
         att = [s for s in released if isinstance(s, Attitude)][-20:]
         assert max(abs(a.phi) + abs(a.theta) for a in att) < 0.5 * DEG
 
-        # the vehicle goes away: link-lost on the samples' own clock
+        # the vehicle goes away (the server closes the pty): link-lost on the samples' own
+        # clock, from the device's end, not a silence timeout
         stop.set()
         gone = released + await collect(link, lambda s: isinstance(s, Health)
                                         and not s.connected)
         lost_after = gone[-1].t_s - gone[-2].t_s
-        print(f"link lost {lost_after * 1000:.1f} ms after the last sentence")
-        assert 0 <= lost_after < 1.0
+        print(f"link lost {lost_after * 1000:.1f} ms after the last sentence: "
+              f"{gone[-1].detail}")
+        assert lost_after >= 0 and "no data from the vehicle" not in gone[-1].detail
+        assert gone[-1].detail.startswith(f"{link.description}: "), gone[-1].detail
         assert link.parser.bad_lines == 0 and server.parser.bad_lines == 0
         await link.close()
     asyncio.run(go())
@@ -292,7 +303,7 @@ def test_vehicle_releases_when_trimd_falls_silent_and_trimd_sees_silence(
         got = before + await collect(link, lambda s: isinstance(s, Health) and not s.connected)
         silent = got[-1].t_s - got[-2].t_s
         print(f"link lost {silent:.3f} s after the vehicle's last sentence (timeout 0.5 s)")
-        assert 0.5 <= silent < 0.5 + 1.0
+        assert silent >= 0.5 and "no data from the vehicle for" in got[-1].detail
         await link.close()
     try:
         asyncio.run(go())

@@ -1,14 +1,19 @@
 """A pymavlink ground station against the simulator served as ArduSub over UDP loopback.
 
-Everything is judged on the vehicle's own time stamps (``time_boot_ms``), never on the
-wall clock; the wall-clock limit only keeps a broken server from hanging the suite.
+The station drives the server in lockstep (:class:`GroundStation`): the vehicle's clock
+moves only while the station waits for a message, so the station answers at the same
+simulated moments however busy the machine is (served in real time, a station held up
+for 0.3 s missed the pilot-input failsafe's 3 s at 10×). Everything is judged on the
+vehicle's own time stamps (``time_boot_ms``), never on the wall clock; the wall-clock
+limit only keeps a broken server from hanging the suite. (Real-time serving,
+:meth:`MavlinkServer.run`, is what ``tests/drivers/test_mavlink_link.py`` and
+``test_mavlink_stations.py`` run.)
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -22,26 +27,37 @@ from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.mavlink_server import MavlinkServer, open_mavlink2
 from trimd.drivers.sim.vehicle import SimVehicle
 
-RATE = 10.0            # simulated seconds per wall second
-WALL_LIMIT_S = 60.0    # a hang guard, not a timed assertion
+STEP_S = 0.05          # simulated time the server advances while nothing waits [s]
+SIM_LIMIT_S = 600.0    # no answer in this much simulated time: the server is broken
+WALL_LIMIT_S = 300.0   # a hang guard, not a timed assertion
 
 
 class GroundStation:
-    """A pymavlink GCS (sysid 255) that sees the vehicle's simulated time."""
+    """A pymavlink GCS (sysid 255) that sees the vehicle's simulated time and paces the
+    server: whenever no message waits on its socket, it advances :attr:`server` by
+    STEP_S of simulated time (which hands the server what the station sent, and sends
+    what falls due)."""
 
     def __init__(self) -> None:
         self.conn = open_mavlink2("udpin:127.0.0.1:0", 255, 190)
         self.port = self.conn.port.getsockname()[1]
+        self.server: MavlinkServer | None = None
         self.t = 0.0
         self.seen: list[tuple[float, Any]] = []
         self._deadline = time.monotonic() + WALL_LIMIT_S
 
     def messages(self) -> Iterator[Any]:
+        assert self.server is not None
+        vehicle = self.server.vehicle
         while True:
             if time.monotonic() > self._deadline:
-                raise AssertionError("the served simulator stopped answering")
-            msg = self.conn.recv_match(blocking=True, timeout=0.5)
+                raise AssertionError("hang guard: the test did not end within "
+                                     f"{WALL_LIMIT_S:g} s of wall clock")
+            msg = self.conn.recv_match(blocking=False)
             if msg is None:
+                if vehicle.t_s > SIM_LIMIT_S:
+                    raise AssertionError("the served simulator stopped answering")
+                self.server.advance_to(vehicle.t_s + STEP_S)
                 continue
             if hasattr(msg, "time_boot_ms"):
                 self.t = msg.time_boot_ms / 1000
@@ -89,13 +105,9 @@ def served(bluerov: Profile) -> Iterator[tuple[GroundStation, SimVehicle]]:
     gcs = GroundStation()
     vehicle = SimVehicle(bluerov, SimConfig(payload="0.4@W-aft-ctr", armed=False,
                                             mode="MANUAL", seed=1))
-    server = MavlinkServer(vehicle, f"udpout:127.0.0.1:{gcs.port}", rate=RATE)
-    stop = threading.Event()
-    thread = threading.Thread(target=server.run, args=(stop,), daemon=True)
-    thread.start()
+    gcs.server = MavlinkServer(vehicle, f"udpout:127.0.0.1:{gcs.port}")
     yield gcs, vehicle
-    stop.set()
-    thread.join(timeout=5)
+    gcs.server.close()
     gcs.conn.close()
 
 
