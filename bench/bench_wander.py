@@ -18,17 +18,18 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from bench.bench_sim_coverage import CASES, NAMES, coverage, run
+from bench.size import size
 
 #: (RMS attitude wander [deg], correlation time [s]) of the disturbance torques
 SETTINGS = tuple(itertools.product((0.1, 0.2), (2.0, 20.0)))
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_WANDER_SEEDS", "40"))
+    seeds = int(os.environ.get("TRIMD_WANDER_SEEDS", size(40, 1)))
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
-    cases = [CASES[0], CASES[-1]]   # the Heavy at a slot, the Sabertooth
+    cases = size([CASES[0], CASES[-1]], [CASES[0]])   # the Heavy at a slot, the Sabertooth
     print(f"{seeds} seeds per setting; columns: {', '.join(NAMES[:4])}")
-    for (name, payload), (deg, tau_s) in itertools.product(cases, SETTINGS):
+    for (name, payload), (deg, tau_s) in itertools.product(cases, size(SETTINGS, SETTINGS[:1])):
         options = (f"disturb=real,truth=perturbed,torque_wander_deg={deg},"
                    f"torque_wander_tau_s={tau_s}")
         with ProcessPoolExecutor(processes) as pool:
