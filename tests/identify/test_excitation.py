@@ -52,11 +52,13 @@ def test_doublets_keep_position_axes_balanced(bluerov: Profile) -> None:
     assert abs(np.sum(heave * durations)) < 0.1 * np.sum(np.abs(heave) * durations)
 
 
-def _ready(e: Excite, t: float = 0.0) -> list[object]:
+def _ready(e: Excite, t: float = 0.0, mode: str = "MANUAL") -> list[object]:
+    """5.98 s of telemetry at 50 Hz from a vehicle armed in ``mode``: the precheck's
+    window."""
     out: list[object] = []
-    for k in range(200):
+    for k in range(300):
         s = t + 0.02 * k
-        out += e.step(Health(s, True, "MANUAL", True))
+        out += e.step(Health(s, True, mode, True))
         out += e.step(Depth(s, 10.0))
         out += e.step(Attitude(s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     return out
@@ -72,6 +74,21 @@ def test_no_command_before_confirmation_then_inputs(sabertooth: Profile) -> None
     assert e.progress.phase is Phase.COLLECT
     assert isinstance(started[-1], OpenLoop)
     assert started[-1].axes == sig.at(0.0)
+
+
+@pytest.mark.parametrize("mode", ["AUTO", "GUIDED", "SURFACE"])
+def test_a_vehicle_on_its_own_plan_or_failsafe_is_not_taken_over(sabertooth: Profile,
+                                                                 mode: str) -> None:
+    """The trim procedure's precheck (trimd.core.precheck): confirmed up front, the
+    experiment still does not take a vehicle out of a mission or a failsafe."""
+    sig = design_signal(sabertooth, "uvr", duration_s=10.0, seed=0)
+    e = Excite(sabertooth, sig, confirmed=True)
+    out = _ready(e, 0.0, mode)
+    assert e.phase is Phase.PRECHECK and f"vehicle in {mode}" in e.reason
+    for t in range(6, 42, 6):      # the vehicle stays in that mode past connect_timeout_s
+        out += _ready(e, float(t), mode)
+    assert not [o for o in out if isinstance(o, OpenLoop | Release)]
+    assert e.phase is Phase.FAILED and f"timeout: waiting: vehicle in {mode}" in e.reason
 
 
 @pytest.mark.parametrize("event, cause", [
@@ -128,9 +145,9 @@ def test_the_hold_pushes_back_towards_level(bluerov: Profile) -> None:
     e = Excite(bluerov, sig, confirmed=True)
     _ready(e)
     assert e.phase is Phase.COLLECT
-    out = e.step(Attitude(4.1, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0))
+    out = e.step(Attitude(6.1, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0))
     cmd = [o for o in out if isinstance(o, OpenLoop)][-1]
-    base = sig.at(4.1 - 2.0)
+    base = sig.at(6.1 - 5.0)
     assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]     # roll right → left, etc.
     assert cmd.axes[:3] == base[:3] and cmd.axes[5] == base[5]
 
@@ -175,16 +192,16 @@ def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:
     e = Excite(bluerov, sig, confirmed=True)
     _ready(e)
     pwm = tuple(1500.0 for _ in bluerov.thrusters)
-    e.step(Thrusters(3.9, pwm))
-    e.step(Thrusters(4.0, pwm))   # thruster outputs at 10 Hz
-    tilted = Attitude(4.05, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0)
+    e.step(Thrusters(5.9, pwm))
+    e.step(Thrusters(6.0, pwm))   # thruster outputs at 10 Hz
+    tilted = Attitude(6.05, math.radians(5.0), math.radians(-5.0), 0.0, 0.0, 0.0, 0.0)
     assert not [o for o in e.step(tilted) if isinstance(o, OpenLoop)]
-    cmd = [o for o in e.step(Thrusters(4.1, pwm)) if isinstance(o, OpenLoop)][-1]
-    base = sig.at(4.1 - 2.0)
+    cmd = [o for o in e.step(Thrusters(6.1, pwm)) if isinstance(o, OpenLoop)][-1]
+    base = sig.at(6.1 - 5.0)
     assert cmd.axes[3] < base[3] and cmd.axes[4] > base[4]
     # thruster outputs at 4 Hz are too slow for the hold's loop: back to attitude samples
-    e.step(Thrusters(4.35, pwm))
-    again = Attitude(4.4, math.radians(8.0), math.radians(-8.0), 0.0, 0.0, 0.0, 0.0)
+    e.step(Thrusters(6.35, pwm))
+    again = Attitude(6.4, math.radians(8.0), math.radians(-8.0), 0.0, 0.0, 0.0, 0.0)
     assert [o for o in e.step(again) if isinstance(o, OpenLoop)]
 
 
@@ -210,9 +227,9 @@ def test_the_depth_hold_pushes_back_towards_the_start_depth(sabertooth: Profile)
     e = Excite(sabertooth, sig, confirmed=True)
     _ready(e)
     assert e.phase is Phase.COLLECT
-    base = sig.at(4.1 - 2.0)[2]
+    base = sig.at(6.1 - 5.0)[2]
     heave = []
-    for t, depth in ((4.0, 9.5), (4.2, 10.5)):  # above, then below the start depth, 10 m
+    for t, depth in ((6.0, 9.5), (6.2, 10.5)):  # above, then below the start depth, 10 m
         e.step(Depth(t, depth))
         out = e.step(Attitude(t + 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
         heave.append([o for o in out if isinstance(o, OpenLoop)][-1].axes[2])

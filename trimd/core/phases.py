@@ -1,12 +1,14 @@
-"""What every commanding state machine shares: its phase, when the phase began, and how
-it ends (the trim :class:`~trimd.core.procedure.Procedure` and the excitation experiment
-:class:`~trimd.identify.experiment.Excite`)."""
+"""What every commanding state machine shares: its phase, when the phase began, how it
+steps (an internal error still releases the vehicle) and how it ends (the trim
+:class:`~trimd.core.procedure.Procedure` and the excitation experiment
+:class:`~trimd.identify.experiment.Excite`); their precheck is
+:class:`trimd.core.precheck.Precheck`."""
 
 from __future__ import annotations
 
 import math
 
-from trimd.core.events import Cause, Notice, Output, Phase
+from trimd.core.events import Cause, Event, Notice, Output, Phase
 from trimd.core.guards import Guard
 from trimd.core.samples import Release
 
@@ -24,6 +26,21 @@ class Phases:
     guard: Guard
     _t: float
     _t_phase: float
+
+    def step(self, event: Event) -> list[Output]:
+        """Advance on one event; return the commands to send and notices to show. Any
+        internal error ends the machine FAILED, releasing the vehicle first."""
+        if self.phase.final:
+            return []
+        try:
+            return self._step(event)
+        except Exception as exc:  # any internal error must still release the vehicle
+            return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
+                                cause=Cause.INTERNAL)
+
+    def _step(self, event: Event) -> list[Output]:
+        """One event, the machine's own way."""
+        raise NotImplementedError
 
     def _enter(self, phase: Phase, text: str) -> list[Output]:
         """Enter ``phase`` now, saying ``text``."""

@@ -12,7 +12,6 @@ Phases: connect → precheck → confirm → for each hold (settle → collect) 
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -38,6 +37,7 @@ from trimd.core.events import (
 from trimd.core.guards import Guard
 from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.phases import Phases
+from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
 from trimd.core.profile import HoldSetpoint, Profile
 from trimd.core.samples import (
     Attitude,
@@ -54,9 +54,6 @@ __all__ = ["VERIFY_DONE", "Procedure"]
 
 #: Telemetry the precheck needs, in samples per second of sample time.
 MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
-PRECHECK_WINDOW_S = 5.0
-#: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
-BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
 #: The held heading trails the vehicle's own by at most this much [deg]: once the heading
 #: is further off, the target moves to half this distance from it. A hold needs roll and
 #: pitch, not a heading, and an absolute heading held at a tilt couples into them: a yaw
@@ -66,9 +63,6 @@ BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "
 #: and the hold never settled. A leash, not a free heading: a vehicle whose offset centre
 #: of gravity gives a yaw torque when tilted would otherwise turn all hold long.
 HEADING_LEASH_DEG = 2.0
-#: Before the holds, depth may wander by this share of max_depth_excursion_m over the
-#: precheck window.
-DEPTH_STABLE_SHARE = 0.5
 #: How a verify hold that reached its verdict ends (its last state notice says so).
 VERIFY_DONE = "verify hold done"
 
@@ -132,8 +126,7 @@ class Procedure(Phases):
         self._voltage = profile.nominal_voltage_V
         self._depth: Depth | None = None
         self._attitude: Attitude | None = None
-        self._arrivals: dict[str, list[float]] = {k: [] for k in MIN_RATES_HZ}
-        self._depths: deque[tuple[float, float]] = deque()
+        self.precheck = Precheck(MIN_RATES_HZ, profile.procedure.max_depth_excursion_m)
         self._holds: list[_Hold] = []
         self._psi = 0.0
         self._settling: HoldSettling | None = None
@@ -141,16 +134,6 @@ class Procedure(Phases):
         self._weighed = False
 
     # ---------------------------------------------------------------- public interface
-    def step(self, event: Event) -> list[Output]:
-        """Advance on one event; return the commands to send and notices to show."""
-        if self.phase.final:
-            return []
-        try:
-            return self._step(event)
-        except Exception as exc:  # any internal error must still release the vehicle
-            return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
-                                cause=Cause.INTERNAL)
-
     @property
     def progress(self) -> Progress:
         k = len(self._holds) - 1
@@ -185,8 +168,7 @@ class Procedure(Phases):
         return out + self._check_time()
 
     def _on_sample(self, s: Sample) -> list[Output]:
-        for times in self._arrivals.values():
-            del times[: max(0, len(times) - 200)]
+        self.precheck.sample(s)
         stop = self.guard.sample(s)
         if stop is not None:
             return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
@@ -197,20 +179,14 @@ class Procedure(Phases):
                 self._voltage = s.voltage_V
         elif isinstance(s, Thrusters):
             self._pwm = s
-            self._arrivals["thrusters"].append(s.t_s)
             if self._settling is not None:
                 tau = self._tau(s.t_s)
                 if tau is not None:
                     self._settling.effort(s.t_s, tau)
         elif isinstance(s, Depth):
             self._depth = s
-            self._arrivals["depth"].append(s.t_s)
-            self._depths.append((s.t_s, s.depth_m))
-            while self._depths[0][0] < s.t_s - PRECHECK_WINDOW_S:
-                self._depths.popleft()
         elif isinstance(s, Attitude):
             self._attitude = s
-            self._arrivals["attitude"].append(s.t_s)
             return self._on_attitude(s)
         return []
 
@@ -271,25 +247,8 @@ class Procedure(Phases):
                                           f"({len(self.holds)} holds)")
 
     def _precheck_problems(self) -> list[str]:
-        """What keeps trimd from commanding now: telemetry rates, arming, mode, depth."""
-        problems = []
-        for stream, need in MIN_RATES_HZ.items():
-            recent = [t for t in self._arrivals[stream] if t > self._t - PRECHECK_WINDOW_S]
-            rate = len(recent) / PRECHECK_WINDOW_S
-            if rate < need:
-                problems.append(f"{stream} at {rate:.1f} Hz (need ≥ {need:g} Hz)")
-        if self._health is not None and not self._health.armed:
-            problems.append("vehicle disarmed: arm it")
-        if self._health is not None and self._health.mode in BUSY_MODES:
-            problems.append(f"vehicle in {self._health.mode}: switch it to MANUAL, "
-                            "STABILIZE or ALT_HOLD")
-        depths = [d for _, d in self._depths]
-        limit = DEPTH_STABLE_SHARE * self.proc.max_depth_excursion_m
-        if depths and max(depths) - min(depths) > limit:
-            problems.append(f"depth not steady: {max(depths) - min(depths):.2f} m of change in "
-                            f"{PRECHECK_WINDOW_S:g} s (limit {limit:g} m): hold depth first, "
-                            "e.g. in ALT_HOLD")
-        return problems
+        """What keeps trimd from commanding now (:class:`trimd.core.precheck.Precheck`)."""
+        return self.precheck.problems(self._t)
 
     def _on_confirm(self) -> list[Output]:
         """The operator's go. Given in the confirm phase, the precheck is run again (the

@@ -6,8 +6,10 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
 the signal, its PID output on the latest attitude is added on roll and pitch) → done;
-``failed`` or ``aborted`` from anywhere. The safety rules are the procedure's own
-(:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
+``failed`` or ``aborted`` from anywhere. The precheck and the safety rules are the
+procedure's own (:class:`trimd.core.precheck.Precheck`: armed, not in a mode where the
+vehicle follows its own plan or failsafe, attitude and depth at their rates, depth steady;
+:class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
 experiment's limit from the start depth, link loss (a Health sample that is not
 connected, no telemetry for ``link_timeout_s``, or no attitude or depth for as long as
@@ -32,6 +34,7 @@ import math
 from trimd.core.events import Abort, Cause, Confirm, Event, Output, Phase, Progress, Tick
 from trimd.core.guards import Guard
 from trimd.core.phases import Phases
+from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample, Thrusters
@@ -71,8 +74,6 @@ MAX_PACED_INTERVAL_S = 0.11
 #: determined only through that timing (docs/identification.md, "Fast DOFs at slow
 #: streams").
 STREAM_HZ = 50.0
-#: Telemetry seen for this long [s] before the experiment may start.
-PRECHECK_S = 2.0
 
 
 class Excite(Phases):
@@ -103,6 +104,9 @@ class Excite(Phases):
         # open loop drives thrusters, so no thruster stream is needed to steer by
         self.guard = Guard(profile.procedure, depth_excursion_m=depth_excursion_m,
                            streams=("attitude", "depth"), min_rates_hz=MIN_RATES_HZ)
+        # open loop: the thruster outputs are not steered by, so not required
+        self.precheck = Precheck({k: v for k, v in MIN_RATES_HZ.items() if k != "thrusters"},
+                                 profile.procedure.max_depth_excursion_m)
         self._confirmed = confirmed
         self._t = math.nan
         self._t_phase = math.nan
@@ -110,7 +114,6 @@ class Excite(Phases):
         self._health: Health | None = None
         self._depth: float = math.nan
         self._depth_ref = math.nan
-        self._attitude_seen = False
         self._attitude: Attitude | None = None   # the latest
         self._paced = False   # commands change at thruster samples (module docstring)
         self._t_thrusters = math.nan
@@ -122,16 +125,6 @@ class Excite(Phases):
         self._heave = 0.0  # the depth hold's output [input], added to the heave offset
 
     # ---------------------------------------------------------------- interface
-    def step(self, event: Event) -> list[Output]:
-        """Advance on one event; return the commands to send and notices to show."""
-        if self.phase.final:
-            return []
-        try:
-            return self._step(event)
-        except Exception as exc:   # any internal error must still release the vehicle
-            return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
-                                Cause.INTERNAL)
-
     @property
     def progress(self) -> Progress:
         done = 0.0
@@ -158,6 +151,7 @@ class Excite(Phases):
         return self._on_sample(event) + self._check_time()
 
     def _on_sample(self, s: Sample) -> list[Output]:
+        self.precheck.sample(s)
         stop = self.guard.sample(s)
         if stop is not None and (self.phase is not Phase.CONNECT or stop.cause != Cause.LINK):
             return self._finish(Phase.FAILED, stop.reason, stop.cause)
@@ -170,7 +164,6 @@ class Excite(Phases):
                 self._hold_depth(s, self.signal.depth_hold)
             return []
         if isinstance(s, Attitude):
-            self._attitude_seen = True
             self._attitude = s
             if self.phase is Phase.COLLECT:
                 return [] if self._paced else self._play(s)
@@ -188,11 +181,9 @@ class Excite(Phases):
             return []
         if self.phase is Phase.CONNECT:
             return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t - self._t_phase < PRECHECK_S:
+        if self._t - self._t_phase < PRECHECK_WINDOW_S:
             return []
-        problems = [p for p, bad in (("no attitude", not self._attitude_seen),
-                                     ("no depth", math.isnan(self._depth)),
-                                     ("vehicle disarmed: arm it", not h.armed)) if bad]
+        problems = self.precheck.problems(self._t)
         if problems:
             self.reason = "waiting: " + "; ".join(problems)
             return []
