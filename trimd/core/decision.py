@@ -29,10 +29,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import norm
 
-from trimd.core.estimate import HoldSamples, StaticEstimate, thrust_map_std
+from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
+from trimd.core.systematics import thrust_map_std
 
 __all__ = ["LOOK_GROWTH", "STIFFNESS_TOLERANCE", "StopRule"]
 

@@ -58,22 +58,21 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from trimd.core.drift import DRIFT_MODEL_ERROR, munk_moment
+from trimd.core.drift import DRIFT_MODEL_ERROR
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
-from trimd.core.model import (
-    band_offset_sensitivity,
-    informative_rows,
-    restoring_matrix,
-    restoring_matrix_jacobian,
-    thrust_configuration,
-)
+from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
+from trimd.core.systematics import (
+    attitude_error_factors,
+    band_notes,
+    drift_moments,
+    thrust_map_factors,
+)
 
-__all__ = ["BAND_SIGMA_SHARE", "MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "HoldSamples",
-           "HoldSummary", "StaticEstimate", "attitude_error_factors",
-           "check_samples", "drift_moments", "estimate_static", "is_level", "measurable_dofs",
-           "thrust_map_factors", "thrust_map_std"]
+__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldSamples", "HoldSummary",
+           "StaticEstimate", "check_samples", "estimate_static", "is_level",
+           "measurable_dofs"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -85,9 +84,6 @@ MIN_RELATIVE_SINGULAR = 0.02
 _LEVEL_RAD = np.radians(3.0)
 #: The moment rows (K, M, N) of τ and G(φ, θ).
 MOMENT_ROWS = np.array([False, False, False, True, True, True])
-#: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
-#: offset anywhere within ± the margin (uniform: 1/√3).
-BAND_SIGMA_SHARE = 1 / math.sqrt(3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -263,77 +259,6 @@ def _group_scales(holds: Sequence[HoldSamples],
     return [np.where(np.flatnonzero(r) >= 3, 1 / rms[True], 1 / rms[False]) for r in used]
 
 
-def thrust_map_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
-                       profile: Profile) -> list[FloatArray]:
-    """Per hold, how its mean τ (the rows used) moves with each systematic error of the
-    thrust map, one column per error, shape (rows, 4·n) [N, N·m per 1σ]: each thruster's
-    relative gain error forward, then reverse (T_rows·diag(f̄±)·diag(σ_gain)), then the
-    offset of its dead band's (its ESC's) negative edge, then its positive edge
-    (T_rows·diag(s̄±)·:data:`BAND_SIGMA_SHARE`, s̄ the hold's mean
-    :func:`trimd.core.model.band_offset_sensitivity`). The same column is the same error
-    in every hold. Zero for a hold without per-thruster thrust."""
-    n = len(profile.thrusters)
-    T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
-    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
-    out = []
-    for h, r in zip(holds, used, strict=True):
-        if h.thrust is None:
-            out.append(np.zeros((int(r.sum()), 4 * n)))
-            continue
-        f = np.asarray(h.thrust, float)
-        if f.shape != (len(h.phi), n) or not np.all(np.isfinite(f)):
-            raise EstimationError(
-                f"hold {h.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
-                f"one row per sample and one column per thruster: ({len(h.phi)}, "
-                f"{n}) expected)")
-        forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
-        negative, positive = band_offset_sensitivity(profile, f).mean(axis=1) * BAND_SIGMA_SHARE
-        out.append(np.concatenate([T[r] * (forward * sigma), T[r] * (reverse * sigma),
-                                   T[r] * negative, T[r] * positive], axis=1))
-    return out
-
-
-def thrust_map_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile
-                   ) -> FloatArray:
-    """1σ of the hold's mean τ on ``rows`` [N, N·m] from the thrust map's systematic errors
-    alone (the curves' ``uncertainty_pct`` and the dead-band edges): the part of its ± that
-    no length of collecting reduces. Zero for a hold without per-thruster thrust."""
-    factors = thrust_map_factors([hold], [rows], profile)[0]
-    std: FloatArray = np.sqrt((factors**2).sum(axis=1))
-    return std
-
-
-def attitude_error_factors(attitude: Sequence[tuple[float, float]],
-                           used: Sequence[NDArray[np.bool_]], profile: Profile,
-                           q: FloatArray) -> list[FloatArray]:
-    """Per hold, how its mean τ (the rows used) moves with a 1σ error of the attitude
-    reference in roll and in pitch (the profile's ``attitude_error_deg``), shape
-    (rows, 2) [N, N·m]: ∂G/∂(φ, θ)·q·σ. Independent between holds, and not reduced by
-    collecting (an AHRS wanders over tens of seconds, longer than a hold)."""
-    sigma = math.radians(profile.attitude_error_deg)
-    out = []
-    for (phi, theta), r in zip(attitude, used, strict=True):
-        dG = restoring_matrix_jacobian(phi, theta)  # (6, 4, 2)
-        out.append(np.einsum("ijk,j->ik", dG, q)[r] * sigma)
-    return out
-
-
-def drift_moments(attitude: Sequence[tuple[float, float]],
-                   used: Sequence[NDArray[np.bool_]], profile: Profile,
-                   net_weight_N: float) -> list[FloatArray]:
-    """Per hold, the Munk moment of its drift on the rows used [N·m; 0 on force rows];
-    all zero when the vehicle holds station. An axis without damping has no steady drift
-    to model: no correction there."""
-    out = []
-    for (phi, theta), r in zip(attitude, used, strict=True):
-        row = np.zeros(6)
-        if not profile.holds_station:
-            m = munk_moment(profile, phi, theta, net_weight_N)
-            row[3:] = np.where(np.isfinite(m), m, 0.0)
-        out.append(row[r])
-    return out
-
-
 def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
                   weights: Sequence[FloatArray]) -> FloatArray:
     """q minimising Σ_k ‖w_k·(τ̄_k − A_k·q)‖²."""
@@ -457,35 +382,3 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
         residual_rms=residual_rms, q_cov_noise=q_cov_noise, q_cov_band=q_cov_band,
         notes=band_notes(holds, used, gains, means, q, q_cov, q_cov_band))
-
-
-def band_notes(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
-               factors: Sequence[FloatArray], means: Sequence[MeanCovariance],
-               q: FloatArray, q_cov: FloatArray, q_cov_band: FloatArray) -> tuple[str, ...]:
-    """For people: each row of a hold whose variance is mostly its thrusters' dead band
-    (it was down-weighted: "hold 2, N row: 4 thrusters at or near the dead-band edge"),
-    and how much of the passive roll's and pitch's variance rests on the band when that
-    is most of it. ``factors`` from :func:`thrust_map_factors`."""
-    notes = []
-    for h, r, f, m in zip(holds, used, factors, means, strict=True):
-        n = f.shape[1] // 4
-        band = f[:, 2 * n:]
-        share = (band**2).sum(axis=1) / (np.diag(m.cov) + (f**2).sum(axis=1) + 1e-300)
-        for row, s, b in zip(np.flatnonzero(r), share, band, strict=True):
-            if s > 0.5:
-                c = b[:n]**2 + b[n:]**2  # each thruster's share of the row's band variance
-                count = int(np.sum(c > 0.1 * c.sum()))
-                notes.append(f"{h.label or 'hold'}, {TAU_NAMES[row]} row: {count} thruster"
-                             f"{'s' if count != 1 else ''} at or near the dead-band edge "
-                             f"({100 * s:.0f} % of its variance; down-weighted)")
-    k = float(q[3])
-    if k > 0:
-        for name, i in (("roll", 2), ("pitch", 1)):
-            share = q_cov_band[i, i] / q_cov[i, i] if q_cov[i, i] > 0 else 0.0
-            if share > 0.5:
-                notes.append(f"passive {name} ± {math.degrees(math.sqrt(q_cov[i, i]) / k):.2f}°"
-                             f" (1σ): {100 * share:.0f} % of its variance from thrusters at or "
-                             "near their dead band (the ESC offsets the profile's "
-                             "deadband_margin_us allows); a verify hold after ballasting "
-                             "measures what is left")
-    return tuple(notes)

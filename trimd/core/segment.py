@@ -37,16 +37,14 @@ from trimd.core.estimate import (
     MIN_RELATIVE_SINGULAR,
     MOMENT_ROWS,
     HoldSamples,
-    attitude_error_factors,
     check_samples,
-    drift_moments,
     is_level,
     measurable_dofs,
-    thrust_map_factors,
 )
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
+from trimd.core.systematics import attitude_error_factors, drift_moments, thrust_map_factors
 
 __all__ = ["Q_NAMES", "SegmentEstimate", "estimate_segment", "nominal_q"]
 
@@ -73,7 +71,7 @@ class SegmentEstimate:
     q_cov : covariance of ``q`` with every source (noise, thrust curves, drift model).
     q_cov_noise : the noise-and-wander part alone (independent between segments).
     gain_sensitivity : how ``q`` moves with each systematic error of the thrust map, shape
-        (4, 4·n), per 1σ (:func:`trimd.core.estimate.thrust_map_factors`: gains forward,
+        (4, 4·n), per 1σ (:func:`trimd.core.systematics.thrust_map_factors`: gains forward,
         reverse, dead-band edges positive, negative).
     observable : which of the four components this segment determines.
     resolved : the segment was long enough for its own correlation time.
