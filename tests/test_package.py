@@ -1,6 +1,10 @@
 """trimd as a user installs it: a wheel built from the checkout, installed into a fresh
 virtualenv outside it, runs ``trimd demo`` and ``trimd solve`` with the shipped profiles
-(package data) and nothing from the source tree."""
+(package data) and nothing from the source tree.
+
+The virtualenv is made without pip of its own and filled by the test's pip
+(``pip --python``), without compiling every dependency's bytecode up front (Python
+compiles what it imports): the same packages, installed in a third of the time."""
 
 from __future__ import annotations
 
@@ -35,9 +39,10 @@ def test_the_wheel_runs_outside_the_checkout(tmp_path: Path) -> None:
     _run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", dist, REPO],
          cwd=work)
     (wheel,) = dist.glob("trimd-*.whl")
-    _run([sys.executable, "-m", "venv", venv], cwd=work)
+    _run([sys.executable, "-m", "venv", "--without-pip", venv], cwd=work)
     python = venv / "bin" / "python"
-    _run([python, "-m", "pip", "install", "--quiet", wheel], cwd=work)
+    _run([sys.executable, "-m", "pip", "--python", python, "install", "--quiet", "--no-compile",
+          wheel], cwd=work)
     where = _run([python, "-c", "import trimd; print(trimd.__file__)"], cwd=work).strip()
     assert Path(where).is_relative_to(venv), where
 
