@@ -4,7 +4,7 @@
 Texts start with ``TRIMD`` and are as short as a ground station's message line:
 
 * a watch alert at ALERT (heavier: water?) or CRITICAL (every other change), e.g.
-  ``TRIMD heavier 2.4±0.1N since 5min ago: water?`` (:func:`alert_text`): the change
+  ``TRIMD heavier 2.4±0.1N since 5min: water?`` (:func:`alert_text`): the change
   against the baseline with its 1σ, and how long before the alert it began;
 * the watch starting and its baseline at INFO;
 * a trim's phases at INFO and its end at NOTICE: the estimate (W − B, extra mass), the
@@ -64,14 +64,14 @@ def alert_text(a: ChangeAlert) -> Text:
     >>> a = ChangeAlert(0, 2.43, 0.13, 2.43, 0.13, 290.0, 310.0, 621.0, 3, 9.1, True)
     >>> t = alert_text(a)
     >>> t.severity.name, t.text
-    ('ALERT', 'TRIMD heavier 2.4±0.1N since 5min ago: water?')
+    ('ALERT', 'TRIMD heavier 2.4±0.1N since 5min: water?')
     """
     up, down, why_up, why_down = _WORDS[a.component]
     word, why = (up, why_up) if a.total > 0 else (down, why_down)
     unit = "N" if a.component == 0 else "Nm"
     severity = Severity.ALERT if a.component == 0 and a.total > 0 else Severity.CRITICAL
     return Text(severity, f"TRIMD {word} {_pm(abs(a.total), a.total_std)}{unit} since "
-                          f"{_age(a.at_s - a.since_s)} ago: {why}")
+                          f"{_age(a.at_s - a.since_s)}: {why}")
 
 
 def segment_values(segment: WatchSegment) -> Values:
@@ -96,8 +96,8 @@ class WatchAnnouncer:
             return
         self._started = True
         base = ("baseline given" if self._had_baseline else
-                f"baseline after {self.watch.baseline_segments} level hovers")
-        self.announce(Text(Severity.INFO, f"TRIMD watch on (passive), {base}"))
+                f"baseline after {self.watch.baseline_segments} hovers")
+        self.announce(Text(Severity.INFO, f"TRIMD watch on: {base}"))
 
     def records(self, records: Sequence[WatchSegment | WatchAlert]) -> None:
         """Values for each segment, a text for each alert and for a baseline just formed."""

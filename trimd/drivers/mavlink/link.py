@@ -193,6 +193,7 @@ class MavlinkLink:
         self._loop = asyncio.get_running_loop()
         self._wake_pending = False
         self._wake.set()
+        taken = 0
         while True:
             await self._wake.wait()
             self._wake.clear()
@@ -202,6 +203,9 @@ class MavlinkLink:
                     self.on_raw(t_s, raw)
                 for sample in samples:
                     yield sample
+                taken += 1
+                if taken % _BURST == 0:  # a backlog: let the loop run (signals, other tasks)
+                    await asyncio.sleep(0)
             if not self._thread.is_alive() and not self._items:
                 if self._closed:
                     return
