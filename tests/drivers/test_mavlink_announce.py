@@ -1,7 +1,8 @@
 """trimd's own messages on the MAVLink network (``trimd/drivers/mavlink/outbox.py``): the
 heartbeat, STATUSTEXT and NAMED_VALUE_FLOAT as pymavlink decodes them, their budget on a
-clock the test sets, the ``ids=`` / ``comp=`` / ``announce=`` URL options, and the exact
-set of message types a live watch sends, sniffed behind the simulator's router."""
+clock the test sets, the ``ids=`` / ``comp=`` / ``announce=`` URL options (as a component
+of the vehicle, no sticks), and the exact set of message types a live watch sends,
+sniffed behind the simulator's router."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import math
 import threading
 import time
 from collections import Counter
+from concurrent.futures import Future
 from typing import Any
 
 import numpy as np
@@ -23,10 +25,13 @@ from trimd.core.announce import Severity, Text, Values
 from trimd.core.change import ChangeAlert
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Health, Sample
+from trimd.core.samples import Attitude, Health, HoldAttitude, OpenLoop, Sample
 from trimd.core.segment import SegmentEstimate
 from trimd.core.watch import TrimWatch, WatchAlert, WatchSegment
+from trimd.drivers.mavlink.commands import Commander
+from trimd.drivers.mavlink.decode import MavlinkDecoder
 from trimd.drivers.mavlink.outbox import MAX_WAITING, TEXT_PERIOD_S, VALUE_PERIOD_S, Outbox
+from trimd.drivers.mavlink.stations import Stations
 from trimd.drivers.mavlink.url import parse_mavlink_url
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.mavlink_server import MavlinkServer, open_mavlink2
@@ -288,3 +293,38 @@ def test_a_watch_sends_exactly_heartbeat_stream_and_parameter_requests_texts_and
     assert (6, "TRIMD watch on: baseline after 3 hovers") in texts, texts
     values = {m.name: round(m.value, 3) for m in sent if m.get_type() == "NAMED_VALUE_FLOAT"}
     assert values == {"TRIMD_WB": 2.5, "TRIMD_MX": 0.01, "TRIMD_MY": -0.02}
+
+
+# ------------------------------------------------------------------ ids=vehicle commands
+@pytest.mark.parametrize(("query", "sticks"), [("", True), ("?ids=vehicle", False)])
+def test_as_a_component_of_the_vehicle_trimd_sends_no_sticks(
+        bluerov: Profile, query: str, sticks: bool) -> None:
+    """Alone, a hold comes with neutral MANUAL_CONTROL from trimd's own ids; as a component
+    of the vehicle none (ArduSub takes sticks only from SYSID_MYGCS), and open-loop input
+    is refused with the reason."""
+    options = parse_mavlink_url("udpin:127.0.0.1:0" + query, default_timeout_s=3)
+    wire = Wire()
+    mav = mavlink2.MAVLink(wire, srcSystem=options.source[0], srcComponent=options.source[1])
+    decoder = MavlinkDecoder.for_profile(bluerov, sysid=options.sysid)
+    beat = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_SUBMARINE,
+                                              mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                              mavlink2.MAV_MODE_FLAG_SAFETY_ARMED, 2, 4, 3)
+    beat.pack(mavlink2.MAVLink(None, srcSystem=1, srcComponent=1))
+    decoder.decode(beat, 0.0)
+    commander = Commander(mav, bluerov, decoder, options, lambda text: None,
+                          Stations(options.source))
+    hold: Future[None] = Future()
+    commander.apply(HoldAttitude(0.0, 0.1, 0.0), 0.0, hold)
+    for t in np.arange(0.0, 1.0, 0.05):
+        commander.tick(float(t))
+    kinds = Counter(m.get_type() for m in wire.messages())
+    assert kinds["SET_ATTITUDE_TARGET"] >= 4
+    assert (kinds["MANUAL_CONTROL"] > 0) is sticks, kinds
+    commander.release(1.0)
+    open_loop: Future[None] = Future()
+    commander.apply(OpenLoop((0.1, 0, 0, 0, 0, 0)), 1.0, open_loop)
+    if sticks:
+        assert not open_loop.done()          # waits for the vehicle's mode change
+    else:
+        with pytest.raises(LinkError, match="with ids=vehicle it is none"):
+            open_loop.result(timeout=0)

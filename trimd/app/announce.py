@@ -19,15 +19,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
+from trimd.app.session import Presenter
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
 from trimd.core.announce import Announcement, Severity, Text, Values
 from trimd.core.change import ChangeAlert
 from trimd.core.events import Notice, Output, Phase, Progress
+from trimd.core.link import Announces, Link
 from trimd.core.samples import Health, Sample
 from trimd.core.watch import TrimWatch, WatchAlert, WatchSegment
 
-__all__ = ["VALUE_NAMES", "RunAnnouncer", "WatchAnnouncer", "alert_text", "segment_values"]
+__all__ = ["VALUE_NAMES", "RunAnnouncer", "WatchAnnouncer", "alert_text", "announce_run",
+           "segment_values"]
 
 Announce = Callable[[Announcement], None]
 
@@ -149,3 +152,9 @@ class RunAnnouncer:
 
     def sample(self, sample: Sample, progress: Progress) -> None:
         return None
+
+
+def announce_run(link: Link, presenters: list[Presenter]) -> None:
+    """Add a :class:`RunAnnouncer` to a session's ``presenters`` when ``link`` announces."""
+    if isinstance(link, Announces):
+        presenters.append(RunAnnouncer(link.announce))

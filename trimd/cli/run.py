@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.after_trim import AfterTrim
-from trimd.app.announce import RunAnnouncer
+from trimd.app.announce import announce_run
 from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
@@ -40,7 +40,7 @@ from trimd.core.errors import DataError, ProfileError, UsageError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
-from trimd.core.link import Announces, Link, Truthful
+from trimd.core.link import Link, Truthful
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -117,8 +117,7 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
 
     procedure = None if target is None else verify_procedure(
         profile, target, confirmed=args.yes, source=_target_source(args))
-    if isinstance(link, Announces):  # the phases and the verdict for the ground station
-        presenters.append(RunAnnouncer(link.announce))
+    announce_run(link, presenters)  # the phases and the verdict for the ground station
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose, procedure=procedure)
 
