@@ -49,11 +49,12 @@ def test_alert_texts(alert: ChangeAlert, severity: Severity, text: str) -> None:
 
 
 def test_a_w_minus_b_alert_fits_one_statustext() -> None:
-    """Water in (the alert that matters most) fits 50 bytes as sent, for any size up to
-    999 N and any age up to 99 min, so no ground station has to join chunks."""
+    """Water in (the alert that matters most) fits 50 bytes as sent, for any size below
+    1000 N with a 1σ of 1 mN or more, at any age, so no ground station has to join
+    chunks."""
     for total in (0.6, 2.43, 15.0, 99.9, 999.0):
-        for std in (0.004, 0.13, 1.5):
-            for age in (5, 89, 600, 5399):
+        for std in (0.001, 0.13, 1.5):
+            for age in (5, 89, 600, 5399, 100_000):
                 wire = ascii_text(alert_text(_alert(0, total, std, age)).text)
                 assert len(wire.encode()) <= STATUSTEXT_BYTES, wire
 
