@@ -4,10 +4,12 @@ One I/O thread owns the pymavlink connection (blocking I/O in its own thread, as
 does). It reads and decodes every packet
 (:class:`~trimd.drivers.mavlink.decode.MavlinkDecoder`), stamps it with ``time.monotonic()``
 on receipt, and runs the :class:`~trimd.drivers.mavlink.commands.Commander`, which sends
-the GCS heartbeat, stream and parameter requests and the periodic hold / pilot messages,
-so a busy event loop can never starve ArduSub's 5 s attitude-target and 3 s pilot-input
-timeouts. The asyncio side sees a bounded queue of samples (the oldest
-are dropped and counted when the consumer falls behind).
+the stream and parameter requests and the periodic hold / pilot messages, so a busy event
+loop can never starve ArduSub's 5 s attitude-target and 3 s pilot-input timeouts, and the
+:class:`~trimd.drivers.mavlink.outbox.Outbox`: trimd's heartbeat and what
+:meth:`MavlinkLink.announce` queues (STATUSTEXT, NAMED_VALUE_FLOAT, within a budget).
+The asyncio side sees a bounded queue of samples (the oldest are dropped and counted when
+the consumer falls behind; a backlog lets the event loop run every 200 samples).
 
 The protocol is pinned: MAVLink 2 and pymavlink's generated ``v20.ardupilotmega`` dialect
 from the first byte, whatever ``MAVLINK20`` says. The vehicle is the one the URL's
