@@ -54,6 +54,8 @@ def test_live_simulated_dive_gives_json_segments(capsys: pytest.CaptureFixture[s
     (["watch", "x.tlog", "--link", "sim", "--profile", "bluerov2-heavy"], 2, "either --link"),
     (["watch", "--link", "mavlink:udpin:127.0.0.1:14999?pilot=always", "--profile",
       "bluerov2-heavy"], 3, "sends no MANUAL_CONTROL"),
+    (["watch", "--link", "mavlink:udpin:127.0.0.1:14999?ids=robot", "--profile",
+      "bluerov2-heavy"], 3, "mavlink option ids='robot': expected one of gcs, vehicle"),
     (["watch", "no-such.tlog", "--profile", "bluerov2-heavy"], 2, "no such file"),
 ])
 def test_usage_mistakes(argv: list[str], code: int, words: str,

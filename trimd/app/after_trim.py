@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
 from trimd.app.history import History
 from trimd.app.history.trims import record_result
@@ -85,5 +86,6 @@ class AfterTrim:
             with contextlib.suppress(Exception):
                 await link.close()
             raise
+        announce_run(link, presenters)
         return Session(link, self.profile, recorder=recorder, presenters=presenters,
                        confirmed=self.confirmed, procedure=procedure)

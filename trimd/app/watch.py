@@ -1,9 +1,11 @@
 """Running the passive trim watch over a live link or a log, and what it prints and plots.
 
 :func:`watch_link` reads a link's samples into a :class:`~trimd.core.watch.TrimWatch`
-and never sends anything through it: no set-point, no mode, no MANUAL_CONTROL (a MAVLink
-link still sends its ground-station heartbeat and asks for the telemetry streams it
-reads, as any ground station does). :func:`watch_log` feeds a recorded log through the
+and never commands anything through it: no set-point, no mode, no MANUAL_CONTROL (a
+MAVLink link still sends its heartbeat and asks for the telemetry streams it reads, as any
+ground station does). A link that announces (:class:`~trimd.core.link.Announces`) gets
+the alerts, the watch's state and each segment's values for the pilot's ground station
+(:mod:`trimd.app.announce`). :func:`watch_log` feeds a recorded log through the
 same class. Each record (:class:`~trimd.core.watch.WatchSegment`,
 :class:`~trimd.core.watch.WatchAlert`) goes to ``emit`` as it completes: one JSON object
 per line (``to_dict``) or a line for people (:func:`format_record`);
@@ -21,8 +23,9 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from trimd.app.announce import WatchAnnouncer
 from trimd.core.errors import LinkError
-from trimd.core.link import Link
+from trimd.core.link import Announces, Link
 from trimd.core.profile import Profile
 from trimd.core.watch import (
     DEPTH_HOLD_MODES,
@@ -41,22 +44,30 @@ Record = WatchSegment | WatchAlert
 async def watch_link(link: Link, watch: TrimWatch, emit: Callable[[Record], None], *,
                      until_s: float | None = None, stop: asyncio.Event | None = None) -> None:
     """Feed ``link``'s samples to ``watch`` until the link ends, ``until_s`` of sample
-    time has passed since the first sample, or ``stop`` is set; then the rest. Sends
+    time has passed since the first sample, or ``stop`` is set; then the rest. Commands
     nothing. A lost link is reported (Health) and waited for, as the vehicle may return."""
     t0 = math.nan
+    announcer = WatchAnnouncer(link.announce, watch) if isinstance(link, Announces) else None
     try:
         async for s in link.samples():
             if math.isnan(t0):
                 t0 = s.t_s
-            for record in watch.feed(s):
+            records = watch.feed(s)
+            for record in records:
                 emit(record)
+            if announcer is not None:
+                announcer.sample(s)
+                announcer.records(records)
             if (until_s is not None and s.t_s - t0 >= until_s) or (
                     stop is not None and stop.is_set()):
                 break
     except LinkError as exc:
         watch.notes.append(f"link ended: {exc}")
-    for record in watch.finish():
+    records = watch.finish()
+    for record in records:
         emit(record)
+    if announcer is not None:
+        announcer.records(records)
 
 
 def watch_log(path: str, profile: Profile, watch: TrimWatch,

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.after_trim import AfterTrim
+from trimd.app.announce import announce_run
 from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
@@ -116,6 +117,7 @@ def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
 
     procedure = None if target is None else verify_procedure(
         profile, target, confirmed=args.yes, source=_target_source(args))
+    announce_run(link, presenters)  # the phases and the verdict for the ground station
     return Session(link, profile, recorder=recorder, presenters=presenters,
                    confirmed=args.yes, propose=propose, procedure=procedure)
 

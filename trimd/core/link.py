@@ -10,9 +10,10 @@ from __future__ import annotations
 from collections.abc import AsyncIterator, Callable
 from typing import Protocol, runtime_checkable
 
+from trimd.core.announce import Announcement
 from trimd.core.samples import Command, Sample
 
-__all__ = ["Link", "RawPackets", "Truthful"]
+__all__ = ["Announces", "Link", "RawPackets", "Truthful"]
 
 
 @runtime_checkable
@@ -40,6 +41,18 @@ class RawPackets(Protocol):
     can keep the packets rather than re-encoded samples."""
 
     on_raw: Callable[[float, bytes], None] | None
+
+
+@runtime_checkable
+class Announces(Protocol):
+    """A link that can put trimd's texts and values where the pilot's ground station
+    shows them (:mod:`trimd.core.announce`; MAVLink: STATUSTEXT and NAMED_VALUE_FLOAT).
+    ``announce`` never blocks and never fails: what the link cannot send within its
+    budget it drops, and after ``close`` it ignores the call."""
+
+    def announce(self, item: Announcement) -> None:
+        """Queue ``item`` for sending."""
+        ...
 
 
 @runtime_checkable

@@ -59,6 +59,7 @@ from trimd.core.samples import (
     Velocity,
 )
 from trimd.drivers.mavlink.ardusub import mode_name, mode_number
+from trimd.drivers.mavlink.statustext import text_chunks
 
 __all__ = ["PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK",
            "TlogRecorder"]
@@ -71,7 +72,6 @@ PROFILE_BLOCK, VERIFY_BLOCK = "trimd profile ", "trimd verify target"
 #: A :class:`PilotInput` is recorded as the vehicle's STATUSTEXT (warning) with this
 #: prefix before its source; :class:`trimd.logs.log.TlogLog` reads it back as one.
 PILOT_TEXT = "pilot took over: "
-_STATUSTEXT_BYTES = 50
 #: Longest time [s, wall clock] a written record waits before it is synced to the disk.
 FLUSH_EVERY_S = 1.0
 _UNKNOWN_MODE = 255  # written for a mode name ArduSub does not have
@@ -80,20 +80,6 @@ _SEVERITY = {"warning": 4, "state": 6, "info": 6, "result": 6}
 
 def _f32(x: float) -> float:
     return float(np.float32(x))
-
-
-def _text_chunks(text: str) -> list[bytes]:
-    """Split ``text`` (UTF-8) into STATUSTEXT chunks of 50 bytes and a shorter last one.
-
-    A reader knows a text has ended by a chunk shorter than 50 bytes, so a text of several
-    chunks whose last one is full gets an empty chunk after it; a character may straddle
-    two chunks (join the bytes, then decode).
-    """
-    data = text.encode("utf-8")
-    chunks = [data[i:i + _STATUSTEXT_BYTES] for i in range(0, len(data), _STATUSTEXT_BYTES)]
-    if not chunks or (len(chunks) > 1 and len(chunks[-1]) == _STATUSTEXT_BYTES):
-        chunks.append(b"")
-    return chunks
 
 
 class TlogRecorder:
@@ -141,7 +127,7 @@ class TlogRecorder:
     def _write_text(self, t_s: float, text: str, severity: int, mav: Any = None) -> None:
         """STATUSTEXT from trimd (or from ``mav``, e.g. the vehicle), in chunks."""
         mav = mav or self._trimd
-        chunks = _text_chunks(text)
+        chunks = text_chunks(text)
         self._text_id = self._text_id % 65535 + 1 if len(chunks) > 1 else 0
         for seq, chunk in enumerate(chunks):
             self._write(t_s, mav, mav.statustext_encode(severity, chunk, self._text_id, seq))

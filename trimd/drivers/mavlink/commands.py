@@ -4,7 +4,7 @@
 thread (it owns the pymavlink ``MAVLink`` object there, so nothing else writes) and knows
 nothing of sockets:
 
-* a GCS HEARTBEAT (type 6) at 1 Hz, always;
+* (trimd's own HEARTBEAT, texts and values: :mod:`~trimd.drivers.mavlink.outbox`);
 * when the vehicle appears (again): MAV_CMD_SET_MESSAGE_INTERVAL for each message in
   :data:`STREAMS`, one at a time; a refusal or no answer falls back to REQUEST_DATA_STREAM
   for that message's stream, with a warning; then, for the whole session, whenever
@@ -71,7 +71,6 @@ _DEPTH_MESSAGE = {"vfr_hud": "VFR_HUD", "global_position": "GLOBAL_POSITION_INT"
                   "pressure": "SCALED_PRESSURE2"}
 HOLD_PERIOD_S = 0.25        # SET_ATTITUDE_TARGET at 4 Hz (ArduSub drops a target after 5 s)
 PILOT_PERIOD_S = 0.1        # MANUAL_CONTROL at 10 Hz (pilot-input failsafe after 3 s)
-_HEARTBEAT_PERIOD_S = 1.0
 _RETRY_S = 1.0              # re-send an unanswered COMMAND_LONG after this long
 _ANSWER_S = 3.0             # give up on a command after this long
 _PARAM_WAIT_S = 3.0
@@ -156,7 +155,7 @@ class Commander:
         self._params_seen: set[str] = set()
         self._params_due = math.inf
         self._params_tries = 0
-        self._due = {"heartbeat": -math.inf, "target": -math.inf, "pilot": -math.inf}
+        self._due = {"target": -math.inf, "pilot": -math.inf}
 
     # ---------------------------------------------------------------- vehicle events
     def on_vehicle(self, now: float) -> None:
@@ -196,7 +195,7 @@ class Commander:
             request = self._requests.get(int(msg.command))
             target = int(getattr(msg, "target_system", 0) or 0)  # MAVLink 2 extension
             if (request is not None and int(msg.result) != _IN_PROGRESS
-                    and target in (0, self.options.gcs_sysid)):
+                    and target in (0, self.options.source[0])):
                 del self._requests[int(msg.command)]
                 request.answered(int(msg.result))
         elif kind == "HEARTBEAT":
@@ -254,9 +253,11 @@ class Commander:
             self.pilot = _NEUTRAL
             self._due["target"] = self._due["pilot"] = now
             self._change_mode("ALT_HOLD", now, done)
-        elif isinstance(command, OpenLoop) and others:
-            _fail(done, f"open-loop input needs trimd to be the only ground station; "
-                        f"{self.stations.describe(others[0])} is connected and has the sticks")
+        elif isinstance(command, OpenLoop) and (others or self.options.ids != "gcs"):
+            _fail(done, "open-loop input needs trimd to be the only ground station; " + (
+                f"{self.stations.describe(others[0])} is connected and has the sticks"
+                if others else "with ids=vehicle it is none (ArduSub takes MANUAL_CONTROL "
+                "only from SYSID_MYGCS)"))
         elif isinstance(command, OpenLoop):
             self.target = None
             self.pilot = pilot_axes(command.axes)
@@ -324,14 +325,10 @@ class Commander:
     # ---------------------------------------------------------------- periodic
     def tick(self, now: float) -> float:
         """Send whatever is due at ``now``; return when something is due next."""
-        mav, due = self.mav, self._due
-        if now >= due["heartbeat"]:
-            mav.heartbeat_send(mavlink2.MAV_TYPE_GCS, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0,
-                               mavlink2.MAV_STATE_ACTIVE)
-            due["heartbeat"] = now + _HEARTBEAT_PERIOD_S
+        due = self._due
         vehicle = self.decoder.vehicle
         if vehicle is None:
-            return due["heartbeat"]
+            return math.inf
         sysid, compid = vehicle
         if self.target is not None and now >= due["target"]:
             self._send_target(self.target, now)
@@ -344,7 +341,7 @@ class Commander:
             self._check_rates()
         if now >= self._params_due:
             self._params_answered(now)
-        waits = [due["heartbeat"], self._params_due,
+        waits = [self._params_due,
                  *(r.next_send for r in self._requests.values()),
                  *(r.deadline for r in self._requests.values())]
         if self.target is not None:
@@ -354,8 +351,9 @@ class Commander:
         return min(waits)
 
     def _send_pilot(self, sysid: int, now: float) -> None:
-        """MANUAL_CONTROL, only while no other ground station is present."""
-        if self.pilot is None or self.stations.present(now):
+        """MANUAL_CONTROL, only while no other ground station is present (and never as a
+        component of the vehicle, ``ids=vehicle``: ArduSub would ignore it)."""
+        if self.pilot is None or self.stations.present(now) or self.options.ids != "gcs":
             return
         if self.pilot == _NEUTRAL:
             self.warn("no other ground station seen: trimd sends neutral MANUAL_CONTROL "

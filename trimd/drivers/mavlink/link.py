@@ -4,10 +4,12 @@ One I/O thread owns the pymavlink connection (blocking I/O in its own thread, as
 does). It reads and decodes every packet
 (:class:`~trimd.drivers.mavlink.decode.MavlinkDecoder`), stamps it with ``time.monotonic()``
 on receipt, and runs the :class:`~trimd.drivers.mavlink.commands.Commander`, which sends
-the GCS heartbeat, stream and parameter requests and the periodic hold / pilot messages,
-so a busy event loop can never starve ArduSub's 5 s attitude-target and 3 s pilot-input
-timeouts. The asyncio side sees a bounded queue of samples (the oldest
-are dropped and counted when the consumer falls behind).
+the stream and parameter requests and the periodic hold / pilot messages, so a busy event
+loop can never starve ArduSub's 5 s attitude-target and 3 s pilot-input timeouts, and the
+:class:`~trimd.drivers.mavlink.outbox.Outbox`: trimd's heartbeat and what
+:meth:`MavlinkLink.announce` queues (STATUSTEXT, NAMED_VALUE_FLOAT, within a budget).
+The asyncio side sees a bounded queue of samples (the oldest are dropped and counted when
+the consumer falls behind; a backlog lets the event loop run every 200 samples).
 
 The protocol is pinned: MAVLink 2 and pymavlink's generated ``v20.ardupilotmega`` dialect
 from the first byte, whatever ``MAVLINK20`` says. The vehicle is the one the URL's
@@ -55,12 +57,14 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from trimd.core.announce import Announcement
 from trimd.core.errors import LinkError
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Health, PilotInput, Release, Sample
 from trimd.drivers.limits import check_command
 from trimd.drivers.mavlink.commands import Commander
 from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams
+from trimd.drivers.mavlink.outbox import Outbox
 from trimd.drivers.mavlink.stations import STATION_TIMEOUT_S, Stations
 from trimd.drivers.mavlink.url import MavlinkOptions, load_signing_key, parse_mavlink_url
 
@@ -68,7 +72,6 @@ __all__ = ["LinkStats", "MavlinkLink", "open_mavlink_link"]
 
 log = logging.getLogger(__name__)
 
-TRIMD_COMPONENT = 190       # MAV_COMP_ID_MISSIONPLANNER: a ground station
 _POLL_S = 0.05              # longest wait of the I/O thread (commands are taken this fast)
 _BURST = 200                # messages read before the thread attends to its timers again
 _MAX_ITEMS = 4096           # bounded queue towards the event loop
@@ -112,8 +115,9 @@ def _closed_by_peer() -> None:
 def _open(options: MavlinkOptions) -> Any:
     """A pymavlink connection speaking MAVLink 2 / ardupilotmega from the first byte."""
     device = options.device
-    kwargs: dict[str, Any] = {"source_system": options.gcs_sysid,
-                              "source_component": TRIMD_COMPONENT, "dialect": "ardupilotmega"}
+    sysid, compid = options.source
+    kwargs: dict[str, Any] = {"source_system": sysid, "source_component": compid,
+                              "dialect": "ardupilotmega"}
     if options.serial:
         kwargs["baud"] = options.baud
     elif device.startswith("tcp:"):
@@ -126,7 +130,7 @@ def _open(options: MavlinkOptions) -> Any:
     except (OSError, ValueError) as exc:
         text = getattr(exc, "strerror", None) or str(exc)
         raise LinkError(f"cannot open mavlink:{device}: {text}") from None
-    conn.mav = mavlink2.MAVLink(conn, srcSystem=options.gcs_sysid, srcComponent=TRIMD_COMPONENT)
+    conn.mav = mavlink2.MAVLink(conn, srcSystem=sysid, srcComponent=compid)
     conn.mav.robust_parsing = True
     conn.WIRE_PROTOCOL_VERSION = "2.0"
     conn.first_byte = False
@@ -159,7 +163,10 @@ class MavlinkLink:
         self._conn = _open(options)
         self._decoder = MavlinkDecoder.for_profile(profile, sysid=options.sysid,
                                                    depth_source=options.depth)
-        self._stations = Stations((options.gcs_sysid, TRIMD_COMPONENT))
+        self._stations = Stations(options.source)
+        self._outbox = Outbox(self._conn.mav, t0=time.monotonic(), enabled=options.announce,
+                              mav_type=mavlink2.MAV_TYPE_GCS if options.ids == "gcs"
+                              else mavlink2.MAV_TYPE_ONBOARD_CONTROLLER)
         self._commander = Commander(self._conn.mav, profile, self._decoder, options, self._warn,
                                     self._stations)
         self._items: deque[_Item] = deque()
@@ -188,6 +195,7 @@ class MavlinkLink:
         self._loop = asyncio.get_running_loop()
         self._wake_pending = False
         self._wake.set()
+        taken = 0
         while True:
             await self._wake.wait()
             self._wake.clear()
@@ -197,6 +205,9 @@ class MavlinkLink:
                     self.on_raw(t_s, raw)
                 for sample in samples:
                     yield sample
+                taken += 1
+                if taken % _BURST == 0:  # a backlog: let the loop run (signals, other tasks)
+                    await asyncio.sleep(0)
             if not self._thread.is_alive() and not self._items:
                 if self._closed:
                     return
@@ -208,6 +219,12 @@ class MavlinkLink:
             raise LinkError(self._error or "the MAVLink link is closed")
         check_command(command, self.profile)
         await self._submit(command)
+
+    def announce(self, item: Announcement) -> None:
+        """Queue a text or values for the network (:mod:`~trimd.drivers.mavlink.outbox`:
+        its budget, its encoding); ignored once the link is closed."""
+        if not self._closed:
+            self._outbox.put(item)
 
     async def close(self) -> None:
         """Release (restoring the operator's mode), stop the I/O thread, close the port."""
@@ -235,7 +252,7 @@ class MavlinkLink:
         try:
             while not (self._stop.is_set() and (self._commander.idle or now > self._stop_by)):
                 self._take_commands(now)
-                next_due = self._commander.tick(now)
+                next_due = min(self._commander.tick(now), self._outbox.tick(now))
                 self._watchdog(now)
                 self._conn.select(max(0.0, min(next_due - time.monotonic(), _POLL_S)))
                 self._receive()
@@ -248,6 +265,8 @@ class MavlinkLink:
             self._commander.on_lost()
             self._take_commands(now, refuse=self._error or "the MAVLink link is closed")
             with contextlib.suppress(Exception):
+                if self._error is None:
+                    self._outbox.flush(time.monotonic())
                 self._conn.close()
             self._notify()
 

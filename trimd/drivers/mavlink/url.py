@@ -24,6 +24,15 @@ Syntax (``docs/mavlink.md``)::
     depth=SOURCE vfr_hud (default), global_position or pressure (SCALED_PRESSURE2, Bar30)
     rate=HZ      the rate [Hz, 1..50] trimd asks for ATTITUDE, SERVO_OUTPUT_RAW and the depth
                  message (default 10, 10 and 5; ``trimd excite`` asks for 50 unless given)
+    ids=gcs      trimd sends as a ground station: system ``gcs=``, component 190 (default)
+    ids=vehicle  trimd sends as a component of the vehicle (beside the autopilot, so that
+                 ground stations show its STATUSTEXT): system ``sysid=`` (default 1, ArduSub's
+                 SYSID_THISMAV), component ``comp=``; then it sends no MANUAL_CONTROL
+                 (ArduSub takes pilot input only from its ground station) and
+                 ``pilot=always`` is refused
+    comp=N       trimd's component id (default 190 with ids=gcs, 191 with ids=vehicle:
+                 MAV_COMP_ID_ONBOARD_COMPUTER)
+    announce=off no STATUSTEXT or NAMED_VALUE_FLOAT from trimd (default on)
 
 Everything else is refused with a :class:`~trimd.core.errors.LinkError` that says what would
 work: pymavlink itself opens a serial port for any string it does not recognise.
@@ -40,17 +49,26 @@ from typing import Literal, cast
 from trimd.core.errors import LinkError
 from trimd.drivers.mavlink.decode import DepthSource
 
-__all__ = ["MavlinkOptions", "PilotPolicy", "load_signing_key", "parse_mavlink_url"]
+__all__ = ["GCS_COMPONENT", "ONBOARD_COMPONENT", "Ids", "MavlinkOptions", "PilotPolicy",
+           "load_signing_key", "parse_mavlink_url"]
 
 PilotPolicy = Literal["hold", "always"]
+Ids = Literal["gcs", "vehicle"]
+
+GCS_COMPONENT = 190         # MAV_COMP_ID_MISSIONPLANNER: a ground station
+ONBOARD_COMPONENT = 191     # MAV_COMP_ID_ONBOARD_COMPUTER: a companion computer
+_VEHICLE_SYSID = 1          # ArduSub's default SYSID_THISMAV
 
 _NET = re.compile(r"^(udpin|udpout|udp|tcp):([^:?&]+):(\d+)$")
 _SERIAL = re.compile(r"^(/dev/[^,]+|/[^,]*tty[^,]*|COM\d+)(?:,(\d+))?$")
 _FORMS = ("udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device "
           "/dev/ttyXXX[,BAUD]")
-_KEYS = ("sysid", "timeout", "gcs", "key", "pilot", "depth", "rate")
+_KEYS = ("sysid", "timeout", "gcs", "key", "pilot", "depth", "rate", "ids", "comp",
+         "announce")
 _DEPTH: tuple[DepthSource, ...] = ("vfr_hud", "global_position", "pressure")
 _PILOT: tuple[PilotPolicy, ...] = ("hold", "always")
+_IDS: tuple[Ids, ...] = ("gcs", "vehicle")
+_ON_OFF = ("on", "off")
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,10 +84,20 @@ class MavlinkOptions:
     pilot: PilotPolicy = "hold"
     depth: DepthSource = "vfr_hud"
     stream_hz: float | None = None   # rate= (None: trimd.drivers.mavlink.commands.STREAMS)
+    ids: Ids = "gcs"
+    compid: int = GCS_COMPONENT
+    announce: bool = True
 
     @property
     def serial(self) -> bool:
         return not _NET.match(self.device)
+
+    @property
+    def source(self) -> tuple[int, int]:
+        """(system, component) trimd sends from: its own, or the vehicle's system."""
+        if self.ids == "vehicle":
+            return (self.sysid or _VEHICLE_SYSID, self.compid)
+        return (self.gcs_sysid, self.compid)
 
 
 def _int(key: str, text: str, lo: int, hi: int) -> int:
@@ -123,6 +151,8 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float,
     ('udpin:0.0.0.0:14550', 1, 2.0)
     >>> parse_mavlink_url("/dev/ttyACM0,57600", default_timeout_s=3).baud
     57600
+    >>> parse_mavlink_url("udpout:127.0.0.1:14551?ids=vehicle", default_timeout_s=3).source
+    (1, 191)
     """
     connection, _, query = rest.partition("?")
     if not connection:
@@ -138,19 +168,28 @@ def parse_mavlink_url(rest: str, *, default_timeout_s: float,
         values[key] = value
     timeout_s = _number(values, "timeout", 0.1, 600.0, "seconds")
     stream_hz = _number(values, "rate", 1.0, 50.0, "Hz")
-    for key, allowed in (("pilot", _PILOT), ("depth", _DEPTH)):
+    for key, allowed in (("pilot", _PILOT), ("depth", _DEPTH), ("ids", _IDS),
+                         ("announce", _ON_OFF)):
         if key in values and values[key] not in allowed:
             raise LinkError(f"mavlink option {key}={values[key]!r}: expected one of "
                             f"{', '.join(allowed)}")
+    ids = cast(Ids, values.get("ids", "gcs"))
+    if ids == "vehicle" and values.get("pilot") == "always":
+        raise LinkError("mavlink options ids=vehicle and pilot=always: ArduSub takes pilot "
+                        "input only from its ground station (SYSID_MYGCS); drop one")
+    sysid = _int("sysid", values["sysid"], 1, 255) if "sysid" in values else None
     return MavlinkOptions(
         device=device, baud=baud,
-        sysid=_int("sysid", values["sysid"], 1, 255) if "sysid" in values else None,
+        sysid=_VEHICLE_SYSID if ids == "vehicle" and sysid is None else sysid,
         timeout_s=default_timeout_s if timeout_s is None else timeout_s,
         gcs_sysid=_int("gcs", values["gcs"], 1, 255) if "gcs" in values else 255,
         key_path=values.get("key"),
         pilot=cast(PilotPolicy, values.get("pilot", "hold")),
         depth=cast(DepthSource, values.get("depth", "vfr_hud")),
-        stream_hz=default_stream_hz if stream_hz is None else stream_hz)
+        stream_hz=default_stream_hz if stream_hz is None else stream_hz,
+        ids=ids, compid=_int("comp", values["comp"], 1, 255) if "comp" in values else (
+            ONBOARD_COMPONENT if ids == "vehicle" else GCS_COMPONENT),
+        announce=values.get("announce", "on") == "on")
 
 
 def load_signing_key(path: str) -> bytes:

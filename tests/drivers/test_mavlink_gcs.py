@@ -1,0 +1,193 @@
+"""The watch's alert and values on a real ground station: MAVProxy beside ``trimd watch``.
+
+The set-up of a BlueROV2 with trimd on its companion computer: ``trimd sim`` serves the
+simulated Heavy, with water coming in, on three endpoints behind one router (as BlueOS's
+mavlink-router does): ``trimd watch …?ids=vehicle`` on the first (a component of the
+vehicle, 1/191), MAVProxy 1.8.75 on the second (the pilot's ground station, its console
+and tlog), and the test's helper on the third (it switches the simulator's pilot-input
+failsafe off and arms the vehicle in ALT_HOLD: nobody flies it). MAVProxy prints the
+vehicle's STATUSTEXT (``AP: …``) and, asked to (``watch NAMED_VALUE_FLOAT``), the named
+values; its tlog holds every packet trimd sent through the router. MAVProxy is told the
+vehicle's system (``--target-system=1``): left to find it, it takes the first autopilot
+heartbeat's component too (1/1) and then shows nothing of the vehicle's other components.
+
+The served simulator runs 10× faster than the wall clock the live watch measures on, so
+the watch cuts 15 s segments (150 simulated seconds each) and forms its baseline from two.
+Nothing is timed: the test waits for what MAVProxy prints, with a generous hang guard.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from tests.drivers.test_mavlink_announce import WATCH_SENDS
+from tests.drivers.test_mavlink_link import (
+    TRIMD,
+    fast_profile,
+    free_udp_port,
+    switch_off_pilot_failsafe,
+    wait_bound,
+)
+from tests.drivers.test_mavlink_mavproxy import MAVPROXY, needs_mavproxy
+from tests.helpers import REPO
+from trimd.app.announce import alert_text
+from trimd.core.change import ChangeAlert
+from trimd.drivers.mavlink.statustext import ascii_text
+from trimd.drivers.sim.mavlink_server import open_mavlink2
+from trimd.logs.tlog import TlogReader
+
+HANG_GUARD_S = 400.0       # the whole run; not a timed assertion
+LEAK = "leak_N_min=0.5,leak_start_s=550"
+_VALUE = re.compile(r"^< NAMED_VALUE_FLOAT \{.*name : (\w+), value : ([-\d.e+]+)", re.M)
+
+
+def arm(port: int) -> None:
+    """Through the simulator's endpoint ``port``: COMMAND_LONG arm, until accepted."""
+    conn = open_mavlink2(f"udpin:127.0.0.1:{port}", 254, 1)
+    deadline = time.monotonic() + HANG_GUARD_S
+    try:
+        while time.monotonic() < deadline:
+            conn.mav.command_long_send(1, 1, mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                                       1, 0, 0, 0, 0, 0, 0)
+            ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5)
+            if ack is not None and ack.command == mavlink2.MAV_CMD_COMPONENT_ARM_DISARM:
+                assert ack.result == mavlink2.MAV_RESULT_ACCEPTED
+                return
+        raise AssertionError("the vehicle never answered the arm command")
+    finally:
+        conn.close()
+
+
+def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
+    """SIGTERM to each in turn, killed after 20 s: the watch first, while the vehicle still
+    talks (it stops at its next sample), the simulator last."""
+    for p in procs:
+        t0 = time.monotonic()
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        print(f"{' '.join(map(str, p.args[2:4]))} stopped in {time.monotonic() - t0:.1f} s")
+
+
+def _first_alert(watch_out: Path) -> dict[str, Any] | None:
+    lines = watch_out.read_text(encoding="utf-8").splitlines()
+    records = [json.loads(x) for x in lines if x.startswith("{") and x.endswith("}")]
+    return next((r for r in records if r["type"] == "alert"), None)
+
+
+def _as_alert(d: dict[str, Any]) -> ChangeAlert:
+    """The ChangeAlert behind a watch's JSON alert line."""
+    return ChangeAlert(d["component"], d["total"], d["total_std"], d["change"],
+                       d["change_std"], math.nan if d["after_s"] is None else d["after_s"],
+                       d["since_s"], d["t_s"], d["segments"], d["statistic"], d["first"])
+
+
+@pytest.fixture(scope="module")
+def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """Run the set-up until MAVProxy has printed trimd's alert and values: what MAVProxy
+    printed, what the watch printed, MAVProxy's tlog, and the wall time [s]."""
+    tmp = tmp_path_factory.mktemp("gcs")
+    profile = fast_profile(tmp, "bluerov2-heavy")
+    trimd_port, gcs_port, helper_port = free_udp_port(), free_udp_port(), free_udp_port()
+    env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
+    gcs_out, watch_out, tlog = tmp / "mavproxy.out", tmp / "watch.jsonl", tmp / "gcs.tlog"
+    watch_err = tmp / "watch.err"
+    procs: list[subprocess.Popen[bytes]] = []
+    t0 = time.monotonic()
+    with gcs_out.open("wb") as gcs_file, watch_out.open("wb") as watch_file, \
+            watch_err.open("wb") as err_file:
+        try:
+            procs.append(subprocess.Popen(
+                [*MAVPROXY, f"--master=udpin:127.0.0.1:{gcs_port}", "--daemon",
+                 "--non-interactive", "--default-modules=", "--target-system=1",
+                 f"--logfile={tlog}",
+                 f"--state-basedir={tmp}", "--cmd=watch NAMED_VALUE_FLOAT"],
+                stdout=gcs_file, stderr=subprocess.STDOUT, cwd=tmp, env=env))
+            procs.insert(0, subprocess.Popen(
+                [*TRIMD, "watch", "--link", f"mavlink:udpin:127.0.0.1:{trimd_port}?ids=vehicle",
+                 "--profile", str(profile), "--headless", "--json", "--no-history",
+                 "--max-segment", "15", "--baseline-segments", "2"],
+                stdout=watch_file, stderr=err_file, cwd=REPO, env=env))
+            wait_bound(gcs_port)
+            wait_bound(trimd_port)
+            procs.append(subprocess.Popen(
+                [*TRIMD, "sim", "--profile", str(profile), "--rate", "10", "--options",
+                 f"mode=ALT_HOLD,{LEAK}",
+                 *(f"--serve=mavlink:udpout:127.0.0.1:{p}"
+                   for p in (trimd_port, gcs_port, helper_port))],
+                stdout=subprocess.DEVNULL, stderr=err_file, cwd=REPO, env=env))
+            switch_off_pilot_failsafe(helper_port)
+            arm(helper_port)
+            deadline = time.monotonic() + HANG_GUARD_S
+            while True:
+                printed = gcs_out.read_text(encoding="utf-8", errors="replace")
+                alert = _first_alert(watch_out)
+                names = {name for name, _ in _VALUE.findall(printed)}
+                if alert is not None and "AP: TRIMD heavier" in printed and "TRIMD_WB" in names:
+                    break
+                dead = [" ".join(p.args[2:4]) for p in procs if p.poll() is not None]
+                assert not dead, (dead, printed[-2000:], watch_err.read_text()[-2000:])
+                assert time.monotonic() < deadline, (
+                    f"hang guard: MAVProxy printed {printed[-3000:]}; the watch: "
+                    f"{watch_out.read_text(encoding='utf-8')[-3000:]}")
+                time.sleep(0.5)
+            took = time.monotonic() - t0
+        finally:
+            _stop(procs)
+    return {"printed": gcs_out.read_text(encoding="utf-8", errors="replace"),
+            "watch": [json.loads(x) for x in watch_out.read_text(encoding="utf-8").splitlines()
+                      if x.startswith("{")],
+            "tlog": tlog, "took": took}
+
+
+@pytest.mark.slow
+@needs_mavproxy
+def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
+        leak_at_mavproxy: dict[str, Any]) -> None:
+    printed, watch = leak_at_mavproxy["printed"], leak_at_mavproxy["watch"]
+    print(f"alert at MAVProxy after {leak_at_mavproxy['took']:.0f} s of wall time")
+    print("\n".join(x for x in printed.splitlines() if "TRIMD" in x))
+    alert = next(r for r in watch if r["type"] == "alert")
+    assert alert["component"] == 0 and alert["total"] > 0
+    expected = ascii_text(alert_text(_as_alert(alert)).text)   # "TRIMD heavier 2.4+-0.1N …"
+    assert f"AP: {expected}" in printed.splitlines(), expected
+    assert "AP: TRIMD watch on: baseline after 2 hovers" in printed
+    # each printed W − B is one of the watch's segments' (float32 on the wire)
+    segments = [r["net_force_N"] for r in watch if r["type"] == "segment"]
+    shown = [float(v) for name, v in _VALUE.findall(printed) if name == "TRIMD_WB"]
+    assert shown and all(min(abs(v - s) for s in segments) < 1e-4 for v in shown), (
+        shown, segments)
+    assert {name for name, _ in _VALUE.findall(printed)} == {"TRIMD_WB", "TRIMD_MX",
+                                                             "TRIMD_MY"}
+
+
+@pytest.mark.slow
+@needs_mavproxy
+def test_the_watch_sends_mavproxy_nothing_but_its_heartbeat_requests_texts_and_values(
+        leak_at_mavproxy: dict[str, Any]) -> None:
+    """In MAVProxy's tlog (every packet that reached it through the router): what came
+    from trimd's ids, 1/191, is the watch's set and no command but stream rates."""
+    kinds: dict[str, set[int]] = {}
+    for _, msg in TlogReader.open(leak_at_mavproxy["tlog"]).messages():
+        if (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 191):
+            kinds.setdefault(msg.get_type(), set()).add(
+                int(getattr(msg, "command", getattr(msg, "type", 0))))
+    print({k: sorted(v) for k, v in kinds.items()})
+    assert set(kinds) - {"REQUEST_DATA_STREAM"} == WATCH_SENDS
+    assert kinds["COMMAND_LONG"] == {mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL}
+    assert kinds["HEARTBEAT"] == {mavlink2.MAV_TYPE_ONBOARD_CONTROLLER}
