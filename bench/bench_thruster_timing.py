@@ -23,6 +23,7 @@ import os
 import numpy as np
 
 from bench.bench_unseen_vehicles import FIT_S, record
+from bench.size import size
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.core.samples import Sample
@@ -35,7 +36,7 @@ from trimd.identify.staged import fit_stages
 from trimd.identify.vehicles import perturbed
 
 VEHICLE = int(os.environ.get("TRIMD_BENCH_TIMING_VEHICLE", 4))
-LEADS_S = (0.090, 0.095, 0.100)
+LEADS_S = size((0.090, 0.095, 0.100), (0.095,))
 
 
 def _fit(truth: Profile, prior: Profile, recordings: dict[str, list[Sample]],

@@ -67,8 +67,8 @@ _RATES: dict[str, tuple[dict[str, float], str]] = {
     "sim": ({}, "the simulator's default stream rates (attitude 20 Hz, thrusters 10 Hz, DVL "
                 "and depth 5 Hz)"),
 }
-FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 20.0)))
-VALIDATE_S = size(120.0, 10.0)
+FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 10.0)))
+VALIDATE_S = size(120.0, 5.0)
 SPEEDS = (0.15, 0.4)
 PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES",
                           size("bluerov2-heavy,sabertooth-dh2", "sabertooth-dh2")).split(",")

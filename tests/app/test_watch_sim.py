@@ -18,8 +18,9 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 
 PROFILE = "bluerov2-heavy"
-#: the longest the leak of 0.5 N/min may take to alert [s of simulated time]
-LEAK_ALERT_WITHIN_S = 600.0
+#: the longest the leak of 0.5 N/min may take to alert [s of simulated time] (the dive ends
+#: then: one that had not alerted by then fails)
+LEAK_ALERT_WITHIN_S = 300.0
 
 
 class PassiveSimLink(SimLink):
@@ -54,9 +55,10 @@ def test_a_dive_without_change_gives_segments_at_the_true_net_force() -> None:
 
 
 @pytest.mark.slow
-def test_no_alert_over_a_quarter_hour_without_change() -> None:
-    watch, _, _ = _watch("pilot=dive,seed=2,disturb=real", 900.0)
-    assert len(watch.segments) >= 8
+def test_no_alert_over_ten_minutes_without_change() -> None:
+    """(The false alarms per hour over hours of dives are ``make bench``'s: bench_watch.)"""
+    watch, _, _ = _watch("pilot=dive,seed=2,disturb=real", 600.0)
+    assert len(watch.segments) >= 5
     assert not watch.alerts, [a.text for a in watch.alerts]
 
 
@@ -64,7 +66,7 @@ def test_no_alert_over_a_quarter_hour_without_change() -> None:
 def test_a_leak_is_alerted_soon_with_its_size_inside_the_interval() -> None:
     rate, start = 0.5, 300.0
     watch, _, records = _watch(f"pilot=dive,seed=3,leak_N_min={rate},leak_start_s={start}",
-                               900.0)
+                               start + LEAK_ALERT_WITHIN_S)
     alerts = [r for r in records if isinstance(r, WatchAlert)]
     assert alerts, watch.rejected
     first = alerts[0].alert
@@ -84,7 +86,7 @@ def test_a_dropped_piece_is_alerted_with_its_weight_and_moment() -> None:
     piece = next(x for x in profile.inventory if x.name == "lead-200g")
     w = (piece.mass_kg - profile.water_density_kg_m3 * piece.volume_m3) * profile.gravity_m_s2
     x_slot = profile.slot("W-aft-ctr").position_m[0]
-    watch, _, records = _watch("pilot=dive,seed=4,drop=lead-200g@W-aft-ctr@400", 900.0)
+    watch, _, records = _watch("pilot=dive,seed=4,drop=lead-200g@W-aft-ctr@400", 700.0)
     by_component = {r.alert.component: r.alert for r in records if isinstance(r, WatchAlert)}
     assert set(by_component) >= {0, 1}, [a.text for a in watch.alerts]
     force, pitch = by_component[0], by_component[1]

@@ -107,11 +107,11 @@ def unseen(bluerov: Profile) -> Profile:
 @pytest.mark.slow
 def test_an_unseen_vehicle_is_recovered_by_the_staged_fit(bluerov: Profile,
                                                           unseen: Profile) -> None:
-    """Designed from and fitted with the shipped profile, 2 min per stage: every inertia
+    """Designed from and fitted with the shipped profile, 1 min per stage: every inertia
     sum within 5 % of the truth and the damping force of every DOF within 10 % at 0.15 and
     0.4 m/s or rad/s, where the shipped profile is off by more (a fit that anchored to its
     prior fails)."""
-    data = {st: experiments_from_samples(record(unseen, bluerov, st, 120.0, 20 + k), bluerov)
+    data = {st: experiments_from_samples(record(unseen, bluerov, st, 60.0, 20 + k), bluerov)
             for k, st in enumerate(STAGES)}
     fits = fit_stages(data, bluerov)
     assert [f.stage for f in fits] == list(STAGES)
@@ -144,7 +144,7 @@ def test_identify_runs_the_staged_procedure_from_recordings(
     text = Path(bluerov.source).read_text(encoding="utf-8")
     fit_logs, val_logs = [], []
     for k, stage in enumerate(STAGES):
-        for logs, duration, seed in ((fit_logs, 90.0, 40 + k), (val_logs, 40.0, 50 + k)):
+        for logs, duration, seed in ((fit_logs, 60.0, 40 + k), (val_logs, 30.0, 50 + k)):
             path = tmp_path / f"{stage}-{seed}.tlog"
             record(unseen, bluerov, stage, duration, seed,
                    recorder=TlogRecorder(path, bluerov, text))
@@ -165,7 +165,7 @@ def test_identify_runs_the_staged_procedure_from_recordings(
         (out / "fragment.yaml").read_text(encoding="utf-8")), "merged")
     for stage in STAGES:   # the profile holds no thruster lag: the one the stage found
         lag = summary["stages"][stage]["parameters"]["T_thr"]["value"]
-        held_out = experiments_from_samples(record(unseen, bluerov, stage, 40.0, 60), bluerov)
+        held_out = experiments_from_samples(record(unseen, bluerov, stage, 30.0, 60), bluerov)
         for v in validate(prior_values(merged) | {"T_thr": lag}, held_out, merged, stage):
             assert v.worst() is not None and v.worst() >= 85.0, (stage, v.describe())
 
@@ -182,7 +182,7 @@ def test_without_a_dvl_heave_roll_pitch_and_yaw_are_identified(
 
     text = Path(bluerov.source).read_text(encoding="utf-8")
     logs = []
-    for seed, duration in ((70, 180.0), (71, 40.0)):
+    for seed, duration in ((70, 120.0), (71, 30.0)):
         path = tmp_path / f"uwq-{seed}.tlog"
         samples = record(unseen, bluerov, "uwq", duration, seed,
                          recorder=TlogRecorder(path, bluerov, text), dvl=False)
@@ -212,9 +212,9 @@ def test_without_a_dvl_heave_roll_pitch_and_yaw_are_identified(
 def default_rates(bluerov: Profile, unseen: Profile
                   ) -> dict[str, tuple[list[Sample], list[Sample]]]:
     """The unseen BlueROV2 Heavy recorded at the simulator's default stream rates, with a
-    DVL: per stage 3 min to fit and 1 min held out."""
-    return {st: (record(unseen, bluerov, st, 180.0, 90 + k, fast=False),
-                 record(unseen, bluerov, st, 60.0, 95 + k, fast=False))
+    DVL: per stage 2 min to fit and 40 s held out."""
+    return {st: (record(unseen, bluerov, st, 120.0, 90 + k, fast=False),
+                 record(unseen, bluerov, st, 40.0, 95 + k, fast=False))
             for k, st in enumerate(STAGES)}
 
 
@@ -286,7 +286,7 @@ def test_the_sabertooth_pitches_fast_enough_to_identify_pitch(sabertooth: Profil
 def test_an_unseen_sabertooth_is_recovered_with_and_without_a_dvl(sabertooth: Profile
                                                                   ) -> None:
     """The metacentrically stiff, slowly turning Sabertooth, its roll, pitch and yaw
-    inertia sums 71, 36 and 23 % off the shipped profile: 3 min per stage at 50 Hz, fitted
+    inertia sums 71, 36 and 23 % off the shipped profile: 90 s per stage at 50 Hz, fitted
     staged from the shipped profile, meets the targets with a DVL (every DOF) and without
     one (heave, roll, pitch, yaw), so a fit that anchored to its prior fails. Its yaw asks
     for full authority (at 0.6 it turned at 0.05–0.08 rad/s), and without a DVL its uvr
@@ -296,8 +296,8 @@ def test_an_unseen_sabertooth_is_recovered_with_and_without_a_dvl(sabertooth: Pr
     prior, true = prior_values(sabertooth), prior_values(truth)
     assert all(abs(prior[n] / true[n] - 1) > 0.2
                for n in ("I_x+K_pdot", "I_y+M_qdot", "I_z+N_rdot"))
-    recordings = {st: (record(truth, sabertooth, st, 180.0, 40 + k),
-                       record(truth, sabertooth, st, 60.0, 45 + k))
+    recordings = {st: (record(truth, sabertooth, st, 90.0, 40 + k),
+                       record(truth, sabertooth, st, 40.0, 45 + k))
                   for k, st in enumerate(STAGES)}
     _judge_dofs(recordings, sabertooth, truth, tuple(range(6)), dvl=True)
     _judge_dofs(recordings, sabertooth, truth, (2, 3, 4, 5), dvl=False)
