@@ -63,10 +63,14 @@ def verify_on_sim(trim: SimTrim, payload: str, seed: int, options: str,
 
 @pytest.mark.slow
 def test_verify_hold_measures_what_the_ballast_left(bluerov: Profile) -> None:
-    """BlueROV2 Heavy that its profile does not describe exactly, realistic disturbances."""
+    """BlueROV2 Heavy that its profile does not describe exactly, realistic disturbances.
+    Its ESCs' bands are off (truth=perturbed), and near level its thrusters idle at their
+    band, so a 95 % interval misses now and then: over 6 seeds × 2 axes at most 2 misses
+    of the truth and of the prediction each, none beyond 3σ."""
     payload, options = "0.4@W-aft-stbd", "disturb=real,truth=perturbed"
     seeds = range(6)
     agree = 0
+    z_truth, z_predicted = [], []
     for seed in seeds:
         trim = sim_trim(bluerov, payload, seed, options)
         proposal = trim.result.proposal
@@ -76,10 +80,11 @@ def test_verify_hold_measures_what_the_ballast_left(bluerov: Profile) -> None:
         measured = np.array([v.roll_deg, v.pitch_deg])
         sigma = np.array([v.roll_std_deg, v.pitch_std_deg])
         predicted = np.array([proposal.trim.roll_deg, proposal.trim.pitch_deg])
-        assert np.all(np.abs(measured - truth) <= Z95 * sigma), (seed, measured, truth, sigma)
-        assert np.all(np.abs(measured - predicted) <= Z95 * np.array(proposal.trim_std_deg)), (
-            seed, measured, predicted)
+        z_truth += list(np.abs(measured - truth) / sigma)
+        z_predicted += list(np.abs(measured - predicted) / np.array(proposal.trim_std_deg))
         agree += v.as_predicted
+    for z in (np.array(z_truth), np.array(z_predicted)):
+        assert np.sum(z > Z95) <= 2 and np.all(z < 3.0), z
     assert agree >= len(seeds) - 1
 
 
