@@ -97,11 +97,11 @@ def _headless_at_a_terminal(tmp_path: Path) -> tuple[Any, int]:
         stdin=slave, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
         env={**os.environ, "PYTHONPATH": str(REPO)})
     os.close(slave)
-    assert proc.stdout is not None
+    assert proc.stderr is not None
     seen = ""
-    while "type 'yes'" not in seen:  # the prompt ends without a newline
-        char = proc.stdout.read(1)
-        assert char, (seen, proc.wait(), proc.stderr.read() if proc.stderr else "")
+    while "type 'yes'" not in seen:  # the prompt (on stderr) ends without a newline
+        char = proc.stderr.read(1)
+        assert char, (seen, proc.wait(), proc.stdout.read() if proc.stdout else "")
         seen += char
     return proc, master
 
