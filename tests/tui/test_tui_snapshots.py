@@ -26,6 +26,7 @@ from tests.tui.tui_helpers import (
 from trimd.app.after_trim import AfterTrim
 from trimd.core.profile import Profile
 from trimd.tui import TrimApp
+from trimd.tui.event_log import EventLog
 from trimd.tui.result_panel import ResultPanel
 
 SIZES = [(80, 24), (120, 40)]
@@ -95,9 +96,13 @@ def test_offer_after_the_trim(snap_compare: Callable[..., bool],
                               size: tuple[int, int]) -> None:
     app = asyncio.run(after_sabertooth())
 
+    def stored() -> bool:  # the last message: the trim is in the history
+        return any("trim history: stored" in text
+                   for _, _, text in app.query_one(EventLog).entries)
+
     async def run_before(pilot: Pilot[Any]) -> None:
         await until(pilot, lambda: app.result is not None
-                    and app.query_one(ResultPanel).proposal is not None)
+                    and app.query_one(ResultPanel).proposal is not None and stored())
         await pilot.pause(0.3)
 
     assert snap_compare(app, terminal_size=size, run_before=run_before)
