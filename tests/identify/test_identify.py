@@ -350,7 +350,8 @@ def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile, tmp
     out = tmp_path / "out"
     args = argparse.Namespace(logs=uvr_logs[:1], validate=uvr_logs[1:],
                               profile=sabertooth.source, stage="uvr",
-                              segment=FitOptions.segment_s, estimate=None, out=str(out))
+                              segment=FitOptions.segment_s, estimate=None, out=str(out),
+                              json=False)
     assert run_identify(args) == 0
     assert (out / "fragment.yaml").is_file()
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
