@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import os
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -34,13 +35,14 @@ PROFILE = "bluerov2-heavy"
 LEAK_N_MIN, LEAK_START_S = 0.5, 300.0
 
 
-def dive(options: str, seconds: float) -> TrimWatch:
-    """Watch one simulated dive of ``seconds`` with ``options``."""
+def dive(options: str, seconds: float) -> tuple[TrimWatch, SimVehicle]:
+    """Watch one simulated dive of ``seconds`` with ``options``; the watch and the
+    vehicle at the end (its truth)."""
     profile = load_profile(PROFILE)
     watch = TrimWatch(profile)
-    link = SimLink(SimVehicle(profile, parse_sim_options(options)))
-    asyncio.run(watch_link(link, watch, lambda r: None, until_s=seconds))
-    return watch
+    vehicle = SimVehicle(profile, parse_sim_options(options))
+    asyncio.run(watch_link(SimLink(vehicle), watch, lambda r: None, until_s=seconds))
+    return watch, vehicle
 
 
 def innovations(watch: TrimWatch) -> np.ndarray:
@@ -65,27 +67,26 @@ def innovations(watch: TrimWatch) -> np.ndarray:
     return np.array(rows)
 
 
-def main() -> None:
-    seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", size(3, 1)))
-    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.1)))
-    options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
-    leak_seeds = int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1)))
-    leak_s = size(1200.0, 360.0)
+def no_change(options: str, seeds: int, hours: float,
+              seen: Callable[[int, TrimWatch, SimVehicle], None] = lambda *_: None) -> None:
+    """Print the false alarms, threshold crossings and innovations of ``seeds`` dives of
+    ``hours`` each with ``options``; ``seen`` is shown each dive as well."""
     print(f"no change: {seeds} dive(s) of {hours:g} h, sim:{options}")
     total_h, alarms, crossings, segments, z = 0.0, 0, 0, 0, []
     for seed in range(seeds):
         t0 = time.perf_counter()
-        w = dive(f"{options},seed={seed}", hours * 3600)
+        w, vehicle = dive(f"{options},seed={seed}", hours * 3600)
+        seen(seed, w, vehicle)
         total_h += hours
         alarms += len(w.alerts)
-        crossings += len(w.alerts) + (w.detector.suppressed if w.detector is not None else 0)
+        suppressed = w.detector.suppressed if w.detector is not None else 0
+        crossings += len(w.alerts) + suppressed
         segments += len(w.segments)
         z.append(innovations(w))
-        suppressed = w.detector.suppressed if w.detector is not None else 0
         print(f"  seed {seed}: {len(w.segments)} segments, {len(w.alerts)} alert(s) "
               f"({suppressed} crossing(s) too small to matter) "
-              f"{[a.text for a in w.alerts]}, not counted {w.rejected}, h = {w.h:.2f} σ, "
-              f"{time.perf_counter() - t0:.0f} s wall")
+              f"{[a.text for a in w.alerts]}, not counted {w.rejected}, breaks {w.breaks}, "
+              f"h = {w.h:.2f} σ, {time.perf_counter() - t0:.0f} s wall")
     zz = np.concatenate(z) if z else np.zeros((0, 3))
     rms = np.sqrt(np.nanmean(zz**2, axis=0)) if len(zz) else np.full(3, np.nan)
     print(f"threshold crossings: {crossings} in {total_h:g} h = {crossings / total_h:.2f} per "
@@ -93,18 +94,36 @@ def main() -> None:
     print(f"false alarms: {alarms} in {total_h:g} h = {alarms / total_h:.3f} per hour "
           f"({segments / total_h:.1f} segments per hour); RMS standardised innovation "
           f"W − B {rms[0]:.2f}, x net {rms[1]:.2f}, y net {rms[2]:.2f}")
-    print(f"leak {LEAK_N_MIN} N/min from {LEAK_START_S:g} s: {leak_seeds} dive(s) of "
-          f"{leak_s / 60:g} min")
-    for seed in range(leak_seeds):
-        w = dive(f"{options},seed={100 + seed},leak_N_min={LEAK_N_MIN},"
-                 f"leak_start_s={LEAK_START_S}", leak_s)
+
+
+def leak(options: str, seeds: int, seconds: float = 1200.0) -> list[float]:
+    """Print when a leak of :data:`LEAK_N_MIN` from :data:`LEAK_START_S` was alerted in
+    ``seeds`` dives of ``seconds`` with ``options``; the delays [s] (inf: no alert)."""
+    print(f"leak {LEAK_N_MIN} N/min from {LEAK_START_S:g} s: {seeds} dive(s) of "
+          f"{seconds / 60:g} min")
+    delays = []
+    for seed in range(seeds):
+        w, _ = dive(f"{options},seed={100 + seed},leak_N_min={LEAK_N_MIN},"
+                    f"leak_start_s={LEAK_START_S}", seconds)
         first = next((a.alert for a in w.alerts if a.alert.component == 0), None)
         if first is None:
             print(f"  seed {100 + seed}: no alert")
+            delays.append(float("inf"))
             continue
         seg = next(s.estimate for s in w.segments if s.estimate.t_end_s == first.at_s)
         leaked = LEAK_N_MIN / 60 * ((seg.t_start_s + seg.t_end_s) / 2 - LEAK_START_S)
+        delays.append(first.at_s - LEAK_START_S)
         print(f"  seed {100 + seed}: alert {first.at_s - LEAK_START_S:.0f} s after the "
               f"start: {first.total:+.2f} ± {first.total_std:.2f} N against {leaked:.2f} N "
               f"in ({(first.total - leaked) / first.total_std:+.1f} σ); "
               f"{[a.text for a in w.alerts[:1]]}")
+    return delays
+
+
+def main() -> None:
+    seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", size(3, 1)))
+    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.1)))
+    options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
+    no_change(options, seeds, hours)
+    leak(options, int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1))),
+         size(1200.0, 360.0))

@@ -5,16 +5,19 @@ leak or a lost piece raises an alert with the change inside its ±."""
 from __future__ import annotations
 
 import asyncio
+from collections.abc import AsyncIterator
 
 import numpy as np
 import pytest
 
 from trimd.app.watch import Record, watch_link
+from trimd.core.motion import MAX_SPEED_M_S
 from trimd.core.profile_yaml import load_profile
-from trimd.core.samples import Command
+from trimd.core.samples import Attitude, Command, Sample
 from trimd.core.watch import TrimWatch, WatchAlert, WatchSegment
 from trimd.drivers.sim.config import parse_sim_options
 from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.scenario import TRANSITS, TRANSITS_RAMP_S
 from trimd.drivers.sim.vehicle import SimVehicle
 
 PROFILE = "bluerov2-heavy"
@@ -24,18 +27,33 @@ LEAK_ALERT_WITHIN_S = 300.0
 
 
 class PassiveSimLink(SimLink):
-    """The simulated vehicle, failing any test that sends it a command."""
+    """The simulated vehicle, failing any test that sends it a command; ``speeds``: the
+    true horizontal speed through the water [m/s] at each attitude sample's time [s]."""
+
+    def __init__(self, vehicle: SimVehicle) -> None:
+        super().__init__(vehicle)
+        self.speeds: list[tuple[float, float]] = []
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        async for s in super().samples():
+            if isinstance(s, Attitude):
+                self.speeds.append((s.t_s, float(np.hypot(*self.vehicle.truth.nu[:2]))))
+            yield s
 
     async def send(self, command: Command) -> None:
         raise AssertionError(f"the watch sent {command!r}")
 
 
-def _watch(options: str, duration_s: float) -> tuple[TrimWatch, SimVehicle, list[Record]]:
+def _watch(options: str, duration_s: float, link: list[PassiveSimLink] | None = None
+           ) -> tuple[TrimWatch, SimVehicle, list[Record]]:
     profile = load_profile(PROFILE)
     vehicle = SimVehicle(profile, parse_sim_options(options))
     watch = TrimWatch(profile)
     records: list[Record] = []
-    asyncio.run(watch_link(PassiveSimLink(vehicle), watch, records.append, until_s=duration_s))
+    passive = PassiveSimLink(vehicle)
+    if link is not None:
+        link.append(passive)
+    asyncio.run(watch_link(passive, watch, records.append, until_s=duration_s))
     return watch, vehicle, records
 
 
@@ -52,6 +70,32 @@ def test_a_dive_without_change_gives_segments_at_the_true_net_force() -> None:
         assert np.all(np.abs(e.q[1:3] - true_q[1:3]) < 3 * e.q_std[1:3] + 1e-3)
     # the transit and the turn of the script are not segments
     assert all(not (s.estimate.t_end_s > 90 and s.estimate.t_start_s < 130) for s in segments)
+
+
+def test_a_dive_of_level_transits_gives_a_segment_at_each_stop_and_none_in_transit() -> None:
+    """The transits pilot (a 20 s transit ending in a turn, then 40 s stopped, level
+    throughout with ArduSub's stiffer attitude loop): each stop gives a segment at the
+    true W − B, no segment starts before the sticks are back at neutral or touches the
+    next transit, and through every segment the vehicle is at rest in the water (the
+    coast after a transit does not count)."""
+    link: list[PassiveSimLink] = []
+    watch, vehicle, _ = _watch("pilot=transits,attitude_bandwidth_rad_s=6,seed=5", 250.0, link)
+    spans = [(s.estimate.t_start_s, s.estimate.t_end_s) for s in watch.segments]
+    stops, t = [], 0.0
+    for duration, sticks in TRANSITS * 2:
+        if not any(sticks):
+            stops.append((t + TRANSITS_RAMP_S, t + duration))
+        t += duration
+    for a, b in stops[:4]:                      # the stops that ended within 250 s
+        assert any(a <= t0 and t1 <= b for t0, t1 in spans), ((a, b), spans, watch.rejected)
+    assert all(any(a <= t0 and t1 <= b for a, b in stops) for t0, t1 in spans), spans
+    speeds = np.array(link[0].speeds)
+    for t0, t1 in spans:
+        inside = speeds[(speeds[:, 0] >= t0) & (speeds[:, 0] <= t1), 1]
+        assert inside.max() < MAX_SPEED_M_S, (t0, t1, inside.max())
+    true_q = vehicle.truth.mass.net
+    for s in watch.segments:
+        assert abs(s.estimate.q[0] - true_q[0]) < 3 * s.estimate.q_std[0]
 
 
 @pytest.mark.slow

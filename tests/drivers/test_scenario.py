@@ -9,7 +9,7 @@ from trimd.core.errors import LinkError
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.config import parse_sim_options
 from trimd.drivers.sim.link import open_sim_link
-from trimd.drivers.sim.scenario import DIVE
+from trimd.drivers.sim.scenario import DIVE, PILOT_SCRIPTS, TRANSITS_RAMP_S
 from trimd.drivers.sim.vehicle import SimVehicle
 
 
@@ -52,6 +52,30 @@ def test_the_scripted_pilot_moves_the_vehicle_as_sticks_do() -> None:
     descend_at = sum(d for d, _ in DIVE[:5])
     v.run_for(descend_at - v.t_s + DIVE[5][0] + 20)
     assert v.truth.eta[2] > 5.0 + 0.8
+
+
+def test_the_transits_pilot_cruises_turns_and_stops_at_one_attitude() -> None:
+    """Its sticks move over the ramp (half-way at half the ramp, from neutral at the
+    start); the vehicle cruises at ≈ 0.4 m/s, turns ≈ 55° at the transit's end and is
+    at rest again before the stop ends, level within 2° once the ramps are over and
+    within 4° throughout (ArduSub's attitude loop)."""
+    p = load_profile("bluerov2-heavy")
+    script = PILOT_SCRIPTS["transits"]
+    assert script.sticks(TRANSITS_RAMP_S / 2) == pytest.approx((0.175, 0.0, 0.0, 0.0))
+    v = SimVehicle(p, parse_sim_options("pilot=transits,attitude_bandwidth_rad_s=6,noise=0"))
+    attitude, speeds = [], []
+    while v.t_s < 60.0:
+        v.run_for(0.1)
+        attitude.append((v.t_s, *np.degrees(np.abs(v.truth.eta[3:5]))))
+        speeds.append((v.t_s, v.truth.nu[0]))
+    tilt = np.array(attitude)
+    assert tilt[:, 1:].max() < 4.0
+    settled = (tilt[:, 0] % 60 > TRANSITS_RAMP_S) & (tilt[:, 0] % 60 < 16.0) | (
+        tilt[:, 0] > 30.0)
+    assert tilt[settled, 1:].max() < 2.0
+    t, u = np.array(speeds).T
+    assert 0.3 < np.interp(15.0, t, u) < 0.5 and abs(u[-1]) < 0.02
+    assert np.degrees(v.truth.eta[5]) == pytest.approx(55.0, abs=10.0)
 
 
 @pytest.mark.parametrize(("options", "words"), [

@@ -205,10 +205,12 @@ def test_commands_change_only_at_thruster_samples(bluerov: Profile) -> None:
     assert [o for o in e.step(again) if isinstance(o, OpenLoop)]
 
 
-def test_a_depth_hold_only_where_the_stage_leaves_heave_alone(sabertooth: Profile) -> None:
-    """Triple pole at −ω with the prior damping as the derivative term (module docstring)."""
-    assert all(design_signal(sabertooth, s, duration_s=60.0).depth_hold is None
-               for s in ("uwq", "uvwpqr"))
+def test_a_depth_hold_on_every_stage_slower_than_the_heave_doublets(
+        sabertooth: Profile, bluerov: Profile) -> None:
+    """Triple pole at −ω with the prior damping as the derivative term (module docstring);
+    under heave doublets ω stays a fifth of their slowest frequency π/T_d, so the hold
+    takes the drift (a buoyancy the prior does not know, heave from surge at a pitch) and
+    leaves the doublets."""
     h = design_signal(sabertooth, "uvr", duration_s=60.0).depth_hold
     assert h is not None and h.axis == 2 and h.kd == 0.0
     prior = prior_values(sabertooth)
@@ -220,6 +222,18 @@ def test_a_depth_hold_only_where_the_stage_leaves_heave_alone(sabertooth: Profil
     # closed loop M·s³ + D·s² + kp·s + ki: all three poles at −ω
     poles = np.roots([M, D, h.kp * a, h.ki * a])
     np.testing.assert_allclose(poles.real, -w, rtol=1e-3)
+    for profile in (sabertooth, bluerov):
+        for stage in ("uwq", "uvwpqr"):
+            sig = design_signal(profile, stage, duration_s=60.0)
+            heave = next(d for d in sig.axes if d.axis == 2)
+            hold = sig.depth_hold
+            assert hold is not None
+            assert hold.bandwidth_rad_s <= 0.2 * math.pi / heave.hold_s[1] + 1e-12
+            # stable: Routh–Hurwitz of M·s³ + D·s² + kp·s + ki on the prior
+            pr = prior_values(profile)
+            m, d = profile.mass_kg + pr["Z_wdot"], -pr["Z_w"]
+            auth = axis_forces(profile)[2, 2]
+            assert d * hold.kp * auth > m * hold.ki * auth > 0
 
 
 def test_the_depth_hold_pushes_back_towards_the_start_depth(sabertooth: Profile) -> None:

@@ -117,7 +117,13 @@ def verdict(watch: TrimWatch) -> str:
                  "observable")
     if rejected:
         text += f"\n  not counted: {rejected}"
+    if watch.breaks:
+        text += f"\n  stretches broken by motion: {_breaks(watch)}"
     return text + notes
+
+
+def _breaks(watch: TrimWatch) -> str:
+    return ", ".join(f"{n} {why}" for why, n in sorted(watch.breaks.items()))
 
 
 def _why_none(watch: TrimWatch, rejected: str) -> str:
@@ -130,9 +136,11 @@ def _why_none(watch: TrimWatch, rejected: str) -> str:
         return (f"never armed in a depth-holding mode ({', '.join(sorted(DEPTH_HOLD_MODES))})"
                 f" with the depth held and the sticks at rest; modes seen: {modes}")
     share = f"{watch.counted_samples} of {watch.attitude_samples} attitude samples"
+    broken = f" between motion: {_breaks(watch)}" if watch.breaks else ""
     if rejected:
-        return f"{share} counted; the steady stretches did not: {rejected}"
-    return (f"{share} counted (armed in a depth-holding mode, depth held), but no stretch "
+        return f"{share} counted; the steady stretches did not: {rejected}{broken}"
+    return (f"{share} counted (armed in a depth-holding mode, depth held, at rest{broken}), "
+            "but no stretch "
             f"had attitude and thruster effort steady for "
             f"{watch.profile.procedure.min_steady_s:g} s plus {MIN_SEGMENT_S:g} s to "
             f"collect; modes seen: {modes}")

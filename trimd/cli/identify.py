@@ -7,6 +7,11 @@ override), fits the stages in the order uvr → uwq → uvwpqr carrying what ear
 determined, validates each held-out log on the outputs its experiment excited, and writes
 one fragment, one summary and the plots.
 
+``trimd excite`` keeps its envelope (:mod:`trimd.identify.envelope`): an experiment that
+stops early at the edge of it is done (exit 0), says so on stderr, and its recording holds
+every sample up to the stop; ``trimd identify`` fits it and names it (stderr, and
+``stopped_early`` in its JSON).
+
 Exit codes: 0 done, 1 failed or aborted, 2 usage, profile or data error (and logs that
 excite none of a stage's degrees of freedom), 3 link error. ``trimd identify`` exits 1
 when some degree of freedom of a fitted stage was excited by none of the logs: it still
@@ -36,6 +41,7 @@ from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.identify.data import Experiment, experiments_from_samples
+from trimd.identify.envelope import STOP_EARLY
 from trimd.identify.excitation import DofExcitation, not_excited_message
 from trimd.identify.experiment import STREAM_HZ, Excite, stage_of_notice
 from trimd.identify.fit import NEEDS_DVL, NOT_DETERMINED, FitOptions, StageFit
@@ -44,11 +50,11 @@ from trimd.identify.report import best_values, format_fit, profile_fragment, sum
 from trimd.identify.signals import KINDS, design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import Validation, validate
-from trimd.logs.log import is_dataflash, open_log
-from trimd.logs.recorder import TRIMD_SYSTEM
-from trimd.logs.tlog import TlogReader
+from trimd.logs.log import open_log
+from trimd.logs.replay import recorded_notices
 
-__all__ = ["read_log", "recorded_stage", "register", "run_excite", "run_identify"]
+__all__ = ["read_log", "recorded_stage", "register", "run_excite", "run_identify",
+           "stopped_early"]
 
 #: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
 MAX_DURATION_S = 3600.0
@@ -131,6 +137,8 @@ def run_excite(args: argparse.Namespace) -> int:
     result = asyncio.run(go())
     if result.phase is not Phase.DONE:
         print(f"trimd: {result.phase.value}: {result.reason}", file=sys.stderr)
+    elif result.reason.startswith(STOP_EARLY):
+        print(f"trimd: {result.reason}", file=sys.stderr)
     if result.log_path:
         print(f"session log: {result.log_path}", file=sys.stderr)
     return 0 if result.phase is Phase.DONE else (3 if result.cause == "link" else 1)
@@ -144,21 +152,15 @@ def read_log(path: str, profile: Profile) -> list[Experiment]:
 
 def recorded_stage(path: str) -> str | None:
     """The stage a ``trimd excite`` recording names (:func:`stage_of_notice` on trimd's
-    own STATUSTEXT, chunks joined); None for a DataFlash log or a log without it."""
-    if is_dataflash(path):
-        return None
-    texts: dict[int, str] = {}
-    for _, msg in TlogReader.open(path).messages():
-        if msg.get_type() != "STATUSTEXT" or msg.get_srcSystem() != TRIMD_SYSTEM:
-            continue
-        chunk = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
-        key = int(getattr(msg, "id", 0) or 0)
-        more = key and int(getattr(msg, "chunk_seq", 0) or 0) > 0
-        texts[key] = texts.get(key, "") + chunk if more else chunk
-        stage = stage_of_notice(texts[key])
-        if stage is not None:
-            return stage
-    return None
+    own notices); None for a DataFlash log or a log without it."""
+    return next((st for st in map(stage_of_notice, recorded_notices(path)) if st is not None),
+                None)
+
+
+def stopped_early(path: str) -> str | None:
+    """The notice of a ``trimd excite`` recording whose excitation stopped early (at the
+    edge of its envelope, :mod:`trimd.identify.envelope`); None when it did not."""
+    return next((t for t in recorded_notices(path) if t.startswith(STOP_EARLY)), None)
 
 
 def _by_stage(paths: Sequence[str], profile: Profile, stage: str | None
@@ -219,8 +221,9 @@ def run_identify(args: argparse.Namespace) -> int:
         comments.append(f"{', '.join(blind)}: need a DVL (no body velocity in these logs), "
                         "the profile's values kept")
     fragment = profile_fragment(best, profile, comments)
+    early = {p: t for p in [*args.logs, *args.validate] if (t := stopped_early(p))}
     print_result(args.json, {"type": "identification", **summary_dict(fits, validations),
-                             "fragment": fragment},
+                             "stopped_early": early, "fragment": fragment},
                  "\n\n".join(format_fit(f, validations.get(f.stage, ())) for f in fits)
                  + "\n\n" + fragment)
     if args.out:
@@ -229,6 +232,8 @@ def run_identify(args: argparse.Namespace) -> int:
             for e in es for v in validate(values(stage), [e], profile, stage,
                                           statics=statics)]
         _write(Path(args.out), fits, fragment, shown, validations)
+    for path, text in early.items():
+        print(f"trimd: {path}: {text}", file=sys.stderr)
     for fit, ds in missing:
         print(f"trimd: {not_excited_message(fit.stage, ds)}", file=sys.stderr)
     return 1 if missing else 0

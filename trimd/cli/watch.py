@@ -152,7 +152,8 @@ def _finish(watch: TrimWatch, args: argparse.Namespace, source: str,
     if args.json:
         print_json({"type": "verdict", "source": source, "vehicle": watch.vehicle,
                     "segments": len(watch.segments), "alerts": len(watch.alerts),
-                    "rejected": watch.rejected, "h_sigma": watch.h, "text": text})
+                    "rejected": watch.rejected, "breaks": watch.breaks, "h_sigma": watch.h,
+                    "text": text})
     else:
         print(f"{source}: {text}")
     if plot:

@@ -3,20 +3,24 @@
 :class:`TrimWatch` takes the samples of a link or a log in time order and never commands
 anything. Every :data:`TICK_S` of sample time it runs the trim procedure's own detector
 (:func:`trimd.core.holdfinder.find_segments`: attitude plateaus plus the live settling
-test) over the samples since its last cut, and turns each steady stretch into segments of
-at most ``max_segment_s``. A segment counts when, in addition,
+test) over each stretch of samples that count, and turns each steady stretch into
+segments of at most ``max_segment_s``. Samples count while
 
-* the vehicle was armed in a depth-holding mode (:data:`DEPTH_HOLD_MODES`; all samples
-  count when the source reports no mode), the depth was held (its rate within
+* the vehicle is armed in a depth-holding mode (:data:`DEPTH_HOLD_MODES`; all samples
+  count when the source reports no mode), the depth is held (its rate within
   :data:`MAX_DEPTH_RATE_M_S`), and no pilot stick input (a
   :class:`~trimd.core.samples.PilotInput`) came: for :data:`PILOT_QUIET_S` after the
-  depth moved or the sticks did, nothing counts, and the detector's stretch breaks there;
-* it was not turning: mean yaw rate within the procedure's ``rate_tol_deg_s``;
-* it was not translating: where a DVL reports, the mean horizontal speed is at most
-  :data:`MAX_SPEED_M_S`; always, the mean surge and sway force and yaw moment are within
-  the effort floor of the stop rule (half the net-buoyancy window; the stiffness times
-  the attitude tolerance) of what the restoring forces alone would need there — a
-  transit's drag or a turn shows as effort the restoring forces do not explain.
+  depth moved or the sticks did, nothing counts;
+* the vehicle is at rest in the water (:class:`trimd.core.motion.MotionGate`: no
+  transit's surge or sway effort, no coasting after one, no DVL speed, no turn), which a
+  stabilised mode's level attitude does not show.
+
+A stretch breaks wherever a sample does not count, so each stop between transits is
+settled and collected on its own (``breaks`` counts where the vehicle started moving, by
+why). A segment counts when, in addition, over its span it was not turning (mean yaw
+rate within the procedure's ``rate_tol_deg_s``) and not translating (a DVL's mean speed
+within :data:`MAX_SPEED_M_S`; the mean surge and sway effort within the gate's force
+floor of what the restoring forces alone need there).
 
 Each segment is fitted on its own (:func:`trimd.core.segment.estimate_segment`). The
 first ``baseline_segments`` level segments (or a baseline passed in, e.g. the vehicle's
@@ -30,14 +34,11 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from trimd.core.change import (
     Baseline,
-    ChangeAlert,
     ChangeDetector,
     baseline_from_segments,
     threshold_for,
@@ -45,10 +46,10 @@ from trimd.core.change import (
 from trimd.core.decision import StopRule
 from trimd.core.effort import thrust_at
 from trimd.core.errors import DataError, EstimationError
-from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
-from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.estimate import HoldSamples, estimate_static
 from trimd.core.holdfinder import find_segments
-from trimd.core.model import restoring_matrix, thrust_configuration
+from trimd.core.model import restoring_matrix, thrust_configuration, thrusts_from_pwm
+from trimd.core.motion import MAX_SPEED_M_S, MOVING_DVL, TRANSIT, MotionGate
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
@@ -62,6 +63,7 @@ from trimd.core.samples import (
 )
 from trimd.core.segment import SegmentEstimate, estimate_segment, nominal_q
 from trimd.core.settling import WINDOW_S
+from trimd.core.watch_records import WatchAlert, WatchSegment, alert_text
 
 __all__ = ["DEPTH_HOLD_MODES", "TICK_S", "TrimWatch", "WatchAlert", "WatchSegment",
            "alert_text"]
@@ -79,8 +81,6 @@ PILOT_QUIET_S = 5.0
 #: (the pilot moves the depth target): nothing counts until :data:`PILOT_QUIET_S` after.
 MAX_DEPTH_RATE_M_S = 0.05
 DEPTH_WINDOW_S = 2.0
-#: Largest mean horizontal speed over ground of a steady segment, where a DVL tells [m/s].
-MAX_SPEED_M_S = 0.1
 #: Default longest segment [s]: a long hover is cut so that a change shows within it.
 MAX_SEGMENT_S = 60.0
 #: Left out of the end of a plateau the pilot ended [s]: the settling test notices a
@@ -99,97 +99,6 @@ SEGMENT_ATTITUDE_WANDER_DEG = 0.05
 #: Default target false-alarm rate [1/h] and the segment rate it is computed for [1/h].
 FALSE_ALARMS_PER_H = 0.01
 SEGMENTS_PER_H = 60.0
-
-
-@dataclass(frozen=True)
-class WatchSegment:
-    """A steady segment the watch found and its estimate (``index`` counts from 1);
-    ``baseline`` is True while it is one of the segments forming the baseline; ``full``,
-    at a tilted segment, the estimate of all four net quantities (weight and centre of
-    gravity) from it and the last level segment (:func:`trimd.core.estimate.
-    estimate_static`; it assumes the trim did not change between the two)."""
-
-    index: int
-    estimate: SegmentEstimate
-    baseline: bool
-    full: StaticEstimate | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: times [s], attitude [deg], q and its 1σ [N, N·m] (null where not
-        observable), covariances, which components the segment observed."""
-        e = self.estimate
-        std = e.q_std
-        return {"type": "segment", "index": self.index, "t_start_s": e.t_start_s,
-                "t_end_s": e.t_end_s, "roll_deg": e.roll_deg, "pitch_deg": e.pitch_deg,
-                "samples": e.samples, "baseline": self.baseline,
-                "net_force_N": _opt(e.q[0], e.observable[0]),
-                "net_force_std_N": _opt(std[0], e.observable[0]),
-                "net_moment_Nm": [_opt(e.q[i], e.observable[i]) for i in (1, 2, 3)],
-                "net_moment_std_Nm": [_opt(std[i], e.observable[i]) for i in (1, 2, 3)],
-                "observable": list(e.observable), "resolved": e.resolved,
-                "cov_net": e.q_cov.tolist(), "cov_net_noise": e.q_cov_noise.tolist(),
-                "not_observable": _unobservable(e),
-                "full": None if self.full is None else estimate_to_dict(self.full)}
-
-
-@dataclass(frozen=True)
-class WatchAlert:
-    """A change alert: the test's result and its text for people."""
-
-    alert: ChangeAlert
-    text: str
-
-    def to_dict(self) -> dict[str, Any]:
-        a = self.alert
-        return {"type": "alert", "quantity": _QUANTITY[a.component], "component": a.component,
-                "total": a.total, "total_std": a.total_std, "change": a.change,
-                "change_std": a.change_std,
-                "after_s": None if math.isnan(a.after_s) else a.after_s,
-                "since_s": a.since_s, "t_s": a.at_s, "segments": a.segments,
-                "statistic": a.statistic, "first": a.first, "text": self.text}
-
-
-_QUANTITY = ("net_force_N", "net_moment_x_Nm", "net_moment_y_Nm")
-#: per component: (increase, decrease, what may cause an increase, a decrease)
-_WORDS = (("heavier", "lighter", "water ingress? lost float?", "lost weight? trapped air?"),
-          ("nose-heavy", "tail-heavy", "weight forward, or a float lost forward?",
-           "weight aft, or a float lost aft?"),
-          ("starboard-heavy", "port-heavy", "weight to starboard, or a float lost there?",
-           "weight to port, or a float lost there?"))
-
-
-def _opt(v: float, ok: bool) -> float | None:
-    return float(v) if ok else None
-
-
-def _unobservable(e: SegmentEstimate) -> str:
-    if e.observable == (True, True, True, False):
-        return ("level: the moment about the vertical, W·z_g − B·z_b (the height of the "
-                "centre of gravity), is not observable")
-    names = ("W − B", "W·x_g − B·x_b", "W·y_g − B·y_b", "W·z_g − B·z_b")
-    missing = [n for n, ok in zip(names, e.observable, strict=True) if not ok]
-    return (f"at roll {e.roll_deg:.1f}°, pitch {e.pitch_deg:.1f}° one attitude cannot "
-            f"separate {', '.join(missing)}" if missing else "")
-
-
-def alert_text(a: ChangeAlert, clock: Callable[[float], str]) -> str:
-    """E.g. "heavier by 2.1 ± 0.3 N since t = 311–345 s (water ingress? lost float?)";
-    a later alert of the same quantity adds how much more since when."""
-    up, down, why_up, why_down = _WORDS[a.component]
-    unit = "N" if a.component == 0 else "N·m"
-    word, why = (up, why_up) if a.total > 0 else (down, why_down)
-    when = (f"since {clock(a.since_s)}" if math.isnan(a.after_s) or a.since_s - a.after_s < 1
-            else f"since between {clock(a.after_s)} and {clock(a.since_s)}")
-    text = f"{word} by {_pm(abs(a.total), a.total_std)} {unit}"
-    if a.first:
-        return f"{text} {when} ({why})"
-    return f"{text} ({_pm(a.change, a.change_std, sign=True)} {unit} {when}) ({why})"
-
-
-def _pm(value: float, std: float, sign: bool = False) -> str:
-    """``value ± std`` with two significant digits of ``std`` (at least two decimals)."""
-    digits = max(2, 1 - math.floor(math.log10(std))) if std > 0 else 2
-    return f"{value:{'+' if sign else ''}.{digits}f} ± {std:.{digits}f}"
 
 
 def _before(hold: HoldSamples, t_s: float) -> HoldSamples:
@@ -246,6 +155,11 @@ class TrimWatch:
             self._q_prior = np.where(np.isfinite(self._q_prior), self._q_prior,
                                      nominal_q(profile))
         self._T = thrust_configuration(profile.thrusters)
+        #: is the vehicle at rest in the water (:mod:`trimd.core.motion`); each time it
+        #: was not, the stretch broke: ``breaks`` counts them by why
+        self.gate = MotionGate(profile, self._q_prior)
+        self.breaks: dict[str, int] = {}
+        self._motion: str | None = None
         #: runs of attitude samples that count, split where one did not (a break)
         self._runs: list[list[Attitude]] = [[]]
         self._depth: list[Depth] = []
@@ -276,12 +190,16 @@ class TrimWatch:
         elif isinstance(s, Thrusters):
             self._thr.append(s)
             self.thruster_samples += 1
+            self._gate_effort(s)
         elif isinstance(s, Battery):
             self._bat.append(s)
         elif isinstance(s, Velocity):
             self._vel.append(s)
+            self.gate.velocity(s)
         elif isinstance(s, Attitude):
             self._yaw_rate.append((s.t_s, s.r))
+            self.gate.attitude(s)
+            self._track_motion(s.t_s)
             self.attitude_samples += 1
             if self._counts(s):
                 self._runs[-1].append(s)
@@ -311,8 +229,25 @@ class TrimWatch:
                 MAX_DEPTH_RATE_M_S * span:
             self._quiet_until = d.t_s + PILOT_QUIET_S
 
+    def _gate_effort(self, s: Thrusters) -> None:
+        """The sample's τ to the motion gate, at the latest battery voltage (a sample
+        with the wrong number of outputs is left to the detector, which says so)."""
+        if len(s.pwm_us) != len(self.profile.thrusters):
+            return
+        volts = self._bat[-1].voltage_V if self._bat else math.nan
+        if not (math.isfinite(volts) and volts > 0):
+            volts = self.profile.nominal_voltage_V
+        self.gate.effort(s.t_s, thrusts_from_pwm(self.profile, s.pwm_us, volts) @ self._T.T)
+
+    def _track_motion(self, t_s: float) -> None:
+        """Ask the gate; count a break each time the vehicle starts moving."""
+        why = self.gate.why_moving(t_s)
+        if why is not None and why != self._motion:
+            self.breaks[why] = self.breaks.get(why, 0) + 1
+        self._motion = why
+
     def _counts(self, a: Attitude) -> bool:
-        if a.t_s < self._quiet_until:
+        if a.t_s < self._quiet_until or self._motion is not None:
             return False
         if not self._seen_health:
             return True
@@ -411,16 +346,12 @@ class TrimWatch:
             return "turning"
         v = [(s.u, s.v) for s in self._vel if t0 <= s.t_s <= t1]
         if v and float(np.hypot(*np.mean(v, axis=0))) > MAX_SPEED_M_S:
-            return "moving (DVL)"
+            return MOVING_DVL
         phi, theta = float(np.mean(hold.phi)), float(np.mean(hold.theta))
         expected = restoring_matrix(phi, theta) @ self._q_prior
         excess = np.abs(hold.tau.mean(axis=0) - expected)
-        force = self._rule.buoyancy_half_window_N
-        moment = math.radians(proc.attitude_tol_deg) * self._rule.stiffness_prior_Nm
-        if excess[0] > force or excess[1] > force:
-            return "translating (surge or sway effort)"
-        if excess[5] > moment:
-            return "turning (yaw effort)"
+        if max(excess[0], excess[1]) > self.gate.force_floor:
+            return TRANSIT
         return None
 
     def _segment(self, hold: HoldSamples) -> list[WatchSegment | WatchAlert]:

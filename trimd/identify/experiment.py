@@ -5,10 +5,16 @@ interface (``step(event) -> list[Command | Notice]``, ``progress``, ``phase``, `
 
 Phases: connect → precheck → confirm → excite (the :class:`~trimd.identify.signals.Signal`
 as :class:`~trimd.core.samples.OpenLoop` commands, one per change; with an attitude hold in
-the signal, its PID output on the latest attitude is added on roll and pitch) → done;
-``failed`` or ``aborted`` from anywhere. The precheck and the safety rules are the
-procedure's own (:class:`trimd.core.precheck.Precheck`: armed, not in a mode where the
-vehicle follows its own plan or failsafe, attitude and depth at their rates, depth steady;
+the signal, its PID output on the latest attitude is added on roll and pitch, and the
+depth hold's on heave) → done; ``failed`` or ``aborted`` from anywhere. The experiment
+keeps its envelope (:class:`~trimd.identify.envelope.Envelope`): as the vehicle goes
+further than the design meant, the excitation is scaled down, and near the guard's limits
+it stops early — done, saying so (:data:`~trimd.identify.envelope.STOP_EARLY`), with every
+sample up to the stop recorded. Notices record what it did: the holds and their
+bandwidths at the start, each scaling, and at the end the depth and tilt it reached.
+The precheck and the safety rules are the procedure's own
+(:class:`trimd.core.precheck.Precheck`: armed, not in a mode where the vehicle follows its
+own plan or failsafe, attitude and depth at their rates, depth steady;
 :class:`trimd.core.guards.Guard`): no command before the operator's confirmation; while
 commanding, an attitude beyond ``max_tilt_deg`` + 5°, a depth excursion beyond the
 experiment's limit from the start depth, link loss (a Health sample that is not
@@ -31,13 +37,14 @@ from __future__ import annotations
 
 import math
 
-from trimd.core.events import Abort, Cause, Confirm, Event, Output, Phase, Progress, Tick
-from trimd.core.guards import Guard
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.guards import ENVELOPE_MARGIN_DEG, Guard
 from trimd.core.phases import Phases
 from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample, Thrusters
+from trimd.identify.envelope import STOP_EARLY, Envelope, Step
 from trimd.identify.model import STAGES
 from trimd.identify.signals import HoldAxis, Signal
 
@@ -74,6 +81,8 @@ MAX_PACED_INTERVAL_S = 0.11
 #: determined only through that timing (docs/identification.md, "Fast DOFs at slow
 #: streams").
 STREAM_HZ = 50.0
+#: What each held axis is called in the notices.
+_HELD = {2: "depth", 3: "roll", 4: "pitch"}
 
 
 class Excite(Phases):
@@ -123,6 +132,9 @@ class Excite(Phases):
         self._depth_integral = 0.0
         self._t_depth = math.nan
         self._heave = 0.0  # the depth hold's output [input], added to the heave offset
+        #: how far the vehicle has gone, and how far the excitation is scaled down for it
+        self.envelope = Envelope(depth_excursion_m, math.radians(
+            profile.procedure.max_tilt_deg + ENVELOPE_MARGIN_DEG))
 
     # ---------------------------------------------------------------- interface
     @property
@@ -160,13 +172,16 @@ class Excite(Phases):
             return self._precheck()
         if isinstance(s, Depth):
             self._depth = s.depth_m
-            if self.phase is Phase.COLLECT and self.signal.depth_hold is not None:
+            if self.phase is not Phase.COLLECT:
+                return []
+            if self.signal.depth_hold is not None:
                 self._hold_depth(s, self.signal.depth_hold)
-            return []
+            return self._keep(self.envelope.depth(s.depth_m - self._depth_ref))
         if isinstance(s, Attitude):
             self._attitude = s
             if self.phase is Phase.COLLECT:
-                return [] if self._paced else self._play(s)
+                kept = self._keep(self.envelope.tilt(s.phi, s.theta))
+                return kept if kept or self._paced else self._play(s)
             return self._precheck()
         if isinstance(s, Thrusters):
             self._paced = s.t_s - self._t_thrusters <= MAX_PACED_INTERVAL_S
@@ -199,15 +214,37 @@ class Excite(Phases):
         named = f" {STAGE_NOTICE}{self.stage}" if self.stage else ""
         out = self._enter(Phase.COLLECT, f"exciting{named}: open-loop inputs on axes "
                           + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
+        holds = [h for h in (*self.signal.hold, self.signal.depth_hold) if h is not None]
+        if holds:
+            out.append(Notice(self._t, "info", "holding " + ", ".join(
+                f"{_HELD[h.axis]} at {h.bandwidth_rad_s:.2f} rad/s" for h in holds)
+                + " (their output is in the recorded thrust)"))
         return out + self._play(None)
+
+    def _keep(self, step: Step | None) -> list[Output]:
+        """Act on what the envelope asks for: a notice of the scaled excitation, or the
+        early stop (done, every sample up to here recorded)."""
+        if step is None:
+            return []
+        elapsed = self._t - self._t_start
+        if step.stop:
+            return self._finish(Phase.DONE, f"{STOP_EARLY} at {elapsed:.1f} s of "
+                                f"{self.signal.duration_s:g} s: {step.text}; the data up to "
+                                f"here is kept ({self.envelope.summary()})")
+        return [Notice(self._t, "warning", f"at {elapsed:.1f} s: {step.text}")]
 
     def _play(self, attitude: Attitude | None) -> list[Output]:
         """The inputs at the present time: the signal, plus the attitude hold's output on
         the held axes when ``attitude`` is a new measurement."""
         elapsed = self._t - self._t_start
         if elapsed >= self.signal.duration_s:
-            return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s)")
+            return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s): "
+                                + self.envelope.summary())
         axes = self.signal.at(elapsed)
+        scale = self.envelope.scale
+        if scale < 1:
+            a = [o + scale * (x - o) for x, o in zip(axes, self.signal.offsets, strict=True)]
+            axes = (a[0], a[1], a[2], a[3], a[4], a[5])
         if self._heave:
             axes = (axes[0], axes[1], max(-1.0, min(1.0, axes[2] + self._heave)), *axes[3:])
         if attitude is not None and self.signal.hold:

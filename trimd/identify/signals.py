@@ -49,14 +49,19 @@ thruster authority): they only size the experiment, the fit never starts from th
   half, ``_MIN_HOLD_S``, is safe open loop). The thruster outputs
   are recorded whatever computed them, so the fit sees the total τ, feedback included
   (no process noise enters the loop other than through measured τ).
-* **Depth hold** (``Signal.depth_hold``) in a stage that does not excite heave (uvr): the
-  heave trim offset alone cannot keep the depth, since a small one falls inside the
-  thrusters' deadband (the Sabertooth's 58 N of buoyancy is input 0.035) and the vehicle
-  drifts out of the depth envelope. A PI loop on the depth error, added to the offset,
-  does: with the prior heave mass M and linear damping D as the loop's derivative term,
-  M·s³ + D·s² + kp·s + ki has a triple pole at −ω for kp = 3·M·ω², ki = M·ω³ and
-  ω = D/(3·M) (at most 0.5 rad/s); its integral winds through the deadband. Its output
-  is in the recorded τ like any other.
+* **Depth hold** (``Signal.depth_hold``) in every stage: the heave trim offset alone
+  cannot keep the depth, since a small one falls inside the thrusters' deadband (the
+  Sabertooth's 58 N of buoyancy is input 0.035), a vehicle whose buoyancy differs from
+  the prior's by 1 % (117 N on the Sabertooth) has another trim, and surge at a pitch
+  moves it up or down; it drifts out of the depth envelope (an unseen Sabertooth's uwq
+  stage left a 5 m envelope at 80–280 s). A PI loop on the depth error, added to the
+  offset, does: with the prior heave mass M and linear damping D as the loop's
+  derivative term, M·s³ + D·s² + kp·s + ki has a triple pole at −ω for kp = 3·M·ω²,
+  ki = M·ω³ and ω = D/(3·M) (at most 0.5 rad/s); its integral winds through the deadband
+  and takes the buoyancy error. Where the stage excites heave, ω is also at most a fifth
+  of the heave doublets' slowest frequency π/T_d (:data:`_DEPTH_HOLD_BELOW`), so the hold
+  takes the drift and leaves the doublets. Its output is in the recorded τ like any
+  other: the fit sees the total thrust, the hold's share included.
 """
 
 from __future__ import annotations
@@ -80,6 +85,9 @@ _HEAVE = 2
 _MAX_TRIM_INPUT = 0.5
 #: Largest bandwidth of the depth hold [rad/s].
 _MAX_DEPTH_BANDWIDTH_RAD_S = 0.5
+#: Under heave doublets, the depth hold's bandwidth is at most this share of their
+#: slowest angular frequency, π over the longest half-doublet.
+_DEPTH_HOLD_BELOW = 0.2
 
 #: Signal kinds for the velocity axes.
 KINDS = ("multistep", "prbs", "doublet")
@@ -257,19 +265,20 @@ def _design_hold(profile: Profile, axes: tuple[int, ...], amplitudes: dict[int, 
     return tuple(out)
 
 
-def _design_depth_hold(profile: Profile, axes: tuple[int, ...]) -> HoldAxis | None:
-    """The depth hold of a stage that does not excite heave (module docstring): PID on
-    the depth error with a triple pole at −ω, ω = D/(3·M) from the prior heave mass M and
-    linear damping D (the damping is the loop's derivative term), at most
-    :data:`_MAX_DEPTH_BANDWIDTH_RAD_S`; None when the stage excites heave."""
-    if _HEAVE in axes:
-        return None
+def _design_depth_hold(profile: Profile, heave: AxisDesign | None) -> HoldAxis | None:
+    """The depth hold (module docstring): PID on the depth error with a triple pole at
+    −ω, ω = D/(3·M) from the prior heave mass M and linear damping D (the damping is the
+    loop's derivative term), at most :data:`_MAX_DEPTH_BANDWIDTH_RAD_S` and, under heave
+    doublets, at most :data:`_DEPTH_HOLD_BELOW` of their slowest angular frequency
+    π/T_d; None without linear heave damping."""
     prior = prior_values(profile)
     M = profile.mass_kg + prior["Z_wdot"]
     D = abs(prior["Z_w"])
     if D <= 0:
         return None  # without damping a PI loop on a mass is not stable
     w = min(D / (3 * M), _MAX_DEPTH_BANDWIDTH_RAD_S)
+    if heave is not None:
+        w = min(w, _DEPTH_HOLD_BELOW * math.pi / heave.hold_s[1])
     a = float(axis_authority(profile)[_HEAVE])
     return HoldAxis(_HEAVE, 3 * M * w * w / a, M * w ** 3 / a, 0.0, w, _MAX_TRIM_INPUT)
 
@@ -343,10 +352,11 @@ def design_signal(profile: Profile, stage: str, *, kind: str = "multistep",
                   if i in _POSITION_AXES else _velocity_amplitude(profile, i, amplitude)
                   for i in axes}
     hold = _design_hold(profile, axes, amplitudes, max_tilt, hold_bandwidth_rad_s)
-    depth_hold = _design_depth_hold(profile, axes)
     rng = np.random.default_rng(seed)
     designs = tuple(_design_axis(profile, i, kind, amplitudes[i], offsets[i],
                                  depth_excursion_m, max_tilt) for i in axes)
+    depth_hold = _design_depth_hold(profile, next((d for d in designs if d.axis == _HEAVE),
+                                                  None))
     series = {d.axis: _axis_series(d, duration_s, rng) for d in designs}
     times = np.unique(np.concatenate([[0.0]] + [[t for t, _ in s] for s in series.values()]))
     times = times[times < duration_s]

@@ -21,11 +21,13 @@ __all__ = ["damping_force", "perturbed", "rates_reached"]
 
 
 def perturbed(profile: Profile, rng: np.random.Generator, spread: float = 0.5,
-              name: str | None = None) -> Profile:
+              name: str | None = None, buoyancy_spread: float = 0.0) -> Profile:
     """``profile`` with every inertia sum (rigid inertia and added inertia scaled
     together), added mass and linear and quadratic damping coefficient multiplied by its
-    own factor drawn uniformly from [1 − spread, 1 + spread]; mass, geometry, thrusters and
-    restoring terms unchanged."""
+    own factor drawn uniformly from [1 − spread, 1 + spread], and its buoyancy by one from
+    [1 − buoyancy_spread, 1 + buoyancy_spread] (drawn last: the hydrodynamic factors of a
+    seed do not depend on it); mass, geometry, thrusters and the centre of buoyancy
+    unchanged."""
     def factors(n: int) -> np.ndarray:
         return rng.uniform(1.0 - spread, 1.0 + spread, n)
 
@@ -34,8 +36,10 @@ def perturbed(profile: Profile, rng: np.random.Generator, spread: float = 0.5,
     a = np.asarray(profile.added_mass, float) * np.concatenate([factors(3), rot])
     dl = np.asarray(profile.linear_damping, float) * factors(6)
     dq = np.asarray(profile.quadratic_damping, float) * factors(6)
+    buoyancy = profile.buoyancy_N * (float(rng.uniform(1 - buoyancy_spread, 1 + buoyancy_spread))
+                                     if buoyancy_spread else 1.0)
     return dataclasses.replace(
-        profile, name=name or f"{profile.name}-perturbed",
+        profile, name=name or f"{profile.name}-perturbed", buoyancy_N=buoyancy,
         inertia_kg_m2=(float(i[0]), float(i[1]), float(i[2])),
         added_mass=_vec6(a), linear_damping=_vec6(dl), quadratic_damping=_vec6(dq))
 

@@ -30,7 +30,7 @@ from trimd.logs.recorder import (
 )
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "recorded_profile_yaml", "recorded_trimd_texts",
+__all__ = ["ReplayLink", "recorded_notices", "recorded_profile_yaml", "recorded_trimd_texts",
            "recorded_verify_target"]
 
 
@@ -106,6 +106,35 @@ def recorded_trimd_texts(path: str | Path) -> Iterator[str]:
         if ((msg.get_srcSystem(), msg.get_srcComponent()) == (TRIMD_SYSTEM, TRIMD_COMPONENT)
                 and msg.get_type() == "STATUSTEXT" and getattr(msg, "chunk_seq", 0) == 0):
             yield str(msg.text)
+
+
+def recorded_notices(path: str | Path) -> Iterator[str]:
+    """The whole texts trimd wrote into a recording, in file order: each text's chunks
+    joined as bytes and then decoded (a character may straddle two chunks)."""
+    if is_dataflash(path):
+        return
+    parts: list[bytes] = []
+    for _, msg in TlogReader.open(path).messages():
+        if ((msg.get_srcSystem(), msg.get_srcComponent()) != (TRIMD_SYSTEM, TRIMD_COMPONENT)
+                or msg.get_type() != "STATUSTEXT"):
+            continue
+        if getattr(msg, "chunk_seq", 0) == 0 and parts:
+            yield b"".join(parts).decode("utf-8", "replace")
+            parts = []
+        parts.append(_statustext_bytes(msg))
+    if parts:
+        yield b"".join(parts).decode("utf-8", "replace")
+
+
+def _statustext_bytes(msg: Any) -> bytes:
+    """The text bytes of a MAVLink 2 STATUSTEXT as sent (pymavlink decodes each chunk on
+    its own): after the 10-byte header and the severity byte, up to 50 bytes, the
+    packet's zero-truncated tail restored."""
+    buf = bytes(msg.get_msgbuf())
+    if buf[:1] != b"\xfd":   # MAVLink 1: no chunks, the decoded text is whole
+        return str(msg.text).encode("utf-8")
+    payload = buf[10:10 + buf[1]].ljust(54, b"\0")
+    return payload[1:51].rstrip(b"\0")
 
 
 class ReplayLink:

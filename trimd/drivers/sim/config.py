@@ -120,7 +120,7 @@ class SimConfig:
         "" the origin CG0).
     drop : ballast pieces lost, ``PIECE@SLOT@T_S`` joined by ``+`` (PIECE an inventory
         name or a mass in kg).
-    pilot : a scripted pilot on the sticks (``dive``; "" none).
+    pilot : a scripted pilot on the sticks (``dive``, ``transits``; "" none).
     """
 
     payload: str = ""

@@ -15,6 +15,16 @@ dive for the passive watch (``trimd watch``), with nobody commanding through the
   ALT_HOLD (surge and sway to the thrusters, throttle moves the depth target, yaw the
   heading target): a hover, a transit, a turn, a descent, a sideways move and an ascent,
   each followed by a hover, repeated (:data:`DIVE`, one cycle ≈ 10 min).
+* ``pilot=transits`` — a pilot driving the usual way in ALT_HOLD: every minute a 20 s
+  transit forward (stick 35 %) ending in a turn of ≈ 55°, alternately to starboard and
+  to port, then 40 s stopped (:data:`TRANSITS`). The pilot moves each stick over
+  :data:`TRANSITS_RAMP_S` (so the sticks are at rest for the last 36 s of each stop),
+  and with an ArduSub-like attitude loop (``attitude_bandwidth_rad_s=6``) the vehicle
+  stays level throughout, within ≈ 1.5°: attitude and depth do not tell transit from
+  stop, only the effort, the speed and the heading do.
+
+Neither script's sticks reach the link's telemetry (as a router passes a ground
+station's MANUAL_CONTROL to the vehicle only).
 
 The weight changes are applied once per simulated second (a leak of 0.5 N/min steps by
 0.008 N), through the vehicle's mass properties (:mod:`trimd.drivers.sim.payload`).
@@ -29,7 +39,8 @@ from trimd.core.errors import ProfileError
 from trimd.core.profile import Profile
 from trimd.drivers.sim.payload import PayloadItem, parse_payload
 
-__all__ = ["DIVE", "PILOT_SCRIPTS", "Drop", "Scenario", "parse_drops"]
+__all__ = ["DIVE", "PILOT_SCRIPTS", "TRANSITS", "TRANSITS_RAMP_S", "Drop", "PilotScript",
+           "Scenario", "parse_drops"]
 
 Sticks = tuple[float, float, float, float]
 #: The ``dive`` script: (duration [s], sticks (surge, sway, throttle up, yaw rate)).
@@ -46,7 +57,45 @@ DIVE: tuple[tuple[float, Sticks], ...] = (
     (8.0, (0.0, 0.0, 0.3, 0.0)),      # ascend 1.2 m
     (60.0, (0.0, 0.0, 0.0, 0.0)),
 )
-PILOT_SCRIPTS = {"dive": DIVE}
+#: The ``transits`` script (two minutes, repeated): transit with a turn at its end, stop.
+TRANSITS: tuple[tuple[float, Sticks], ...] = (
+    (16.0, (0.35, 0.0, 0.0, 0.0)),    # transit forward
+    (4.0, (0.35, 0.0, 0.0, 0.3)),     # … turning to starboard at its end
+    (40.0, (0.0, 0.0, 0.0, 0.0)),     # stopped
+    (16.0, (0.35, 0.0, 0.0, 0.0)),
+    (4.0, (0.35, 0.0, 0.0, -0.3)),    # … to port
+    (40.0, (0.0, 0.0, 0.0, 0.0)),
+)
+#: Each stick of the ``transits`` pilot moves to its new position over this long [s].
+TRANSITS_RAMP_S = 4.0
+
+
+@dataclass(frozen=True, slots=True)
+class PilotScript:
+    """The sticks of a scripted pilot: each step (duration [s], sticks) in turn, repeated;
+    at the start of each step the sticks move linearly from the step before over
+    ``ramp_s`` [s] (0: at once; the first step starts from neutral)."""
+
+    steps: tuple[tuple[float, Sticks], ...]
+    ramp_s: float = 0.0
+
+    def sticks(self, t_s: float) -> Sticks:
+        period = sum(d for d, _ in self.steps)
+        t = math.fmod(t_s, period)
+        before: Sticks = self.steps[-1][1] if t_s >= period else (0.0, 0.0, 0.0, 0.0)
+        for duration, sticks in self.steps:
+            if t < duration:
+                if t >= self.ramp_s:
+                    return sticks
+                w = t / self.ramp_s
+                a, b, c, d = (x + w * (y - x) for x, y in zip(before, sticks, strict=True))
+                return (a, b, c, d)
+            t -= duration
+            before = sticks
+        return self.steps[-1][1]
+
+
+PILOT_SCRIPTS = {"dive": PilotScript(DIVE), "transits": PilotScript(TRANSITS, TRANSITS_RAMP_S)}
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,8 +169,7 @@ class Scenario:
         self.drops = parse_drops(drop, profile)
         if pilot and pilot not in PILOT_SCRIPTS:
             raise ProfileError(f"pilot={pilot}: known scripts: {', '.join(PILOT_SCRIPTS)}")
-        self.script = PILOT_SCRIPTS.get(pilot, ())
-        self._period = sum(d for d, _ in self.script)
+        self.script = PILOT_SCRIPTS.get(pilot)
         self._g = profile.gravity_m_s2
 
     @property
@@ -145,11 +193,4 @@ class Scenario:
 
     def sticks(self, t_s: float) -> Sticks | None:
         """The scripted pilot's sticks at ``t_s`` (None: no script)."""
-        if not self.script:
-            return None
-        t = math.fmod(t_s, self._period)
-        for duration, sticks in self.script:
-            if t < duration:
-                return sticks
-            t -= duration
-        return self.script[-1][1]
+        return None if self.script is None else self.script.sticks(t_s)
