@@ -60,7 +60,7 @@ def main() -> None:
     print(f"sabertooth-dh2 vehicle {VEHICLE}, {FIT_S:g} s per stage, DVL on, default noise; "
           f"the simulator's thruster lag {1000 * lag:.0f} ms")
     for rates, label in (("sim", "thrusters at 10 Hz"), ("excite", "thrusters at 50 Hz")):
-        recordings = {st: record(truth, prior, st, FIT_S, 10 * VEHICLE + j, rates)
+        recordings = {st: record(truth, prior, st, FIT_S, 10 * VEHICLE + j, rates)[0]
                       for j, st in enumerate(STAGES)}
         print(f"  {label}, timing fitted:       {_fit(truth, prior, recordings, {})}",
               flush=True)
