@@ -33,6 +33,8 @@ from trimd.identify.validation import validate
 
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 10.0)))
 VALIDATE_S = size(120.0, 5.0)
+#: The fit's settings: the defaults, a few iterations at the tiny size.
+FIT = size(FitOptions(), FitOptions(max_iter=2))
 
 #: docs/method.md §5: thesis estimates of the Sabertooth parameters (simulation).
 THESIS = {"X_u": -117.8, "Y_v": -289.1, "X_u|u|": -280.7, "Y_v|v|": -979.3,
@@ -82,7 +84,7 @@ def _stage(profile: Profile, stage: str) -> tuple[bool, float, float]:
     fit_data = _record(profile, stage, FIT_S, 11)
     val_data = _record(profile, stage, VALIDATE_S, 12)
     t0 = time.perf_counter()
-    fit = fit_stage(fit_data, profile, stage)
+    fit = fit_stage(fit_data, profile, stage, FIT)
     t_fit = time.perf_counter() - t0
     t_sim = _forward_time(fit, fit_data, profile, stage)
     t0 = time.perf_counter()

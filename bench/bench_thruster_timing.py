@@ -18,18 +18,18 @@ command within 20 ms and the same vehicle's inertia sums come out within about 1
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
 
-from bench.bench_unseen_vehicles import FIT_S, record
+from bench.bench_unseen_vehicles import FIT, FIT_S, record
 from bench.size import size
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.core.samples import Sample
 from trimd.drivers.sim.config import SimConfig
 from trimd.identify.data import experiments_from_samples
-from trimd.identify.fit import FitOptions
 from trimd.identify.model import HYDRO_NAMES, LAG, LEAD, STAGES, prior_values
 from trimd.identify.report import best_values
 from trimd.identify.staged import fit_stages
@@ -42,7 +42,7 @@ LEADS_S = size((0.090, 0.095, 0.100), (0.095,))
 def _fit(truth: Profile, prior: Profile, recordings: dict[str, list[Sample]],
          fixed: dict[str, float]) -> str:
     fits = fit_stages({st: experiments_from_samples(s, prior) for st, s in recordings.items()},
-                      prior, FitOptions(fixed=fixed))
+                      prior, dataclasses.replace(FIT, fixed=fixed))
     values = prior_values(prior) | best_values(fits)
     true = prior_values(truth)
     sums = "  ".join(f"{n} {100 * (values[n] / true[n] - 1):+6.2f} %"

@@ -51,6 +51,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.envelope import STOP_EARLY
 from trimd.identify.experiment import STREAM_HZ, Excite
+from trimd.identify.fit import FitOptions
 from trimd.identify.model import (
     DVL_DOFS,
     HYDRO_NAMES,
@@ -88,6 +89,8 @@ ENVELOPE_M = 5.0
 #: The buoyancy of a random vehicle is the prior's times a factor in 1 ± this.
 BUOYANCY_SPREAD = 0.01
 VALIDATE_S = size(120.0, 5.0)
+#: The fit's settings: the defaults, a few iterations at the tiny size.
+FIT = size(FitOptions(), FitOptions(max_iter=2))
 SPEEDS = (0.15, 0.4)
 PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES",
                           size("bluerov2-heavy,sabertooth-dh2", "sabertooth-dh2")).split(",")
@@ -129,7 +132,7 @@ def _judge(truth: Profile, prior: Profile, recordings: dict[str, tuple[list[Samp
 
     statics = statics_of_profile(truth)   # as the vehicle's trim measures them
     t0 = time.perf_counter()
-    fits = fit_stages({st: exps(fit) for st, (fit, _) in recordings.items()}, prior,
+    fits = fit_stages({st: exps(fit) for st, (fit, _) in recordings.items()}, prior, FIT,
                       statics=statics)
     t_fit = time.perf_counter() - t0
     values = prior_values(prior) | best_values(fits)   # as `trimd identify` writes them

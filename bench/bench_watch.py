@@ -122,8 +122,8 @@ def leak(options: str, seeds: int, seconds: float = 1200.0) -> list[float]:
 
 def main() -> None:
     seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", size(3, 1)))
-    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.1)))
+    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.05)))
     options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
     no_change(options, seeds, hours)
     leak(options, int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1))),
-         size(1200.0, 360.0))
+         size(1200.0, 320.0))

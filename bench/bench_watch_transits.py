@@ -93,6 +93,6 @@ def main() -> None:
     no_change(options, seeds, hours, tally)
     print(tally.summary())
     delays = leak(options, int(os.environ.get("TRIMD_WATCH_TRANSIT_LEAK_SEEDS", size(2, 1))),
-                  size(1200.0, 360.0))
+                  size(1200.0, 320.0))
     within = sum(d <= LEAK_WITHIN_S for d in delays)
     print(f"leak alerted within {LEAK_WITHIN_S:g} s of its start: {within} of {len(delays)}")

@@ -22,7 +22,7 @@ from trimd.drivers.mavlink.decode import LIMITS, MavlinkDecoder
 from trimd.logs.tlog import TlogReader
 
 settings.register_profile(
-    "trimd-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "10000")),
+    "trimd-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "3000")),
     deadline=None, suppress_health_check=[HealthCheck.too_slow])
 FUZZ = settings.get_profile("trimd-fuzz")
 

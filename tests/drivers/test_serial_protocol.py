@@ -50,7 +50,7 @@ from trimd.drivers.serial.protocol import (
 )
 
 settings.register_profile(
-    "trimd-serial-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "10000")),
+    "trimd-serial-fuzz", max_examples=int(os.environ.get("TRIMD_FUZZ_EXAMPLES", "3000")),
     deadline=None, suppress_health_check=[HealthCheck.too_slow])
 FUZZ = settings.get_profile("trimd-serial-fuzz")
 
