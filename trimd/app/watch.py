@@ -27,6 +27,7 @@ from trimd.app.announce import WatchAnnouncer
 from trimd.core.errors import LinkError
 from trimd.core.link import Announces, Link
 from trimd.core.profile import Profile
+from trimd.core.samples import Sample
 from trimd.core.watch import (
     DEPTH_HOLD_MODES,
     MIN_SEGMENT_S,
@@ -36,9 +37,39 @@ from trimd.core.watch import (
 )
 from trimd.logs.replay import ReplayLink
 
-__all__ = ["Record", "format_record", "verdict", "watch_link", "watch_log", "write_watch_plot"]
+__all__ = ["LiveWatch", "Record", "format_record", "verdict", "watch_link", "watch_log",
+           "write_watch_plot"]
 
 Record = WatchSegment | WatchAlert
+
+
+class LiveWatch:
+    """A watch fed from a live link: each sample's records go to ``emit`` and, when the
+    link announces (:class:`~trimd.core.link.Announces`), to the pilot's ground station
+    (:class:`~trimd.app.announce.WatchAnnouncer`). Commands nothing."""
+
+    def __init__(self, link: Link, watch: TrimWatch, emit: Callable[[Record], None]) -> None:
+        self.watch = watch
+        self._emit = emit
+        self._announcer = (WatchAnnouncer(link.announce, watch) if isinstance(link, Announces)
+                           else None)
+
+    def feed(self, s: Sample) -> None:
+        """One sample."""
+        records = self.watch.feed(s)
+        for record in records:
+            self._emit(record)
+        if self._announcer is not None:
+            self._announcer.sample(s)
+            self._announcer.records(records)
+
+    def finish(self) -> None:
+        """The end of the samples: the records still pending."""
+        records = self.watch.finish()
+        for record in records:
+            self._emit(record)
+        if self._announcer is not None:
+            self._announcer.records(records)
 
 
 async def watch_link(link: Link, watch: TrimWatch, emit: Callable[[Record], None], *,
@@ -47,27 +78,18 @@ async def watch_link(link: Link, watch: TrimWatch, emit: Callable[[Record], None
     time has passed since the first sample, or ``stop`` is set; then the rest. Commands
     nothing. A lost link is reported (Health) and waited for, as the vehicle may return."""
     t0 = math.nan
-    announcer = WatchAnnouncer(link.announce, watch) if isinstance(link, Announces) else None
+    live = LiveWatch(link, watch, emit)
     try:
         async for s in link.samples():
             if math.isnan(t0):
                 t0 = s.t_s
-            records = watch.feed(s)
-            for record in records:
-                emit(record)
-            if announcer is not None:
-                announcer.sample(s)
-                announcer.records(records)
+            live.feed(s)
             if (until_s is not None and s.t_s - t0 >= until_s) or (
                     stop is not None and stop.is_set()):
                 break
     except LinkError as exc:
         watch.notes.append(f"link ended: {exc}")
-    records = watch.finish()
-    for record in records:
-        emit(record)
-    if announcer is not None:
-        announcer.records(records)
+    live.finish()
 
 
 def watch_log(path: str, profile: Profile, watch: TrimWatch,

@@ -19,13 +19,24 @@ from typing import NoReturn
 
 from trimd import __version__
 from trimd.app.jsonlines import error_line, print_json
-from trimd.cli import ballast, history, identify, inspect, replay, run, sim, solve, watch
+from trimd.cli import (
+    ballast,
+    history,
+    identify,
+    inspect,
+    replay,
+    run,
+    serve,
+    sim,
+    solve,
+    watch,
+)
 from trimd.core.errors import LinkError, NoResultError, TrimdError, UsageError
 
 __all__ = ["main"]
 
 #: Modules that provide sub-commands, in the order ``trimd --help`` lists them.
-COMMANDS = (run, watch, replay, solve, ballast, history, sim, inspect, identify)
+COMMANDS = (run, watch, serve, replay, solve, ballast, history, sim, inspect, identify)
 
 
 class _Parser(argparse.ArgumentParser):

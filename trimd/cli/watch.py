@@ -47,7 +47,7 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.core.watch import FALSE_ALARMS_PER_H, MAX_SEGMENT_S, TrimWatch, WatchAlert
 
-__all__ = ["register", "run"]
+__all__ = ["add_watch_args", "new_watch", "register", "run"]
 
 
 def register(sub: Any) -> None:
@@ -67,13 +67,20 @@ def register(sub: Any) -> None:
                    "(with several logs: FILE-1.png, FILE-2.png, …)")
     p.add_argument("--duration", type=bounded(0.0), metavar="S",
                    help="live: stop after S seconds of sample time")
+    p.add_argument("--no-history", action="store_true", help="do not store the segments and "
+                   "alerts in the trim history")
+    add_history_args(p)
+    add_watch_args(p)
+    p.set_defaults(func=run)
+
+
+def add_watch_args(p: argparse.ArgumentParser) -> None:
+    """The options of the watch itself, shared with ``trimd serve``: its baseline and its
+    change test."""
     p.add_argument("--baseline", metavar="EST.json", help="compare with this estimate "
                    "(trimd solve --json), or 'last': the vehicle's latest measurement in the "
                    "history (its last trim, or a verify hold of its ballast if newer), "
                    "instead of the first segments")
-    p.add_argument("--no-history", action="store_true", help="do not store the segments and "
-                   "alerts in the trim history")
-    add_history_args(p)
     p.add_argument("--baseline-segments", type=int, default=3, metavar="N",
                    help="level segments that form the baseline (default 3)")
     p.add_argument("--max-segment", type=bounded(10.0), default=MAX_SEGMENT_S, metavar="S",
@@ -81,7 +88,6 @@ def register(sub: Any) -> None:
     p.add_argument("--false-alarms-per-h", type=bounded(0.0), default=FALSE_ALARMS_PER_H,
                    metavar="R", help="target false-alarm rate of the change test "
                    f"(default {FALSE_ALARMS_PER_H:g} per hour)")
-    p.set_defaults(func=run)
 
 
 def _baseline(args: argparse.Namespace, profile: Profile) -> Baseline | None:
@@ -102,7 +108,9 @@ def _baseline(args: argparse.Namespace, profile: Profile) -> Baseline | None:
     return baseline_from_estimate(estimate_from_dict(data, path), f"the estimate in {path}")
 
 
-def _new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
+def new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
+    """A watch with the options of :func:`add_watch_args`; ``clock`` names a sample time
+    [s] for people (None: ``t = … s``)."""
     kwargs = {"clock": clock} if clock is not None else {}
     return TrimWatch(profile, baseline=_baseline(args, profile),
                      baseline_segments=args.baseline_segments, max_segment_s=args.max_segment,
@@ -121,10 +129,8 @@ class _Store:
     def __call__(self, r: Record) -> None:
         if self.history is None:
             return
-        record = (self.history.record_alert if isinstance(r, WatchAlert)
-                  else self.history.record_watch_segment)
         try:
-            record(self.vehicle, time.time(), r.to_dict())
+            self.history.record_watch(self.vehicle, time.time(), r.to_dict())
         except DataError as exc:
             print(f"trimd: warning: the watch is not stored in the history: {exc}",
                   file=sys.stderr)
@@ -174,7 +180,7 @@ async def _live(args: argparse.Namespace, profile: Profile, tui: bool, store: _S
     if scheme == "mavlink" and "pilot=always" in rest:
         raise LinkError("trimd watch sends no MANUAL_CONTROL: drop pilot=always from the URL")
     link = await open_link(args.link, profile)
-    watch = _new_watch(args, profile, _wall_clock() if scheme == "mavlink" else None)
+    watch = new_watch(args, profile, _wall_clock() if scheme == "mavlink" else None)
     if tui:
         from trimd.tui.watch_app import WatchApp
 
@@ -218,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
         for k, path in enumerate(args.logs):
             if not Path(path).is_file():
                 raise DataError(f"{path}: no such file")
-            watch = _new_watch(args, profile)
+            watch = new_watch(args, profile)
             for warning in watch_log(path, profile, watch, _emitter(args.json, store)):
                 print(f"trimd: warning: {warning}", file=sys.stderr)
             code = max(code, _finish(watch, args, path,

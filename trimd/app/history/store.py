@@ -144,6 +144,11 @@ class History:
         """Store one watch alert; a ``"text"`` value is what ``trimd history`` shows."""
         return self._event("alerts", vehicle, t_unix, values)
 
+    def record_watch(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
+        """Store a watch record's ``to_dict``: an alert (``type`` ``alert``) or a segment."""
+        record = self.record_alert if values.get("type") == "alert" else self.record_watch_segment
+        return record(vehicle, t_unix, values)
+
     def record_verify(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
         """Store one verify hold's outcome (measured against predicted residual trim)."""
         return self._event("verifications", vehicle, t_unix, values)
