@@ -1,0 +1,85 @@
+"""``trimd serve`` as a process, for the tests: started on a free port, asked over HTTP,
+waited on without timed assertions (a generous hang guard only)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tests.helpers import REPO
+
+#: the longest any wait may take before the test fails as hung [s, wall clock]
+HANG_GUARD_S = 180.0
+#: a dive whose leak raises an alert soon: 2 N/min from 300 s of simulated time
+LEAKY_DIVE = "sim:pilot=dive,leak_N_min=2,leak_start_s=300"
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class Serve:
+    """One ``trimd serve`` process (``argv`` after ``trimd``, or a whole command line)."""
+
+    def __init__(self, argv: list[str], port: int, env: dict[str, str] | None = None) -> None:
+        self.port = port
+        self.log = Path(os.environ.get("TMPDIR", "/tmp")) / f"trimd-serve-{port}.log"
+        self._out = self.log.open("wb")
+        self.proc = subprocess.Popen(argv, stdout=self._out, stderr=subprocess.STDOUT,
+                                     env={**os.environ, "PYTHONPATH": str(REPO), **(env or {})})
+
+    @classmethod
+    def sim(cls, data: Path, link: str = LEAKY_DIVE, *extra: str) -> Serve:
+        port = free_tcp_port()
+        return cls([sys.executable, "-m", "trimd", "serve", "--link", link, "--profile",
+                    "bluerov2-heavy", "--data", str(data), "--host", "127.0.0.1", "--port",
+                    str(port), "--sim-rate", "max", *extra], port)
+
+    def get(self, path: str) -> Any:
+        """The JSON of ``GET path``, or None while the service does not answer."""
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{self.port}{path}", timeout=10) as r:
+                return json.loads(r.read())
+        except (urllib.error.URLError, ConnectionError, TimeoutError):
+            return None
+
+    def wait_for(self, path: str, until: Callable[[Any], bool]) -> Any:
+        """Poll ``path`` until ``until(json)`` holds; the JSON then."""
+        deadline = time.monotonic() + HANG_GUARD_S
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"trimd serve exited {self.proc.returncode}: "
+                                     f"{self.output()}")
+            data = self.get(path)
+            if data is not None and until(data):
+                return data
+            time.sleep(0.3)
+        raise AssertionError(f"hang guard: {path} never held; output: {self.output()}")
+
+    def output(self) -> str:
+        """What the process printed so far (stdout and stderr)."""
+        return self.log.read_text(encoding="utf-8", errors="replace")
+
+    def stop(self, sig: int = signal.SIGTERM) -> int:
+        """Send ``sig``; the exit code (killed after the hang guard)."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        try:
+            return self.proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            raise
+        finally:
+            self._out.close()
