@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast bench lint install clean
+.PHONY: demo test test-fast bench lint install browser clean
 
 # MAVProxy (the ground-station-in-the-loop tests) without its declared dependencies, which
 # pull in GUI libraries: its --daemon --non-interactive mode needs only pymavlink.
@@ -16,6 +16,12 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# The browser the page test drives (tests/app/test_serve_browser.py): Debian's chromium when
+# apt can install it, else playwright's own build.
+browser: $(STAMP)
+	command -v chromium >/dev/null || apt-get install -y chromium || \
+		$(BIN)/python -m playwright install chromium
 
 # The full trim procedure on the simulated Sabertooth with 10 kg at AftSB: the terminal UI
 # when a terminal is attached, headless progress otherwise.

@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 import sysconfig
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -43,6 +44,8 @@ def test_the_wheel_runs_outside_the_checkout(tmp_path: Path) -> None:
     _run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", dist, REPO],
          cwd=work)
     (wheel,) = dist.glob("trimd-*.whl")
+    page = {f"trimd/app/web/static/{f}" for f in ("index.html", "app.js", "style.css")}
+    assert page <= set(zipfile.ZipFile(wheel).namelist())   # trimd serve's page
     _run([sys.executable, "-m", "venv", "--without-pip", venv], cwd=work)
     python = venv / "bin" / "python"
     site = _run([python, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],

@@ -117,7 +117,7 @@ def test_the_blueos_entry_point_runs_as_the_dockerfile_says(tmp_path: Path) -> N
     and a simulated ArduSub sending to its MAVLink port as BlueOS's router would."""
     env, cmd = _dockerfile()
     assert cmd[0] == "trimd" and env["TRIMD_LINK"].startswith("mavlink:udpin:0.0.0.0:")
-    port = int(env["TRIMD_LINK"].rsplit(":", 1)[1])
+    port = int(env["TRIMD_LINK"].partition("?")[0].rsplit(":", 1)[1])
     serve = Serve([sys.executable, "-m", "trimd", *cmd[1:]], 8970,
                   {**env, "TRIMD_DATA_DIR": str(tmp_path)})
     vehicle = subprocess.Popen([*TRIMD, "sim", "--profile", env["TRIMD_PROFILE"], "--serve",
