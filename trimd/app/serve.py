@@ -46,20 +46,28 @@ Clock = Callable[[float], str]
 
 
 def dive_id(t_unix: float) -> str:
-    """A dive's id: its start as ``YYYYmmddTHHMMSSZ`` (UTC)."""
-    return datetime.fromtimestamp(t_unix, UTC).strftime("%Y%m%dT%H%M%SZ")
+    """A dive's id: its start as ``YYYYmmddTHHMMSS.mmmZ`` (UTC, to the millisecond).
+
+    Examples
+    --------
+    >>> dive_id(1795732920.9129)
+    '20261126T224200.912Z'
+    """
+    return datetime.fromtimestamp(t_unix, UTC).strftime("%Y%m%dT%H%M%S.%f")[:-3] + "Z"
 
 
 @dataclass
 class Dive:
-    """One dive: its id, start [s since the Unix epoch], watch, recording and first sample
-    time [s, the link's clock]; ``ended_unix`` once it is over."""
+    """One dive: its id, start [s since the Unix epoch], watch, recording, first sample
+    time [s, the link's clock] and dive time of the latest sample [s]; ``ended_unix`` once
+    it is over."""
 
     id: str
     started_unix: float
     watch: LiveWatch
     recorder: TlogRecorder
     t0_s: float
+    duration_s: float = 0.0
     ended_unix: float | None = None
 
 
@@ -172,7 +180,8 @@ class Service:
                 self._end_dive("disarmed" if s.connected else "heartbeat lost")
         dive = self.dive
         if dive is not None:
-            stored = dive.recorder.sample(dataclasses.replace(s, t_s=s.t_s - dive.t0_s))
+            dive.duration_s = s.t_s - dive.t0_s
+            stored = dive.recorder.sample(dataclasses.replace(s, t_s=dive.duration_s))
             dive.watch.feed(stored)
 
     def _start_dive(self, link: Link, t_s: float) -> None:

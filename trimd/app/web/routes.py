@@ -54,7 +54,8 @@ def _finite(x: float) -> float | None:
 def _dive_dict(d: Dive) -> dict[str, Any]:
     w = d.watch.watch
     return {"id": d.id, "started_unix": d.started_unix, "started_utc": utc_text(d.started_unix),
-            "ended_unix": d.ended_unix, "recording": d.recorder.path,
+            "ended_unix": d.ended_unix, "duration_s": d.duration_s,
+            "recording": d.recorder.path,
             "segments": len(w.segments), "alerts": len(w.alerts)}
 
 

@@ -1,0 +1,86 @@
+"""``trimd serve``'s service and routes in process: dives follow the vehicle's arming and
+heartbeat, and the JSON routes answer from the history (a trim's report included) and
+refuse bad requests with a JSON error."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+from typing import Any
+
+from aiohttp.test_utils import TestClient, TestServer
+
+from tests.helpers import REPO
+from trimd.app.history import History
+from trimd.app.serve import Service
+from trimd.app.web import make_app
+from trimd.core.profile_yaml import load_profile, read_profile_text
+from trimd.core.samples import Health
+from trimd.core.watch import TrimWatch
+
+GOLDEN = REPO / "tests" / "data" / "golden" / "sabertooth-10kg-aftsb.expected.json"
+PROFILE = "sabertooth-dh2"
+
+
+class Quiet:
+    """A link that is never read: the service is fed samples by the test."""
+
+    description = "a test link"
+
+
+def _service(tmp_path: Path, history: History) -> Service:
+    profile = load_profile(PROFILE)
+    return Service("mavlink:udpin:127.0.0.1:1", profile, read_profile_text(PROFILE)[0],
+                   tmp_path, history, PROFILE, lambda clock: TrimWatch(profile, clock=clock),
+                   log=lambda line: None)
+
+
+def _health(t_s: float, connected: bool, armed: bool) -> Health:
+    return Health(t_s, connected, "ALT_HOLD", armed)
+
+
+def test_a_dive_is_armed_with_the_heartbeat_coming(tmp_path: Path) -> None:
+    with History(tmp_path / "trimd.db") as history:
+        service = _service(tmp_path, history)
+        link: Any = Quiet()
+        service.sample(link, _health(10.0, True, False))
+        assert service.dive is None
+        for t, connected, armed in [(11.0, True, True), (15.0, True, True), (20.0, True, False),
+                                    (21.0, True, True), (30.0, False, False)]:
+            service.sample(link, _health(t, connected, armed))
+        assert service.dive is None and len(service.past) == 2
+        first, second = service.past
+        assert first.id != second.id and first.duration_s == 4.0
+        assert all(Path(d.recorder.path).stat().st_size > 0 for d in service.past)
+
+
+async def _get(service: Service, path: str) -> tuple[int, Any]:
+    async with TestClient(TestServer(make_app(service))) as client:
+        r = await client.get(path)
+        return r.status, json.loads(await r.text())
+
+
+def test_the_routes_answer_from_the_history(tmp_path: Path) -> None:
+    golden = json.loads(GOLDEN.read_text(encoding="utf-8"))
+    with History(tmp_path / "trimd.db") as history:
+        history.record_trim(PROFILE, PROFILE, 1000.0, golden["estimate"], golden["proposal"])
+        history.record_verify(PROFILE, 2000.0, {"message": "level, as predicted"})
+        history.record_alert(PROFILE, 3000.0, {"type": "alert", "text": "heavier", "dive": "D"})
+        service = _service(tmp_path, history)
+
+        def get(path: str) -> tuple[int, Any]:
+            return asyncio.run(_get(service, path))
+
+        code, report = get("/api/trims/-1/report")
+        assert code == 200 and "extra mass m_ext" in report["estimate_text"]
+        assert report["proposal"]["method"] == golden["proposal"]["method"]
+        assert [v["message"] for v in report["verifications"]] == ["level, as predicted"]
+        code, status = get("/api/status")
+        assert code == 200 and not status["connected"] and status["alerts"] == 1
+        assert get("/api/segments")[1]["alerts"][0]["text"] == "heavier"
+        assert [d["id"] for d in get("/api/dives")[1]["dives"]] == ["D"]
+        for path, want in [("/api/trims/1/report", 404), ("/api/trims/x/report", 400),
+                           ("/api/segments?dive=nope", 404)]:
+            code, body = get(path)
+            assert code == want and body["error"], (path, body)
