@@ -114,16 +114,21 @@ def _dockerfile() -> tuple[dict[str, str], list[str]]:
 
 def test_the_blueos_entry_point_runs_as_the_dockerfile_says(tmp_path: Path) -> None:
     """The CMD with the image's ENV (only the data volume moved to a temporary folder),
-    and a simulated ArduSub sending to its MAVLink port as BlueOS's router would."""
+    and a simulated ArduSub sending to its MAVLink port as BlueOS's router would; the
+    autopilot rebooting (its process stopped and started again) is followed."""
     env, cmd = _dockerfile()
     assert cmd[0] == "trimd" and env["TRIMD_LINK"].startswith("mavlink:udpin:0.0.0.0:")
     port = int(env["TRIMD_LINK"].partition("?")[0].rsplit(":", 1)[1])
     serve = Serve([sys.executable, "-m", "trimd", *cmd[1:]], 8970,
                   {**env, "TRIMD_DATA_DIR": str(tmp_path)})
-    vehicle = subprocess.Popen([*TRIMD, "sim", "--profile", env["TRIMD_PROFILE"], "--serve",
-                                f"mavlink:udpout:127.0.0.1:{port}", "--rate", "10"],
-                               env={**os.environ, "PYTHONPATH": str(REPO)},
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    def vehicle() -> subprocess.Popen[bytes]:
+        return subprocess.Popen([*TRIMD, "sim", "--profile", env["TRIMD_PROFILE"], "--serve",
+                                 f"mavlink:udpout:127.0.0.1:{port}", "--rate", "10"],
+                                env={**os.environ, "PYTHONPATH": str(REPO)},
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    autopilot = vehicle()
     try:
         status = serve.wait_for("/api/status", lambda s: s["connected"])
         assert status["link"] == env["TRIMD_LINK"] and status["data"] == str(tmp_path)
@@ -131,10 +136,15 @@ def test_the_blueos_entry_point_runs_as_the_dockerfile_says(tmp_path: Path) -> N
         service = serve.get("/register_service")
         assert {"name", "description", "icon", "company", "version", "webpage",
                 "api"} <= set(service)
+        autopilot.terminate()
+        autopilot.wait(timeout=30)
+        serve.wait_for("/api/status", lambda s: not s["connected"])
+        autopilot = vehicle()
+        serve.wait_for("/api/status", lambda s: s["connected"])
     finally:
         code = serve.stop()
-        vehicle.terminate()
-        vehicle.wait(timeout=30)
+        autopilot.terminate()
+        autopilot.wait(timeout=30)
     assert code == 0, serve.output()
 
 
