@@ -184,18 +184,30 @@ class History:
         return [TrimRecord(r[0], r[1], r[2], r[3], json.loads(r[4]),
                            None if r[5] is None else json.loads(r[5]), r[6]) for r in rows]
 
-    def _events(self, table: str, vehicle: str) -> list[EventRecord]:
+    def _events(self, table: str, vehicle: str, dive: str | None = None) -> list[EventRecord]:
+        where = "" if dive is None else " AND json_extract(values_json, '$.dive') = ?"
         rows = self._conn.execute(f"SELECT id, vehicle, t_unix, values_json FROM {table} "
-                                  "WHERE vehicle = ? ORDER BY t_unix, id", (vehicle,))
+                                  f"WHERE vehicle = ?{where} ORDER BY t_unix, id",
+                                  (vehicle,) if dive is None else (vehicle, dive))
         return [EventRecord(r[0], r[1], r[2], json.loads(r[3])) for r in rows]
 
-    def watch_segments(self, vehicle: str) -> list[EventRecord]:
-        """The vehicle's watch segments, oldest first."""
-        return self._events("watch_segments", vehicle)
+    def watch_segments(self, vehicle: str, dive: str | None = None) -> list[EventRecord]:
+        """The vehicle's watch segments (of the dive ``dive`` of ``trimd serve`` when
+        given), oldest first."""
+        return self._events("watch_segments", vehicle, dive)
 
-    def alerts(self, vehicle: str) -> list[EventRecord]:
-        """The vehicle's watch alerts, oldest first."""
-        return self._events("alerts", vehicle)
+    def alerts(self, vehicle: str, dive: str | None = None) -> list[EventRecord]:
+        """The vehicle's watch alerts (of the dive ``dive`` when given), oldest first."""
+        return self._events("alerts", vehicle, dive)
+
+    def dives(self, vehicle: str) -> list[str]:
+        """The ids of the dives (``trimd serve``) with a watch record of the vehicle, sorted."""
+        rows = self._conn.execute(
+            " UNION ".join(f"SELECT json_extract(values_json, '$.dive') AS d FROM {t} "
+                           "WHERE vehicle = ? AND d IS NOT NULL"
+                           for t in ("watch_segments", "alerts")) + " ORDER BY d",
+            (vehicle, vehicle))
+        return [str(r[0]) for r in rows]
 
     def verifications(self, vehicle: str) -> list[EventRecord]:
         """The vehicle's verify outcomes, oldest first."""

@@ -90,8 +90,7 @@ async def status(request: web.Request) -> web.Response:
 
 def _dive_ids(s: Service) -> list[str]:
     """Every dive with a record in the history, and the running one, oldest first."""
-    ids = {str(r.values["dive"]) for r in [*s.history.watch_segments(s.vehicle),
-                                           *s.history.alerts(s.vehicle)] if "dive" in r.values}
+    ids = set(s.history.dives(s.vehicle))
     if s.dive is not None:
         ids.add(s.dive.id)
     return sorted(ids)
@@ -116,9 +115,8 @@ async def segments(request: web.Request) -> web.Response:
     ident = request.query.get("dive") or (ids[-1] if ids else "")
     if ident and ident not in ids:
         raise _error(web.HTTPNotFound, f"no dive {ident!r} (GET /api/dives lists them)")
-    pick = [_event(r) for r in s.history.watch_segments(s.vehicle)
-            if r.values.get("dive") == ident]
-    alerts = [_event(r) for r in s.history.alerts(s.vehicle) if r.values.get("dive") == ident]
+    pick = [_event(r) for r in s.history.watch_segments(s.vehicle, ident)]
+    alerts = [_event(r) for r in s.history.alerts(s.vehicle, ident)]
     running = s.dive is not None and s.dive.id == ident
     return web.json_response({"dive": ident or None, "running": running,
                               "baseline": _baseline(s.dive) if running and s.dive else None,

@@ -105,6 +105,10 @@ function drawTrim(r) {
   document.getElementById("trim").textContent = text;
 }
 
+// The history and the last trim change rarely: read every HISTORY_EVERY-th refresh.
+const HISTORY_EVERY = 5;
+let refreshes = 0;
+
 async function refresh() {
   const st = document.getElementById("status");
   try {
@@ -112,12 +116,15 @@ async function refresh() {
     st.textContent = s.connected ? `${s.vehicle}: ${s.mode}, ${s.armed ? "armed (dive " + (s.dive ? s.dive.id : "?") + ")" : "disarmed"}`
                                  : `${s.vehicle}: no vehicle${s.link_error ? " (" + s.link_error + ")" : ""}`;
     st.className = s.connected ? "status ok" : "status bad";
-    const [a, d, h] = await Promise.all([get("api/alerts"), get("api/segments"), get("api/history")]);
+    const [a, d] = await Promise.all([get("api/alerts"), get("api/segments")]);
     listItems("alerts", a.alerts.slice().reverse().map(x => `${x.time_utc}: ${x.text}`), "alert", "none");
     drawDive(d);
-    drawHistory(h);
-    const mine = h.vehicles.find(v => v.vehicle === s.vehicle);
-    if (mine && mine.trims.length) drawTrim(await get("api/trims/-1/report"));
+    if (refreshes++ % HISTORY_EVERY === 0) {
+      const h = await get("api/history");
+      drawHistory(h);
+      const mine = h.vehicles.find(v => v.vehicle === s.vehicle);
+      if (mine && mine.trims.length) drawTrim(await get("api/trims/-1/report"));
+    }
   } catch (e) {
     st.textContent = `trimd not answering: ${e.message}`;
     st.className = "status bad";
