@@ -96,7 +96,12 @@ def test_a_kill_9_mid_dive_loses_no_stored_record(tmp_path: Path) -> None:
     # the killed dive is listed with its records and recording; the new one runs
     killed = before["vehicles"][0]["watch_segments"][0]["dive"]
     assert dives[0]["id"] == killed and dives[-1]["id"] == status["dive"]["id"]
-    assert Path(dives[0]["recording"]).stat().st_size > 0
+    # its recording, cut by the kill, is a log trimd watch reads
+    replay = subprocess.run([*TRIMD, "watch", dives[0]["recording"], "--profile",
+                             "bluerov2-heavy", "--json", "--no-history"], capture_output=True,
+                            text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert replay.returncode == 0, replay.stderr
+    assert any(json.loads(line)["type"] == "segment" for line in replay.stdout.splitlines())
 
 
 def _dockerfile() -> tuple[dict[str, str], list[str]]:
