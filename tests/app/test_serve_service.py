@@ -52,7 +52,7 @@ def test_a_dive_is_armed_with_the_heartbeat_coming(tmp_path: Path) -> None:
         assert service.dive is None and len(service.past) == 2
         first, second = service.past
         assert first.id != second.id and first.duration_s == 4.0
-        assert all(Path(d.recorder.path).stat().st_size > 0 for d in service.past)
+        assert all(d.recording.stat().st_size > 0 for d in service.past)
 
 
 async def _get(service: Service, path: str) -> tuple[int, Any]:
@@ -84,3 +84,16 @@ def test_the_routes_answer_from_the_history(tmp_path: Path) -> None:
                            ("/api/segments?dive=nope", 404)]:
             code, body = get(path)
             assert code == want and body["error"], (path, body)
+
+
+def test_a_dive_the_disk_refuses_is_watched_unrecorded(tmp_path: Path) -> None:
+    (tmp_path / "dives").write_text("not a folder")
+    lines: list[str] = []
+    with History(tmp_path / "trimd.db") as history:
+        service = _service(tmp_path, history)
+        service._log = lines.append
+        link: Any = Quiet()
+        for t, armed in [(1.0, True), (2.0, True), (3.0, False)]:
+            service.sample(link, _health(t, True, armed))
+    assert len(service.past) == 1 and service.past[0].duration_s == 1.0
+    assert any("not recorded" in line for line in lines), lines

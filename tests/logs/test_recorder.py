@@ -149,3 +149,19 @@ def test_body_velocity_is_recorded_as_odometry(tmp_path: Path, bluerov: Profile)
             odo = m
     assert odo is not None and odo.child_frame_id == 12  # MAV_FRAME_BODY_FRD
     assert (odo.vx, odo.vy, odo.vz) == (back.u, back.v, back.w)  # type: ignore[union-attr]
+
+
+def test_a_dive_longer_than_the_uint32_microsecond_clock_is_recorded(
+        tmp_path: Path, bluerov: Profile) -> None:
+    """SERVO_OUTPUT_RAW's time_usec wraps after 2³² µs (71.6 min; trimd serve records whole
+    dives): the record is written, and its stamp still says the session time."""
+    path = tmp_path / "long.tlog"
+    rec = TlogRecorder(path, bluerov, (PROFILES / "bluerov2-heavy.yaml").read_text())
+    rec.sample(Thrusters(5000.0, (1500.0,) * 8))
+    rec.close()
+    mav = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
+    stamps = []
+    while (m := mav.recv_match()) is not None:
+        stamps.append((m.get_type(), m._timestamp))
+    servo = next(t for kind, t in stamps if kind == "SERVO_OUTPUT_RAW")
+    assert round(servo - stamps[0][1], 6) == 5000.0

@@ -58,14 +58,15 @@ def dive_id(t_unix: float) -> str:
 
 @dataclass
 class Dive:
-    """One dive: its id, start [s since the Unix epoch], watch, recording, first sample
-    time [s, the link's clock] and dive time of the latest sample [s]; ``ended_unix`` once
-    it is over."""
+    """One dive: its id, start [s since the Unix epoch], watch, recording (its path, and
+    its recorder while it records), first sample time [s, the link's clock] and dive time
+    of the latest sample [s]; ``ended_unix`` once it is over."""
 
     id: str
     started_unix: float
     watch: LiveWatch
-    recorder: TlogRecorder
+    recording: Path
+    recorder: TlogRecorder | None
     t0_s: float
     duration_s: float = 0.0
     ended_unix: float | None = None
@@ -181,24 +182,43 @@ class Service:
         dive = self.dive
         if dive is not None:
             dive.duration_s = s.t_s - dive.t0_s
-            stored = dive.recorder.sample(dataclasses.replace(s, t_s=dive.duration_s))
-            dive.watch.feed(stored)
+            dive.watch.feed(self._record(dive, dataclasses.replace(s, t_s=dive.duration_s)))
+
+    def _record(self, dive: Dive, s: Sample) -> Sample:
+        """``s`` written to the dive's recording, as stored; a recording the disk refuses
+        stops (told once) and the watch goes on."""
+        if dive.recorder is None:
+            return s
+        try:
+            return dive.recorder.sample(s)
+        except OSError as exc:
+            self._log(f"warning: dive {dive.id}: recording stopped ({exc}); the watch goes on")
+            with contextlib.suppress(OSError):
+                dive.recorder.close()
+            dive.recorder = None
+            return s
 
     def _start_dive(self, link: Link, t_s: float) -> None:
         now = time.time()
         ident = dive_id(now)
         path = self.data / "dives" / f"{ident}-{_safe(self.vehicle)}.tlog"
-        recorder = TlogRecorder(path, self.profile, self._profile_yaml)
         watch = LiveWatch(link, self._new_watch(dive_clock(now)), self._store)
-        self.dive = Dive(ident, now, watch, recorder, t_s)
-        self._log(f"dive {ident} started: recording {path}")
+        try:
+            recorder: TlogRecorder | None = TlogRecorder(path, self.profile, self._profile_yaml)
+            self._log(f"dive {ident} started: recording {path}")
+        except OSError as exc:
+            recorder = None
+            self._log(f"warning: dive {ident} started, not recorded: {exc}")
+        self.dive = Dive(ident, now, watch, path, recorder, t_s)
 
     def _end_dive(self, why: str) -> None:
         dive = self.dive
         if dive is None:
             return
         dive.watch.finish()
-        dive.recorder.close()
+        if dive.recorder is not None:
+            with contextlib.suppress(OSError):
+                dive.recorder.close()
         dive.ended_unix = time.time()
         self.past.append(dive)
         self.dive = None

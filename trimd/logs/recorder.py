@@ -165,7 +165,10 @@ class TlogRecorder:
             servos = [0] * 16
             for ch, p in zip(self._channels, pwm, strict=True):
                 servos[ch - 1] = p
-            self._write(s.t_s, v, v.servo_output_raw_encode(int(s.t_s * 1e6), 0, *servos))
+            # time_usec is a uint32 [µs]: it wraps after 71.6 min, as the autopilot's does
+            # (a replay times samples by the records' stamps, not by it)
+            usec = int(s.t_s * 1e6) & 0xFFFFFFFF
+            self._write(s.t_s, v, v.servo_output_raw_encode(usec, 0, *servos))
             return Thrusters(s.t_s, tuple(float(p) for p in pwm))
         if isinstance(s, Depth):
             self._write(s.t_s, v, v.vfr_hud_encode(0, 0, 0, 0, -s.depth_m, 0))

@@ -55,7 +55,7 @@ def _dive_dict(d: Dive) -> dict[str, Any]:
     w = d.watch.watch
     return {"id": d.id, "started_unix": d.started_unix, "started_utc": utc_text(d.started_unix),
             "ended_unix": d.ended_unix, "duration_s": d.duration_s,
-            "recording": d.recorder.path,
+            "recording": str(d.recording),
             "segments": len(w.segments), "alerts": len(w.alerts)}
 
 
