@@ -8,6 +8,10 @@ interval.
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -18,6 +22,7 @@ from trimd.ballast.check import SlotLoad
 from trimd.ballast.correct import Correction, needs_correction, propose_correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
+from trimd.cli.main import main
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.drivers.sim.truth import passive_trim_deg
 
@@ -93,3 +98,63 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
         assert_levels_as_said(bluerov, after, c)
         assert max(c.proposal.trim_std_deg) < max(proposal.trim_std_deg)
     assert corrected >= 1  # the seeds exercise the correction at all
+
+
+def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                      sabertooth: Profile) -> None:
+    """trim → ``ballast apply`` (one foam-2kg fewer than proposed, recorded with --set) →
+    ``run --verify``: NOT level, and a ``correction`` line; ``ballast apply --estimate`` of
+    that output records the correction; ``run --verify`` again (no file: the correction
+    applied since the trim) finds the vehicle level and as predicted, "no correction
+    needed", and the true vehicle floats level. The history holds the chain."""
+    db = str(tmp_path / "trimd.db")
+    history = ["--db", db]
+    common = ["--profile", "sabertooth-dh2", "--headless", "--yes", "--json", "--no-record",
+              *history]
+
+    def out() -> list[dict[str, Any]]:
+        return [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+
+    def fitted(installed: list[dict[str, Any]]) -> str:
+        """The sim's link with that configuration fitted (none was installed before)."""
+        pieces = [InstalledPiece(x["slot"], x["piece"], x["count"]) for x in installed]
+        loads = change_loads(sabertooth, (), pieces)
+        return f"sim:payload=10@AftSB+{carried(loads, sabertooth.gravity_m_s2)}"
+
+    assert main(["run", "--link", "sim:payload=10@AftSB", *common]) == 0
+    trim = tmp_path / "trim.jsonl"
+    trim.write_text(capsys.readouterr().out)
+    proposal = json.loads(trim.read_text().splitlines()[-1])["proposal"]
+    foam = next(x for x in proposal["installed_after"] if x["piece"] == "foam-2kg")
+    assert main(["ballast", "apply", "--profile", "sabertooth-dh2", "--estimate", str(trim),
+                 "--set", f"{foam['slot']}:foam-2kg={foam['count'] - 1}", "--json",
+                 *history]) == 0
+    first = out()[-1]["installed"]
+
+    assert main(["run", "--link", fitted(first), "--verify", *common]) == 0
+    verify = tmp_path / "verify.jsonl"
+    verify.write_text(capsys.readouterr().out)
+    lines = [json.loads(x) for x in verify.read_text().splitlines()]
+    v, c = lines[-2], lines[-1]
+    assert v["type"] == "verification" and not v["level"], v["message"]
+    assert c["type"] == "correction" and c["needed"] and c["proposal"]["feasible"], c
+    assert [x["text"] for x in c["proposal"]["changes"]] == [
+        f"add 1 × foam-2kg to {foam['slot']}"]
+    assert main(["ballast", "apply", "--profile", "sabertooth-dh2", "--estimate",
+                 str(verify), "--json", *history]) == 0
+    second = out()[-1]
+    assert second["installed"] == c["proposal"]["installed_after"]
+
+    assert main(["run", "--link", fitted(second["installed"]), "--verify", *common]) == 0
+    v2, c2 = out()[-2:]
+    assert v2["level"] and v2["as_predicted"], v2["message"]
+    assert c2 == {"type": "correction", "needed": False, "estimate": None, "proposal": None,
+                  "message": "no correction needed: level and as predicted"}
+    assert main(["history", "--json", *history]) == 0
+    listed = out()[0]["vehicles"][0]
+    assert [len(listed[k]) for k in ("trims", "installed", "verifications", "corrections")
+            ] == [1, 2, 2, 1]
+    assert listed["corrections"][0]["verify_id"] == listed["verifications"][0]["id"]
+    assert main(["history", *history]) == 0
+    assert f"correction milp: 1 piece(s) to handle, feasible (add 1 × foam-2kg to " \
+           f"{foam['slot']})" in capsys.readouterr().out
