@@ -67,11 +67,11 @@ def test_a_new_file_has_the_schema_in_wal_mode(tmp_path: Path) -> None:
     path = tmp_path / "sub" / "trimd.db"
     History(path).close()
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 2
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
     assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"trims", "watch_segments", "alerts", "installs", "installed_pieces",
-            "verifications"} <= tables
+            "verifications", "corrections"} <= tables
 
 
 def test_records_read_back_per_vehicle(tmp_path: Path) -> None:
@@ -128,10 +128,38 @@ def test_a_version_1_file_migrates_and_keeps_its_records(tmp_path: Path) -> None
         assert h.trims("rov")[0].estimate == ESTIMATE
         h.record_verify("rov", 2.0, {"ok": True})
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == 2
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
     indexes = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='index'")}
     assert "trims_by_vehicle" in indexes
-    assert migrate(conn) == 2  # nothing left to do
+    assert migrate(conn) == SCHEMA_VERSION  # nothing left to do
+
+
+def test_a_version_2_file_migrates_and_takes_corrections(tmp_path: Path) -> None:
+    """Version 3 adds the corrections, each linked to its verify hold: a file of version 2
+    keeps its trims and verify holds, and a correction stored after links to its own."""
+    path = tmp_path / "v2.db"
+    old = connect(path, upto=2)
+    old.execute("INSERT INTO trims (vehicle, profile, t_unix, estimate_json) "
+                "VALUES ('rov', 'p', 1.0, ?)", (json.dumps(ESTIMATE),))
+    old.execute("INSERT INTO verifications (vehicle, t_unix, values_json) "
+                "VALUES ('rov', 2.0, '{\"level\": false}')")
+    with pytest.raises(sqlite3.OperationalError):
+        old.execute("SELECT * FROM corrections")
+    old.close()
+    with History(path) as h:
+        assert h.trims("rov")[0].estimate == ESTIMATE
+        assert h.verifications("rov")[0].values == {"level": False}
+        assert h.corrections("rov") == []
+        verify = h.record_verify("rov", 3.0, {"level": False},
+                                 correction=(ESTIMATE, {"method": "milp"}))
+        corrections = h.corrections("rov")
+        assert h.vehicles() == ["rov"]
+    assert [(c.verify_id, c.estimate, c.proposal) for c in corrections] == [
+        (verify, ESTIMATE, {"method": "milp"})]
+    assert verify == 2  # the file's second verify hold
+    conn = sqlite3.connect(path)
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
+    assert conn.execute("PRAGMA foreign_key_check").fetchall() == []
 
 
 def test_a_newer_file_is_refused(tmp_path: Path) -> None:

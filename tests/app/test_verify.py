@@ -145,8 +145,9 @@ def test_run_verify_from_the_history(tmp_path: Path, capsys: pytest.CaptureFixtu
                   for s in result["proposal"]["slots"])
     link = f"sim:payload=10@AftSB+{carried(slots, sabertooth.gravity_m_s2)}"
     assert main(["run", "--link", link, "--verify", *common]) == 0
-    v = [json.loads(x) for x in capsys.readouterr().out.splitlines()][-1]
+    *_, v, correction = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
     assert v["type"] == "verification" and v["as_predicted"], v
+    assert correction["type"] == "correction" and correction["needed"] is (not v["level"])
     assert main(["history", "--db", db, "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)
     vehicle = listed["vehicles"][0]

@@ -21,6 +21,7 @@ import trimd.app.session
 from tests.helpers import carried, passive_attitude_deg
 from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
 from trimd.app.after_trim import AfterTrim
+from trimd.app.apply import Applied
 from trimd.app.history import History
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
@@ -53,14 +54,15 @@ def _phase(app: TrimApp) -> Phase | None:
 
 
 class Vehicle:
-    """The simulated vehicle's links: the trim's, then the verify hold's, which carries
-    what the operator recorded as installed (the pilot fitted it) unless ``fitted`` is
-    False."""
+    """The simulated vehicle's links: the trim's, then the verify holds', which carry
+    what the operator recorded as installed each time (the pilot fitted it) unless
+    ``fitted`` is False; the first ``unfitted`` records the pilot did not fit."""
 
-    def __init__(self, profile: Profile, *, fitted: bool = True) -> None:
-        self.profile, self.fitted = profile, fitted
+    def __init__(self, profile: Profile, *, fitted: bool = True, unfitted: int = 0) -> None:
+        self.profile, self.fitted, self.unfitted = profile, fitted, unfitted
         self.links: list[RecordingSimLink] = []
         self.app: TrimApp | None = None
+        self.recorded: list[Applied] = []  # every record verified so far, in order
 
     def awaiting_operator(self, link: RecordingSimLink) -> bool:
         """The procedure waits for the operator's confirmation: no sample meanwhile (with
@@ -71,7 +73,10 @@ class Vehicle:
         assert self.app is not None
         applied = self.app.followup.applied
         assert applied is not None  # verify is offered only after apply
-        extra = carried(applied.loads, self.profile.gravity_m_s2) if self.fitted else ""
+        if applied not in self.recorded:
+            self.recorded.append(applied)
+        fitted = self.recorded[self.unfitted:] if self.fitted else []
+        extra = "+".join(carried(a.loads, self.profile.gravity_m_s2) for a in fitted)
         payload = f"{PAYLOAD}+{extra}" if extra else PAYLOAD
         link = await recording_sim_link(f"payload={payload},seed={len(self.links) + 1}",
                                         self.profile, hold_while=self.awaiting_operator)
@@ -205,6 +210,42 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
                                        presenters=[], method="milp")
     assert isinstance(replayed.verification, Verification)
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
+
+
+@pytest.mark.asyncio
+async def test_correction_apply_and_verify_again(sabertooth: Profile, tmp_path: Path) -> None:
+    """The chain trim → apply → verify → correction → apply → verify: the pilot did not fit
+    the first ballast recorded, the verify hold finds the vehicle not level and offers its
+    correction; ``p`` records it, the pilot fits it, ``y`` verifies it as predicted. The
+    history holds the chain in order, the correction linked to the verify hold it came
+    from."""
+    vehicle = Vehicle(sabertooth, unfitted=1)
+    app = await trim_app(sabertooth, tmp_path, confirmed=True, vehicle=vehicle)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await _apply_and_verify(pilot, app)
+        first = app.result
+        assert first is not None and isinstance(first.verification, Verification)
+        assert not first.verification.level
+        correction = app.followup.correction
+        assert correction is not None and app.check_action("apply", ())
+        assert "apply the correction" in str(app.query_one(NextSteps).content)
+        await pilot.press("p")
+        await pilot.pause()
+        assert app.followup.correction is None and not app.check_action("apply", ())
+        applied = app.followup.applied
+        assert applied is not None
+        assert applied.installed == correction.proposal.installed_after
+        await pilot.press("y")
+        await until(pilot, lambda: len(app.results) == 3)
+        second = app.results[-1].verification
+        assert isinstance(second, Verification) and second.as_predicted, second.message
+    with History(tmp_path / "h.db") as history:
+        trims, installs = history.trims("rov"), history.installs("rov")
+        verifications, corrections = history.verifications("rov"), history.corrections("rov")
+    assert (len(trims), len(installs), len(verifications)) == (1, 2, 2)
+    assert corrections and corrections[0].verify_id == verifications[0].id
+    assert (trims[0].t_unix <= installs[0].t_unix <= verifications[0].t_unix
+            == corrections[0].t_unix <= installs[1].t_unix <= verifications[1].t_unix)
 
 
 async def _apply_then_verify(pilot: Pilot[Any], app: TrimApp) -> SessionResult | None:

@@ -1,6 +1,9 @@
 """What follows a trim: its result stored in the trim history, the ballast the operator
 installed recorded there (what ``trimd ballast apply`` does: :func:`trimd.app.apply.
-apply_ballast`), and a verify hold of the ballasted vehicle over the same link.
+apply_ballast`), a verify hold of the ballasted vehicle over the same link and, when it
+finds the vehicle not level or not as predicted, the correction from what it measured
+(:mod:`trimd.ballast.correct`), stored with it; applying that and verifying again is the
+same apply and verify.
 
 ``trimd run`` builds one :class:`AfterTrim` per invocation; the TUI offers "apply" and
 "verify" through it once a trim ends with a proposal. The verify hold is a new session on
@@ -20,10 +23,13 @@ from typing import Any
 from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
 from trimd.app.history import History
+from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
 from trimd.app.session import Presenter, Recorder, Session, SessionResult
-from trimd.app.verify import verify_procedure
+from trimd.app.verify import read_target, verify_procedure
+from trimd.ballast.correct import Correction, needs_correction, propose_correction
 from trimd.ballast.propose import Proposal
+from trimd.ballast.verify import Verification
 from trimd.core.errors import ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.link import Link
@@ -54,15 +60,29 @@ class AfterTrim:
     open_link: Callable[[], Awaitable[Link]]
     recorder: Callable[[dict[str, Any]], Recorder | None]
 
-    def store(self, result: SessionResult) -> str | None:
-        """Store a session's estimate and proposal, or its verification, in the history;
-        a line for people, None when nothing was stored (no history, or a session that
-        produced neither). DataError when the file cannot take it."""
+    def store(self, result: SessionResult, correction: Correction | None = None
+              ) -> str | None:
+        """Store a session's estimate and proposal, or its verification (with its
+        ``correction``), in the history; a line for people, None when nothing was stored
+        (no history, or a session that produced neither). DataError when the file cannot
+        take it."""
         if self.db is None or (result.estimate is None and result.verification is None):
             return None
         with History(self.db) as history:
-            record_result(history, self.vehicle, self.profile.name, result)
+            record_result(history, self.vehicle, self.profile.name, result,
+                          correction=correction)
         return f"trim history: stored for vehicle {self.vehicle} in {history.path}"
+
+    def correct(self, v: Verification, target: dict[str, Any]) -> Correction | None:
+        """The correction after the verify hold ``v`` of ``target``, from the ballast
+        installed now (the history's, else the profile's); None when the vehicle is level
+        and as predicted. DataError for a target or a history that does not fit the
+        profile, ProfileError for installed pieces it does not have."""
+        if not needs_correction(v):
+            return None
+        estimate, _ = read_target(target, "the verify target", self.profile)
+        installed, _ = current_installed(self.db, self.vehicle, self.profile)
+        return propose_correction(v, estimate, self.profile, installed)
 
     def apply(self, estimate: StaticEstimate, proposal: Proposal) -> Applied:
         """Record ``proposal`` (for ``estimate``) as the ballast now installed.

@@ -36,7 +36,8 @@ def default_record_path(profile: Profile) -> Path:
 
 def _result_json(text: str, path: str | Path) -> object:
     """The JSON object in ``text``: the file itself, or the last ``result`` line of
-    ``trimd run --json``."""
+    ``trimd run --json`` (or ``correction`` line, of ``trimd run --verify --json``: the
+    vehicle as the verify hold measured it and the correction's proposal)."""
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -46,7 +47,8 @@ def _result_json(text: str, path: str | Path) -> object:
                 lines.append(json.loads(line))
             except json.JSONDecodeError:
                 raise DataError(f"{path}: not valid JSON ({exc})") from None
-        results = [x for x in lines if isinstance(x, dict) and x.get("type") == "result"]
+        results = [x for x in lines if isinstance(x, dict) and (x.get("type") == "result" or (
+            x.get("type") == "correction" and x.get("proposal")))]
         if not results:
             raise DataError(f"{path}: no result line (trimd run --json)") from None
         data = results[-1]

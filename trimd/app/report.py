@@ -13,6 +13,7 @@ import numpy as np
 
 from trimd.app.apply import Applied
 from trimd.app.session import SessionResult
+from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import VERIFIED, Verification
 from trimd.core.estimate import StaticEstimate
@@ -22,7 +23,7 @@ from trimd.core.samples import Command, Health, HoldAttitude, Release
 _Z95 = 1.959964
 
 __all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
-           "format_estimate", "format_proposal",
+           "format_correction", "format_estimate", "format_proposal",
            "format_result", "format_verification"]
 
 
@@ -120,6 +121,15 @@ def format_verification(v: Verification) -> str:
         lines.append(f"{name:<32}{m:+10.3f} ± {m_std:5.3f}{p:+12.3f}{d:+12.3f} ± {d_std:5.3f}")
     lines.append(v.message)
     return "\n".join(lines)
+
+
+def format_correction(c: Correction | None) -> str:
+    """A verify hold's correction (:mod:`trimd.ballast.correct`) as a proposal's table,
+    or that none is needed."""
+    if c is None:
+        return "no correction needed: level and as predicted"
+    return ("correction from the verify hold (the vehicle as measured, from the ballast "
+            "installed now):\n" + format_proposal(c.proposal))
 
 
 def format_result(result: SessionResult) -> str | None:

@@ -28,15 +28,18 @@ from trimd.app.files import (
 )
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.chain import proposal_on_vehicle
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
-from trimd.app.report import format_result
+from trimd.app.report import format_correction, format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure, verify_target
+from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.ballast.verify import Verification
 from trimd.cli.argtypes import integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
-from trimd.core.errors import DataError, ProfileError, UsageError
+from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
@@ -128,21 +131,23 @@ def _target_source(args: argparse.Namespace) -> str:
 
 def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any]:
     """The verify target (:mod:`trimd.app.verify`): the estimate and proposed ballast of
-    ``--verify FILE``, or (``--verify`` alone) of the vehicle's last trim in the history."""
+    ``--verify FILE`` (a trim's, or a verify hold's correction), or (``--verify`` alone)
+    of the vehicle's last trim in the history, or of the correction since that was
+    applied (:func:`trimd.app.history.chain.proposal_on_vehicle`)."""
     if args.verify != LAST_TRIM:
         loads = read_installed(args.verify, profile)
         return verify_target(read_estimate(args.verify), loads)
     vehicle = vehicle_of(args, profile.name)
     with History(db_path(args)) as history:
-        trims = [t for t in history.trims(vehicle) if t.proposal is not None]
+        found = proposal_on_vehicle(history, vehicle, profile.installed)
         where = history.path
-    if not trims:
+    if found is None:
         raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
                         "the trim to verify (--verify TRIM.json)")
-    record = json.dumps({"estimate": trims[-1].estimate, "proposal": trims[-1].proposal})
-    loads = installed_from_json(record, f"the trim of {vehicle}", profile)
-    return verify_target(estimate_from_dict(trims[-1].estimate, f"the trim of {vehicle}"),
-                         loads)
+    estimate, proposal, what = found
+    loads = installed_from_json(json.dumps({"estimate": estimate, "proposal": proposal}),
+                                what, profile)
+    return verify_target(estimate_from_dict(estimate, what), loads)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
@@ -218,18 +223,38 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
             print(text)
         if result.log_path:
             print(f"session log: {result.log_path}", file=sys.stderr)
+    after = None if tui else _after_trim(args, profile)
+    correction = None if after is None else _correction(args, after, results[-1])
     if truth_text:
         print_result(args.json, {"type": "truth", "text": truth_text}, "\n" + truth_text)
-    if not tui:
-        _store(_after_trim(args, profile), results[-1])
+    if after is not None:
+        _store(after, results[-1], correction)
     return _exit_code(results[-1])
 
 
-def _store(after: AfterTrim, result: SessionResult) -> None:
-    """Store the result in the trim history; a file that cannot take it is a warning (the
-    trim itself succeeded and was printed)."""
+def _correction(args: argparse.Namespace, after: AfterTrim, result: SessionResult
+                ) -> Correction | None:
+    """After a verify hold: its correction (:meth:`AfterTrim.correct`) printed, or that
+    none is needed; None for a trim, or (with a warning) when it cannot be proposed."""
+    if not isinstance(result.verification, Verification) or args.target is None:
+        return None
     try:
-        stored = after.store(result)
+        correction = after.correct(result.verification, args.target)
+    except TrimdError as exc:
+        print(f"trimd: warning: no correction proposed: {exc}", file=sys.stderr)
+        return None
+    print_result(args.json, {"type": "correction", **correction_to_dict(correction)},
+                 "\n" + format_correction(correction))
+    return correction
+
+
+def _store(after: AfterTrim, result: SessionResult, correction: Correction | None = None
+           ) -> None:
+    """Store the result (a verify hold's with its ``correction``) in the trim history; a
+    file that cannot take it is a warning (the session itself succeeded and was
+    printed)."""
+    try:
+        stored = after.store(result, correction)
     except DataError as exc:
         print(f"trimd: warning: the trim was not stored in the history: {exc}",
               file=sys.stderr)

@@ -72,7 +72,7 @@ from trimd.core.systematics import (
 
 __all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldSamples", "HoldSummary",
            "StaticEstimate", "check_samples", "estimate_static", "is_level",
-           "measurable_dofs"]
+           "measurable_dofs", "net_estimate"]
 
 FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
@@ -359,6 +359,32 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         meat = meat + U @ U.T
     q_cov = H_inv @ meat @ H_inv
 
+    residuals = np.concatenate([h.tau - Gh @ q for h, Gh in zip(holds, G, strict=True)])
+    summaries = tuple(HoldSummary(h.label, float(np.degrees(a[0])), float(np.degrees(a[1])),
+                                  len(h.phi), float(h.t_s[0]), float(h.t_s[-1]),
+                                  m.effective_samples, m.resolved)
+                      for h, a, m in zip(holds, attitude, means, strict=True))
+    return net_estimate(
+        q, q_cov, profile, holds=summaries,
+        dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
+        residual_rms=np.sqrt(np.mean(residuals**2, axis=0)), q_cov_noise=q_cov_noise,
+        q_cov_band=q_cov_band,
+        notes=band_notes(holds, used, gains, means, q, q_cov, q_cov_band))
+
+
+def net_estimate(q: FloatArray, q_cov: FloatArray, profile: Profile, *,
+                 holds: tuple[HoldSummary, ...], dofs_used: tuple[str, ...],
+                 residual_rms: FloatArray, notes: tuple[str, ...] = (),
+                 q_cov_noise: FloatArray | None = None,
+                 q_cov_band: FloatArray | None = None) -> StaticEstimate:
+    """The estimate of the net quantities ``q`` = [W − B, W·r_g − B·r_b] [N, N·m] (body
+    FRD, origin CG0) with covariance ``q_cov`` on ``profile``: W = q₀ + B and
+    r_g = (q₁₋₃ + B·r_b)/W with the profile's B and r_b, their covariance by the Jacobian.
+
+    Raises
+    ------
+    EstimationError : W ≤ 0.
+    """
     B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)
     W = float(q[0] + B)
     if W <= 0:
@@ -369,16 +395,9 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     J[0, 0] = 1.0
     J[1:, 0] = -r_g / W
     J[1:, 1:] = np.eye(3) / W
-    residuals = np.concatenate([h.tau - Gh @ q for h, Gh in zip(holds, G, strict=True)])
-    residual_rms = np.sqrt(np.mean(residuals**2, axis=0))
-    summaries = tuple(HoldSummary(h.label, float(np.degrees(a[0])), float(np.degrees(a[1])),
-                                  len(h.phi), float(h.t_s[0]), float(h.t_s[-1]),
-                                  m.effective_samples, m.resolved)
-                      for h, a, m in zip(holds, attitude, means, strict=True))
     return StaticEstimate(
         q=q, q_cov=q_cov, weight_N=W, buoyancy_N=B, r_b_m=r_b, r_g_m=r_g,
         cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
-        gravity_m_s2=profile.gravity_m_s2, holds=summaries,
-        dofs_used=tuple(d for d, r in zip(TAU_NAMES, rows, strict=True) if r),
+        gravity_m_s2=profile.gravity_m_s2, holds=holds, dofs_used=dofs_used,
         residual_rms=residual_rms, q_cov_noise=q_cov_noise, q_cov_band=q_cov_band,
-        notes=band_notes(holds, used, gains, means, q, q_cov, q_cov_band))
+        notes=notes)

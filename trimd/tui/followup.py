@@ -1,5 +1,7 @@
 """The TUI after a session: store its result in the trim history and, once a trim ends
-with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`).
+with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`);
+once a verify hold finds the vehicle not level or not as predicted, offer its correction
+(:mod:`trimd.ballast.correct`) the same way: apply, then verify again.
 
 Apply records the ``milp`` proposal (pieces of the inventory; the other methods' ideal
 amounts cannot be installed as such) as the installed ballast, and shows it.
@@ -17,9 +19,11 @@ from trimd.app.apply import Applied
 from trimd.app.report import format_applied
 from trimd.app.session import SessionResult
 from trimd.app.verify import verify_target
+from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal, propose_ballast
 from trimd.ballast.verify import Verification
 from trimd.core.errors import TrimdError
+from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
 from trimd.tui.event_log import EventLog
 from trimd.tui.next_steps import NextSteps
@@ -45,6 +49,7 @@ class Followup:
         self.trim: SessionResult | None = None  # the trim whose proposal is offered
         self.applied: Applied | None = None
         self.target: dict[str, Any] | None = None  # what a verify hold checks
+        self.correction: Correction | None = None  # a verify hold's, offered to apply
         self.opening = False
 
     def _log(self, kind: str, text: str) -> None:
@@ -59,8 +64,9 @@ class Followup:
             self._log("result", r.verification.message)
         if self.after is None:
             return
+        correction = self._correct(r)
         try:
-            stored = self.after.store(r)
+            stored = self.after.store(r, correction)
         except TrimdError as exc:
             self._log("error", f"not stored in the trim history: {exc}")
             self.app.notify(f"not stored in the trim history: {exc}", severity="error")
@@ -69,8 +75,9 @@ class Followup:
                 self._log("info", stored)
         steps = self.app.query_one(NextSteps)
         if self.target is not None:  # the verify hold this offered ended
+            self.correction = correction
             steps.verified(r.verification if isinstance(r.verification, Verification)
-                           else None, r.reason)
+                           else None, r.reason, correction)
         elif r.phase is Phase.DONE and isinstance(r.proposal, Proposal):
             self.trim = r
             if self.after.db is None:
@@ -79,34 +86,61 @@ class Followup:
             else:
                 steps.offer(APPLIED_METHOD, self.after.vehicle)
 
+    def _correct(self, r: SessionResult) -> Correction | None:
+        """The correction after a verify hold this offered (None: none needed, or none
+        can be proposed, which the log says)."""
+        if (self.after is None or self.target is None
+                or not isinstance(r.verification, Verification)):
+            return None
+        try:
+            correction = self.after.correct(r.verification, self.target)
+        except TrimdError as exc:
+            self._log("error", f"no correction proposed: {exc}")
+            return None
+        if correction is not None:
+            self._log("result", f"correction: {correction.proposal.message}")
+        return correction
+
     @property
     def can_apply(self) -> bool:
-        return (self.after is not None and self.after.db is not None and self.trim is not None
-                and self.applied is None and self.app.result is not None)
+        return (self.after is not None and self.after.db is not None
+                and self.app.result is not None and (self.correction is not None or (
+                    self.trim is not None and self.applied is None)))
 
     @property
     def can_verify(self) -> bool:
         return self.target is not None and self.app.result is not None and not self.opening
 
     def apply(self) -> None:
-        """Record the ``milp`` proposal as the installed ballast and show it."""
-        if self.after is None or self.trim is None or self.trim.estimate is None:
+        """Record the proposal on offer as the installed ballast and show it: a verify
+        hold's correction, else the trim's ``milp`` proposal."""
+        if self.after is None or (self.correction is None and (
+                self.trim is None or self.trim.estimate is None)):
             return
         panel = self.app.query_one(ResultPanel)
         try:
-            proposal = panel.proposals.get(APPLIED_METHOD) or propose_ballast(
-                self.trim.estimate, self.app.profile, method=APPLIED_METHOD)
-            self.applied = self.after.apply(self.trim.estimate, proposal)
+            estimate, proposal = self._offered(panel)
+            self.applied = self.after.apply(estimate, proposal)
         except (TrimdError, ValueError) as exc:
             self._log("error", f"apply: {exc}")
             self.app.query_one(NextSteps).failed(f"apply: {exc}", "p", "apply again")
             return
-        panel.proposals[APPLIED_METHOD] = proposal
-        panel.method = APPLIED_METHOD  # what was recorded is what is shown
-        self.target = verify_target(self.trim.estimate, self.applied.loads)
+        if self.correction is None:
+            panel.proposals[APPLIED_METHOD] = proposal
+            panel.method = APPLIED_METHOD  # what was recorded is what is shown
+        self.correction = None
+        self.target = verify_target(estimate, self.applied.loads)
         for line in format_applied(self.applied).splitlines():
             self._log("info", line)
         self.app.query_one(NextSteps).applied(self.applied)
+
+    def _offered(self, panel: ResultPanel) -> tuple[StaticEstimate, Proposal]:
+        """The proposal :meth:`apply` records and the estimate it is for."""
+        if self.correction is not None:
+            return self.correction.vehicle, self.correction.proposal
+        assert self.trim is not None and self.trim.estimate is not None
+        return self.trim.estimate, panel.proposals.get(APPLIED_METHOD) or propose_ballast(
+            self.trim.estimate, self.app.profile, method=APPLIED_METHOD)
 
     def cancel(self) -> None:
         """The operator aborted while the link was being opened: no verify hold starts."""

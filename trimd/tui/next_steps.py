@@ -1,7 +1,8 @@
 """Next-steps panel: after a trim that ended with a proposal, what the operator can do —
 ``p`` apply (record the milp proposal as the installed ballast in the trim history), then,
 once the ballast is on the vehicle, ``y`` verify (one level hold that measures what the
-ballast left); and how each went."""
+ballast left); after a verify hold that found the vehicle not level or not as predicted,
+its correction: ``p`` apply it, ``y`` verify again; and how each went."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from rich.text import Text
 from textual.widgets import Static
 
 from trimd.app.apply import Applied
+from trimd.ballast.correct import Correction
 from trimd.ballast.verify import Verification
 
 __all__ = ["NextSteps"]
@@ -49,15 +51,28 @@ class NextSteps(Static):
                   Text("s confirm · a ABORT · trimd commands only after confirmation",
                        style="dim"))
 
-    def verified(self, v: Verification | None, reason: str) -> None:
-        """The verify hold ended: its verdict, or why it has none."""
+    def verified(self, v: Verification | None, reason: str,
+                 correction: Correction | None = None) -> None:
+        """The verify hold ended: its verdict, or why it has none; its ``correction``
+        offered (apply, then verify again) when there is one."""
         if v is None:
             first = Text(f"verify hold ended: {reason}", style="bold red")
         elif v.as_predicted:
             first = Text("verified: as predicted", style="bold green")
         else:
             first = Text("verified: NOT as predicted", style="bold red")
-        self._say(first, Text.assemble(("y", "bold reverse"), " verify again"))
+        if correction is None:
+            self._say(first, Text.assemble(("y", "bold reverse"), " verify again"))
+            return
+        p = correction.proposal
+        self._say(first, Text("correction: " + ("; ".join(c.text for c in p.changes)
+                                                or "no change"), style="yellow"),
+                  Text(f"  leaves roll {p.trim.roll_deg:+.2f}° ± {p.trim.roll_std_deg:.2f}°, "
+                       f"pitch {p.trim.pitch_deg:+.2f}° ± {p.trim.pitch_std_deg:.2f}°",
+                       style="dim"),
+                  Text.assemble(("p", "bold reverse"), " apply the correction"),
+                  Text("  then fit it on the vehicle", style="dim"),
+                  Text.assemble(("y", "dim reverse"), (" verify again", "dim")))
 
     def failed(self, text: str, key: str, again: str) -> None:
         """``text`` went wrong; ``key`` does it ``again``."""

@@ -1,5 +1,6 @@
 """``trimd history``'s text and JSON: a vehicle's trims, installed ballast, watch alerts and
-verify holds. Times are UTC; lengths in millimetres; ± is one standard deviation."""
+verify holds with their corrections. Times are UTC; lengths in millimetres; ± is one
+standard deviation."""
 
 from __future__ import annotations
 
@@ -7,7 +8,13 @@ import datetime as dt
 import math
 from typing import Any
 
-from trimd.app.history.store import EventRecord, History, InstallRecord, TrimRecord
+from trimd.app.history.store import (
+    CorrectionRecord,
+    EventRecord,
+    History,
+    InstallRecord,
+    TrimRecord,
+)
 
 __all__ = ["format_history", "history_to_dict", "utc_text"]
 
@@ -26,18 +33,29 @@ def _trim_line(r: TrimRecord) -> str:
             f"{math.sqrt(max(cov[0][0], 0.0)):.2f} N  CG "
             + " ".join(f"{a} {v:+.1f} ± {s:.1f}" for a, v, s in zip("xyz", cg, cg_std,
                                                                      strict=True)) + " mm")
-    p = r.proposal
-    if p is not None:
-        changes = p.get("changes") or [{"action": "add", "piece": n, "count": c}
-                                       for s in p.get("slots", [])
-                                       for n, c in s.get("pieces", {}).items()]
-        pieces = sum(int(c["count"]) for c in changes)
-        text += (f"\n      proposal {p.get('method')}: {pieces} piece(s) "
-                 f"{'to handle' if p.get('changes') else 'to add'}, "
-                 f"{'feasible' if p.get('feasible') else 'NOT feasible'}")
+    if r.proposal is not None:
+        text += "\n      " + _proposal_text("proposal", r.proposal)
     if r.log_path:
         text += f"\n      session log {r.log_path}"
     return text
+
+
+def _proposal_text(what: str, p: dict[str, Any]) -> str:
+    """``proposal milp: 3 piece(s) to handle, feasible``."""
+    changes = p.get("changes") or [{"action": "add", "piece": n, "count": c}
+                                   for s in p.get("slots", [])
+                                   for n, c in s.get("pieces", {}).items()]
+    pieces = sum(int(c["count"]) for c in changes)
+    return (f"{what} {p.get('method')}: {pieces} piece(s) "
+            f"{'to handle' if p.get('changes') else 'to add'}, "
+            f"{'feasible' if p.get('feasible') else 'NOT feasible'}")
+
+
+def _correction_text(r: CorrectionRecord) -> str:
+    """The correction under its verify hold: its pieces and the changes, in words."""
+    changes = "; ".join(str(c.get("text")) for c in r.proposal.get("changes", []))
+    return "      " + _proposal_text("correction", r.proposal) + (f" ({changes})" if changes
+                                                                else "")
 
 
 def _install_text(r: InstallRecord) -> str:
@@ -67,7 +85,11 @@ def format_history(history: History, vehicles: list[str]) -> str:
         lines.append(f"watch: {len(segments)} steady segment(s), {len(alerts)} alert(s)")
         lines += [_event_text(r) for r in alerts]
         lines.append(f"verify holds: {len(verifies) or 'none'}")
-        lines += [_event_text(r) for r in verifies]
+        corrections = {c.verify_id: c for c in history.corrections(v)}
+        for r in verifies:
+            lines.append(_event_text(r))
+            if r.id in corrections:
+                lines.append(_correction_text(corrections[r.id]))
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
 
@@ -90,5 +112,8 @@ def history_to_dict(history: History, vehicles: list[str]) -> dict[str, Any]:
                            for p in r.pieces]} for r in history.installs(v)],
         "watch_segments": [_event_dict(r) for r in history.watch_segments(v)],
         "alerts": [_event_dict(r) for r in history.alerts(v)],
-        "verifications": [_event_dict(r) for r in history.verifications(v)],
+        "verifications": [{"id": r.id, **_event_dict(r)} for r in history.verifications(v)],
+        "corrections": [{"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix),
+                         "verify_id": r.verify_id, "estimate": r.estimate,
+                         "proposal": r.proposal} for r in history.corrections(v)],
     } for v in vehicles]}

@@ -10,7 +10,9 @@ file at a version it really has.
 
 Times are seconds since the Unix epoch (UTC) [s]; JSON columns hold the shapes of
 :func:`trimd.core.estimate_json.estimate_to_dict` and
-:func:`trimd.ballast.propose.proposal_to_dict`, or a caller's dict of values.
+:func:`trimd.ballast.propose.proposal_to_dict`, or a caller's dict of values. A
+correction (:mod:`trimd.ballast.correct`) is stored as the measured vehicle's estimate and
+its proposal, with the id of the verify hold it came from.
 """
 
 from __future__ import annotations
@@ -44,6 +46,11 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
      *(f"CREATE INDEX {t}_by_vehicle ON {t} (vehicle, t_unix)"
        for t in ("trims", "watch_segments", "alerts", "installs", "verifications")),
      "CREATE INDEX installed_pieces_by_install ON installed_pieces (install_id)"),
+    # v3: corrections proposed from a verify hold, each linked to its verify hold
+    ("CREATE TABLE corrections (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, verify_id INTEGER NOT NULL REFERENCES verifications(id), "
+     "estimate_json TEXT NOT NULL, proposal_json TEXT NOT NULL)",
+     "CREATE INDEX corrections_by_vehicle ON corrections (vehicle, t_unix)"),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 #: How long a writer waits for another's lock before it gives up [s].

@@ -4,7 +4,8 @@ Every record is keyed by its vehicle (:func:`vehicle_key`) and a time [s since t
 epoch, UTC], and written in one transaction: a record is in the file whole or not at all.
 The watch and the verify hold write through :meth:`History.record_watch_segment`,
 :meth:`History.record_alert` and :meth:`History.record_verify` (a dict of JSON values
-each); ``trimd run`` through :meth:`History.record_trim`; ``trimd ballast apply`` through
+each; a verify hold's correction in the same transaction, linked to it); ``trimd run``
+through :meth:`History.record_trim`; ``trimd ballast apply`` through
 :meth:`History.record_installed`.
 """
 
@@ -24,7 +25,8 @@ from trimd.core.errors import DataError
 from trimd.core.jsonsafe import json_finite
 from trimd.core.profile import InstalledPiece
 
-__all__ = ["EventRecord", "History", "InstallRecord", "TrimRecord", "vehicle_key"]
+__all__ = ["CorrectionRecord", "EventRecord", "History", "InstallRecord", "TrimRecord",
+           "vehicle_key"]
 
 Source = Literal["proposal", "edited", "profile"]
 _EVENT_TABLES = ("watch_segments", "alerts", "verifications")
@@ -61,6 +63,20 @@ class EventRecord:
     vehicle: str
     t_unix: float
     values: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class CorrectionRecord:
+    """A verify hold's correction: the vehicle as the hold measured it (``estimate``, the
+    ``estimate_to_dict`` shape) and the proposal from the ballast installed then
+    (``proposal_to_dict``); ``verify_id`` is the verify hold's record."""
+
+    id: int
+    vehicle: str
+    t_unix: float
+    verify_id: int
+    estimate: dict[str, Any]
+    proposal: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -128,11 +144,16 @@ class History:
                              None if proposal is None else _json(proposal), log_path))
         return int(cur.lastrowid or 0)
 
+    @staticmethod
+    def _insert_event(c: sqlite3.Connection, table: str, vehicle: str, t_unix: float,
+                      values: dict[str, Any]) -> int:
+        cur = c.execute(f"INSERT INTO {table} (vehicle, t_unix, values_json) "
+                        "VALUES (?, ?, ?)", (vehicle, t_unix, _json(values)))
+        return int(cur.lastrowid or 0)
+
     def _event(self, table: str, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
         with self._transaction() as c:
-            cur = c.execute(f"INSERT INTO {table} (vehicle, t_unix, values_json) "
-                            "VALUES (?, ?, ?)", (vehicle, t_unix, _json(values)))
-        return int(cur.lastrowid or 0)
+            return self._insert_event(c, table, vehicle, t_unix, values)
 
     def record_watch_segment(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
         """Store one steady segment of a watch: any JSON values; ``net_force_N`` and
@@ -149,9 +170,18 @@ class History:
         record = self.record_alert if values.get("type") == "alert" else self.record_watch_segment
         return record(vehicle, t_unix, values)
 
-    def record_verify(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
-        """Store one verify hold's outcome (measured against predicted residual trim)."""
-        return self._event("verifications", vehicle, t_unix, values)
+    def record_verify(self, vehicle: str, t_unix: float, values: dict[str, Any],
+                      correction: tuple[dict[str, Any], dict[str, Any]] | None = None) -> int:
+        """Store one verify hold's outcome (measured against predicted residual trim) and,
+        in the same transaction, its ``correction`` (the measured vehicle's estimate and
+        the proposal, as JSON dicts) linked to it; the verify hold's record id."""
+        with self._transaction() as c:
+            verify = self._insert_event(c, "verifications", vehicle, t_unix, values)
+            if correction is not None:
+                c.execute("INSERT INTO corrections (vehicle, t_unix, verify_id, "
+                          "estimate_json, proposal_json) VALUES (?, ?, ?, ?, ?)",
+                          (vehicle, t_unix, verify, *map(_json, correction)))
+        return verify
 
     def record_installed(self, vehicle: str, profile: str, t_unix: float, source: Source,
                          pieces: Sequence[InstalledPiece]) -> int:
@@ -173,7 +203,8 @@ class History:
         """Every vehicle with a record, sorted."""
         rows = self._conn.execute(
             " UNION ".join(f"SELECT vehicle FROM {t}" for t in
-                           ("trims", "installs", *_EVENT_TABLES)) + " ORDER BY vehicle")
+                           ("trims", "installs", "corrections", *_EVENT_TABLES))
+            + " ORDER BY vehicle")
         return [str(r[0]) for r in rows]
 
     def trims(self, vehicle: str) -> list[TrimRecord]:
@@ -212,6 +243,14 @@ class History:
     def verifications(self, vehicle: str) -> list[EventRecord]:
         """The vehicle's verify outcomes, oldest first."""
         return self._events("verifications", vehicle)
+
+    def corrections(self, vehicle: str) -> list[CorrectionRecord]:
+        """The vehicle's verify holds' corrections, oldest first."""
+        rows = self._conn.execute(
+            "SELECT id, vehicle, t_unix, verify_id, estimate_json, proposal_json FROM "
+            "corrections WHERE vehicle = ? ORDER BY t_unix, id", (vehicle,))
+        return [CorrectionRecord(r[0], r[1], r[2], r[3], json.loads(r[4]), json.loads(r[5]))
+                for r in rows]
 
     def installs(self, vehicle: str) -> list[InstallRecord]:
         """Every ballast configuration recorded for the vehicle, oldest first."""

@@ -1,4 +1,5 @@
-"""What ``trimd run`` stores in the history when a session ends with an estimate."""
+"""What ``trimd run`` stores in the history when a session ends with an estimate, or a
+verify hold with its verdict (and its correction, linked to it)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import time
 
 from trimd.app.history.store import History
 from trimd.app.session import SessionResult
+from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate_json import estimate_to_dict
@@ -14,14 +16,17 @@ __all__ = ["record_result"]
 
 
 def record_result(history: History, vehicle: str, profile: str, result: SessionResult,
-                  t_unix: float | None = None) -> int | None:
+                  t_unix: float | None = None, correction: Correction | None = None
+                  ) -> int | None:
     """Store ``result``'s estimate, proposal and session log path under ``vehicle`` (or a
-    verify hold's verification); the record's id, or None (nothing stored) when the
-    session produced neither."""
+    verify hold's verification, with its ``correction``); the record's id, or None
+    (nothing stored) when the session produced neither."""
     t = time.time() if t_unix is None else t_unix
     if isinstance(result.verification, Verification):
+        linked = None if correction is None else (estimate_to_dict(correction.vehicle),
+                                                  proposal_to_dict(correction.proposal))
         return history.record_verify(vehicle, t, {**verification_to_dict(result.verification),
-                                                  "log_path": result.log_path})
+                                                  "log_path": result.log_path}, linked)
     if result.estimate is None:
         return None
     proposal = (proposal_to_dict(result.proposal) if isinstance(result.proposal, Proposal)

@@ -1,0 +1,104 @@
+"""The correction after a verify hold: what to change on the ballast installed now so that
+the vehicle floats level, from what the verify hold measured.
+
+The verify hold measured the ballasted vehicle at level: W − B and the net moments
+W·x_g − B·x_b and W·y_g − B·y_b [N, N·m; body FRD, origin CG0] with their covariance
+(:class:`trimd.ballast.verify.Verification`). At level the stiffness W·z_g − B·z_b does
+not show; it is the prediction's (the trim's estimate plus the pieces installed since,
+whose weights and positions are known), with the trim's variance. Those four are the
+vehicle as it is now, with its ballast on (:func:`measured_vehicle`): an estimate like a
+trim's, whose roll and pitch rows are the verify hold's, whose ± is mostly the verify
+hold's (its thrusters barely work, so the thrust curves' errors hardly enter).
+
+The correction is :func:`trimd.ballast.propose.propose_ballast`'s ``milp`` proposal for
+that vehicle from the ballast installed now: the same inventory, slots, net-buoyancy
+window, aim inside the level tolerance by the 95 % interval, pieces moved, removed or
+added, physics check, and ± of the passive trim it leaves (from the measured covariance
+and the stiffness's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
+from trimd.ballast.verify import Verification
+from trimd.core.estimate import HoldSummary, StaticEstimate, net_estimate
+from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.profile import InstalledPiece, Profile
+
+__all__ = ["Correction", "correction_to_dict", "measured_vehicle", "needs_correction",
+           "propose_correction"]
+
+#: The rows a level hold measures each net quantity by: Z → W − B, M → W·x_g − B·x_b,
+#: K → W·y_g − B·y_b (for the estimate's ``dofs_used``).
+_LEVEL_ROWS = ("Z", "M", "K")
+
+
+@dataclass(frozen=True, eq=False)
+class Correction:
+    """A verify hold's correction.
+
+    Attributes
+    ----------
+    vehicle : the vehicle as the verify hold measured it, with the ballast installed then
+        (:func:`measured_vehicle`).
+    proposal : the ``milp`` proposal for ``vehicle`` from that ballast: its changes are
+        what to move, remove and add; its trim the passive trim they leave (± 1σ).
+    """
+
+    vehicle: StaticEstimate
+    proposal: Proposal
+
+
+def needs_correction(v: Verification) -> bool:
+    """A correction is proposed when the verify hold found the vehicle not level within the
+    profile's tolerance, or not as its prediction said."""
+    return not (v.level and v.as_predicted)
+
+
+def measured_vehicle(v: Verification, estimate: StaticEstimate, profile: Profile
+                     ) -> StaticEstimate:
+    """The vehicle as the verify hold ``v`` measured it (module docstring): q = [W − B,
+    W·x_g − B·x_b, W·y_g − B·y_b] measured [N, N·m] with their covariance, W·z_g − B·z_b
+    predicted (``v.predicted``, from ``estimate``, the trim the hold verified, and the
+    pieces installed since) with ``estimate``'s variance, uncorrelated with the rest."""
+    q = np.r_[v.measured.q[:3], v.predicted.net_moment_Nm[2]]
+    q_cov = np.zeros((4, 4))
+    q_cov[:3, :3] = v.measured.q_cov[:3, :3]
+    q_cov[3, 3] = estimate.q_cov[3, 3]
+    m = v.measured
+    hold = HoldSummary("verify", m.roll_deg, m.pitch_deg, m.samples, m.t_start_s,
+                       m.t_end_s, resolved=m.resolved)
+    note = ("the vehicle as a verify hold measured it, its ballast on: W − B and the x/y "
+            "net moments measured at level, W·z_g − B·z_b (not observable at level) "
+            "predicted from the trim and the pieces installed since")
+    return net_estimate(q, q_cov, profile, holds=(hold,),
+                        dofs_used=tuple(r for r, o in zip(_LEVEL_ROWS, m.observable[:3],
+                                                          strict=True) if o),
+                        residual_rms=np.full(6, np.nan), notes=(note,))
+
+
+def propose_correction(v: Verification, estimate: StaticEstimate, profile: Profile,
+                       installed: Sequence[InstalledPiece]) -> Correction:
+    """The correction of the ballast ``installed`` now (what the verify hold ``v`` of the
+    trim ``estimate`` measured with on the vehicle), by the ``milp`` proposal for the
+    measured vehicle. ProfileError when ``installed`` is not ``profile``'s."""
+    vehicle = measured_vehicle(v, estimate, profile)
+    return Correction(vehicle, propose_ballast(vehicle, profile, "milp", installed=installed))
+
+
+def correction_to_dict(c: Correction | None) -> dict[str, Any]:
+    """JSON-ready: ``needed`` and, when it is, the measured vehicle (``estimate``, the
+    ``trimd solve --json`` shape) and the correction (``proposal``, the ``trimd ballast
+    --json`` shape): what ``trimd ballast apply --estimate`` and ``trimd run --verify``
+    read back."""
+    if c is None:
+        return {"needed": False, "estimate": None, "proposal": None,
+                "message": "no correction needed: level and as predicted"}
+    return {"needed": True, "estimate": estimate_to_dict(c.vehicle),
+            "proposal": proposal_to_dict(c.proposal), "message": c.proposal.message}
