@@ -7,14 +7,15 @@ the sim options ``TRIMD_WATCH_TRANSIT_OPTIONS`` (default :data:`OPTIONS`: realis
 disturbances, a vehicle that differs from its profile, and ArduSub's stiffer attitude
 loop, 6 rad/s, so that the vehicle stays level when a transit starts and stops).
 
-No change: ``TRIMD_WATCH_TRANSIT_SEEDS`` (default 4) dives of ``TRIMD_WATCH_TRANSIT_HOURS``
-(default 0.5) simulated hours each: the share of the stops of at least
-:data:`MIN_STOP_S` that gave a segment (target ≥ 80 %), segments that overlap a transit
-(target none), the share of segments whose W − B is within its 95 % interval of the truth
-(target 90–99 %), and the false alarms (target none in ≥ 2 h). Leak:
-``TRIMD_WATCH_TRANSIT_LEAK_SEEDS`` (default 2) dives with 0.5 N/min from 300 s: the
-first alert within :data:`LEAK_WITHIN_S` of its start. One simulated hour takes ≈ 2 min
-of one core.
+No change: ``TRIMD_WATCH_TRANSIT_SEEDS`` (default 40) dives of
+``TRIMD_WATCH_TRANSIT_HOURS`` (default 0.1) simulated hours each, one vehicle per seed (a
+segment's error is mostly its vehicle's thrust map, so the coverage needs many vehicles,
+not long dives): the share of the stops of at least :data:`MIN_STOP_S` that gave a segment
+(target ≥ 80 %), segments that overlap a transit (target none), the share of segments whose
+W − B is within its 95 % interval of the truth (target 90–99 %), and the false alarms
+(target none in ≥ 2 h). Leak: ``TRIMD_WATCH_TRANSIT_LEAK_SEEDS`` (default 2) dives with 0.5
+N/min from 300 s: the first alert within :data:`LEAK_WITHIN_S` of its start. One simulated
+hour takes ≈ 2 min of one core.
 """
 
 from __future__ import annotations
@@ -86,8 +87,8 @@ class Tally:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_WATCH_TRANSIT_SEEDS", size(4, 1)))
-    hours = float(os.environ.get("TRIMD_WATCH_TRANSIT_HOURS", size(0.5, 0.05)))
+    seeds = int(os.environ.get("TRIMD_WATCH_TRANSIT_SEEDS", size(40, 1)))
+    hours = float(os.environ.get("TRIMD_WATCH_TRANSIT_HOURS", size(0.1, 0.05)))
     options = os.environ.get("TRIMD_WATCH_TRANSIT_OPTIONS", OPTIONS)
     tally = Tally(hours * 3600)
     no_change(options, seeds, hours, tally)
