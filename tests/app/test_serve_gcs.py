@@ -47,7 +47,8 @@ def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
         return alerts["alerts"][0] if alerts and alerts["alerts"] else None
 
     run = leak_beside_mavproxy(tmp, start, alert)
-    assert started[0].stop() == 0, started[0].output()
+    code = started[0].stop()
+    assert code == 0, (code, started[0].output())
     return run, started[0]
 
 

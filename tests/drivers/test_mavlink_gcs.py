@@ -80,14 +80,15 @@ def arm(port: int) -> None:
 
 
 def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
-    """SIGTERM to each in turn, killed after 20 s: trimd first, while the vehicle still
-    talks (it stops at its next sample), the simulator last."""
+    """SIGTERM to each in turn, killed after 60 s (a hang guard: a watch starved of CPU
+    takes a while to close its last segment): trimd first, while the vehicle still talks
+    (it stops at its next sample), the simulator last."""
     for p in procs:
         t0 = time.monotonic()
         if p.poll() is None:
             p.send_signal(signal.SIGTERM)
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
@@ -113,11 +114,12 @@ def station_text(d: dict[str, Any]) -> str:
 class AtMavproxy:
     """What a run beside MAVProxy gave: each line MAVProxy printed with the wall time it
     was read [s since the Unix epoch], trimd's first alert (as trimd gave it), MAVProxy's
-    tlog and the wall time the run took [s]."""
+    tlog, when the run started [s since the Unix epoch] and the wall time it took [s]."""
 
     lines: list[tuple[float, str]]
     alert: dict[str, Any]
     tlog: Path
+    started_unix: float
     took: float
 
     @property
@@ -143,7 +145,7 @@ def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subproces
     env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
     tlog, lines = tmp / "gcs.tlog", []
     procs: list[subprocess.Popen[bytes]] = []
-    t0 = time.monotonic()
+    t0, started_unix = time.monotonic(), time.time()
     with (tmp / "sim.err").open("wb") as err_file:
         try:
             gcs = subprocess.Popen(
@@ -179,7 +181,7 @@ def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subproces
             took = time.monotonic() - t0
         finally:
             _stop(procs)
-    return AtMavproxy(lines, found, tlog, took)
+    return AtMavproxy(lines, found, tlog, started_unix, took)
 
 
 @pytest.fixture(scope="module")
