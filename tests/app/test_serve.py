@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shlex
 import signal
 import subprocess
@@ -21,7 +22,9 @@ import pytest
 from tests.app.serve_process import Serve, free_tcp_port
 from tests.drivers.test_mavlink_link import TRIMD
 from tests.helpers import REPO
+from trimd import __version__
 from trimd.cli.main import main
+from trimd.cli.serve import DEFAULT_PORT
 
 DOCKERFILE = REPO / "blueos" / "Dockerfile"
 
@@ -104,17 +107,83 @@ def test_a_kill_9_mid_dive_loses_no_stored_record(tmp_path: Path) -> None:
     assert any(json.loads(line)["type"] == "segment" for line in replay.stdout.splitlines())
 
 
+def _instructions() -> list[tuple[str, str]]:
+    """The extension's Dockerfile as (instruction, its arguments), lines joined."""
+    text = DOCKERFILE.read_text(encoding="utf-8").replace("\\\n", " ")
+    return [(word, rest) for word, _, rest in (line.strip().partition(" ") for line in
+                                                text.splitlines()) if word.isupper()]
+
+
 def _dockerfile() -> tuple[dict[str, str], list[str]]:
     """The ENV and the CMD (exec form) of the extension's Dockerfile."""
     env: dict[str, str] = {}
     cmd: list[str] = []
-    for line in DOCKERFILE.read_text(encoding="utf-8").replace("\\\n", " ").splitlines():
-        word, _, rest = line.strip().partition(" ")
+    for word, rest in _instructions():
         if word == "ENV":
             env.update(dict(part.split("=", 1) for part in shlex.split(rest)))
         elif word == "CMD":
             cmd = json.loads(rest)
     return env, cmd
+
+
+#: what a publisher gives ``docker buildx build --build-arg …`` (example.org: no real URL)
+BUILD_ARGS = {"AUTHOR": "Ada Diver", "AUTHOR_EMAIL": "ada@example.org",
+              "MAINTAINER": "Reef Lab", "MAINTAINER_EMAIL": "lab@example.org",
+              "DOCS_URL": "https://example.org/trimd/docs/blueos.md",
+              "README_URL": "https://example.org/trimd/{tag}/docs/blueos.md"}
+
+
+def _labels(build_args: dict[str, str]) -> dict[str, str]:
+    """The image's labels as Docker sets them: ``${ARG}`` replaced by ``build_args`` (an
+    ARG without a value is an error here), then unquoted as Docker's shell-like words."""
+    declared = {a for word, rest in _instructions() if word == "ARG" for a in rest.split()}
+    labels: dict[str, str] = {}
+    for word, rest in _instructions():
+        if word == "LABEL":
+            for name in re.findall(r"\$\{(\w+)\}", rest):
+                assert name in declared, name
+                rest = rest.replace(f"${{{name}}}", build_args[name])
+            labels.update(part.split("=", 1) for part in shlex.split(rest))
+    return labels
+
+
+def test_the_blueos_labels_are_the_json_blueos_reads() -> None:
+    """BlueOS's extension store reads these labels (json5: JSON is json5), by the schema of
+    bluerobotics/BlueOS-Extensions-Repository (``blueos_repository/extension``)."""
+    labels = _labels(BUILD_ARGS)
+    env, _ = _dockerfile()
+    assert labels["version"] == __version__
+    permissions = json.loads(labels["permissions"])
+    assert permissions["HostConfig"]["NetworkMode"] == "host"
+    assert f"{DEFAULT_PORT}/tcp" in permissions["ExposedPorts"]
+    assert [b.split(":") for b in permissions["HostConfig"]["Binds"]] == [
+        ["/usr/blueos/extensions/trimd", env["TRIMD_DATA_DIR"]]]
+    assert json.loads(labels["authors"]) == [{"name": "Ada Diver", "email": "ada@example.org"}]
+    company = json.loads(labels["company"])
+    assert (company["name"], company["email"]) == ("Reef Lab", "lab@example.org")
+    assert company["about"]
+    assert labels["type"] in {"device-integration", "example", "theme", "other", "tool",
+                              "education"}
+    tags = json.loads(labels["tags"])
+    assert 0 < len(tags) <= 10 and all(re.fullmatch(r"[a-z0-9-]+", t) for t in tags)
+    assert labels["readme"] == BUILD_ARGS["README_URL"] and "{tag}" in labels["readme"]
+    assert labels["docs"] == json.loads(labels["links"])["documentation"] == (
+        BUILD_ARGS["DOCS_URL"])
+    assert re.fullmatch(r"core >= \d+\.\d+", labels["requirements"])
+
+
+@pytest.mark.parametrize("missing", [None, *BUILD_ARGS])
+def test_the_build_stops_without_each_build_arg(missing: str | None) -> None:
+    """The Dockerfile's check of its build arguments, run as ``RUN`` runs it (``sh -c``,
+    the arguments in the environment): it passes with all, fails naming them without one."""
+    check = next(rest for word, rest in _instructions() if word == "RUN" and "test -n" in rest)
+    env = {"PATH": os.environ["PATH"], **{k: v for k, v in BUILD_ARGS.items() if k != missing}}
+    done = subprocess.run(["sh", "-c", check], env=env, capture_output=True, text=True,
+                          timeout=30)
+    assert done.returncode == (0 if missing is None else 1), done.stderr
+    assert (missing is None) == (done.stderr == ""), done.stderr
+    if missing is not None:
+        assert missing in done.stderr
 
 
 def test_the_blueos_entry_point_runs_as_the_dockerfile_says(tmp_path: Path) -> None:

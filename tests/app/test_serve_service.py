@@ -1,6 +1,7 @@
 """``trimd serve``'s service and routes in process: dives follow the vehicle's arming and
-heartbeat, and the JSON routes answer from the history (a trim's report included) and
-refuse bad requests with a JSON error."""
+heartbeat, a dive's recording replays to the live watch's segments and alerts exactly, and
+the JSON routes answer from the history (a trim's report included) and refuse bad
+requests with a JSON error."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from aiohttp.test_utils import TestClient, TestServer
 from tests.helpers import REPO
 from trimd.app.history import History
 from trimd.app.serve import Service
+from trimd.app.watch import watch_log
 from trimd.app.web import make_app
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.core.samples import Health
@@ -29,10 +31,11 @@ class Quiet:
     description = "a test link"
 
 
-def _service(tmp_path: Path, history: History) -> Service:
-    profile = load_profile(PROFILE)
-    return Service("mavlink:udpin:127.0.0.1:1", profile, read_profile_text(PROFILE)[0],
-                   tmp_path, history, PROFILE, lambda clock: TrimWatch(profile, clock=clock),
+def _service(tmp_path: Path, history: History, url: str = "mavlink:udpin:127.0.0.1:1",
+             profile_name: str = PROFILE) -> Service:
+    profile = load_profile(profile_name)
+    return Service(url, profile, read_profile_text(profile_name)[0], tmp_path, history,
+                   profile_name, lambda clock: TrimWatch(profile, clock=clock), rate=None,
                    log=lambda line: None)
 
 
@@ -53,6 +56,37 @@ def test_a_dive_is_armed_with_the_heartbeat_coming(tmp_path: Path) -> None:
         first, second = service.past
         assert first.id != second.id and first.duration_s == 4.0
         assert all(d.recording.stat().st_size > 0 for d in service.past)
+
+
+async def _dive(service: Service, dive_s: float) -> None:
+    """Run ``service`` until its dive is ``dive_s`` long [s of dive time], then stop it
+    (which ends the dive)."""
+    stop = asyncio.Event()
+
+    async def stopper() -> None:
+        while service.dive is None or service.dive.duration_s < dive_s:
+            await asyncio.sleep(0.05)
+        stop.set()
+
+    await asyncio.gather(service.run(stop), stopper())
+
+
+def test_a_dives_recording_replays_to_the_live_segments(tmp_path: Path) -> None:
+    """The simulated Heavy's scripted dive watched live, then its recording: the same
+    segments, to the sample and the bit. (Before the watch saw its samples' times as the
+    recording stores them, to the µs, the first segment began a sample earlier live: a
+    dive time off by 1e-14 s.)"""
+    profile = load_profile("bluerov2-heavy")
+    with History(tmp_path / "trimd.db") as history:
+        service = _service(tmp_path, history, "sim:pilot=dive", "bluerov2-heavy")
+        asyncio.run(_dive(service, 100.0))
+    dive = service.past[0]
+    live = [s.to_dict() for s in dive.watch.watch.segments]
+    replayed: list[dict[str, Any]] = []
+    watch_log(str(dive.recording), profile, TrimWatch(profile),
+              lambda r: replayed.append(r.to_dict()))
+    assert len(live) >= 2
+    assert replayed == live
 
 
 async def _get(service: Service, path: str) -> tuple[int, Any]:

@@ -12,8 +12,10 @@ vehicle's system (``--target-system=1``): left to find it, it takes the first au
 heartbeat's component too (1/1) and then shows nothing of the vehicle's other components.
 
 The served simulator runs 10× faster than the wall clock the live watch measures on, so
-the watch cuts 15 s segments (150 simulated seconds each) and forms its baseline from two.
+the watch cuts 11 s segments (110 simulated seconds each) and forms its baseline from two.
 Nothing is timed: the test waits for what MAVProxy prints, with a generous hang guard.
+:func:`leak_beside_mavproxy` runs the set-up for any trimd that listens there (``trimd
+serve`` in ``tests/app/test_serve_gcs.py``, ``bench/bench_alert_latency.py``).
 """
 
 from __future__ import annotations
@@ -24,9 +26,12 @@ import os
 import re
 import signal
 import subprocess
+import threading
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -48,7 +53,12 @@ from trimd.drivers.sim.mavlink_server import open_mavlink2
 from trimd.logs.tlog import TlogReader
 
 HANG_GUARD_S = 400.0       # the whole run; not a timed assertion
-LEAK = "leak_N_min=0.5,leak_start_s=550"
+#: water from 350 s of simulated time (35 s of wall time, after the baseline's two 11 s
+#: segments), 2 N per simulated minute: the first segment after it is ≈ 3 N heavier
+LEAK = "leak_N_min=2,leak_start_s=350"
+#: the watch's options: 11 s segments (just above the shortest allowed; 110 s of simulated
+#: time), a baseline of two
+FAST_WATCH = ("--max-segment", "11", "--baseline-segments", "2")
 _VALUE = re.compile(r"^< NAMED_VALUE_FLOAT \{.*name : (\w+), value : ([-\d.e+]+)", re.M)
 
 
@@ -70,14 +80,15 @@ def arm(port: int) -> None:
 
 
 def _stop(procs: list[subprocess.Popen[bytes]]) -> None:
-    """SIGTERM to each in turn, killed after 20 s: the watch first, while the vehicle still
-    talks (it stops at its next sample), the simulator last."""
+    """SIGTERM to each in turn, killed after 60 s (a hang guard: a watch starved of CPU
+    takes a while to close its last segment): trimd first, while the vehicle still talks
+    (it stops at its next sample), the simulator last."""
     for p in procs:
         t0 = time.monotonic()
         if p.poll() is None:
             p.send_signal(signal.SIGTERM)
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
@@ -90,39 +101,62 @@ def _first_alert(watch_out: Path) -> dict[str, Any] | None:
     return next((r for r in records if r["type"] == "alert"), None)
 
 
-def _as_alert(d: dict[str, Any]) -> ChangeAlert:
-    """The ChangeAlert behind a watch's JSON alert line."""
-    return ChangeAlert(d["component"], d["total"], d["total_std"], d["change"],
-                       d["change_std"], math.nan if d["after_s"] is None else d["after_s"],
-                       d["since_s"], d["t_s"], d["segments"], d["statistic"], d["first"])
+def station_text(d: dict[str, Any]) -> str:
+    """The STATUSTEXT a ground station prints for a watch's JSON alert (ASCII):
+    ``TRIMD heavier 2.4+-0.1N since 5min: water?``."""
+    alert = ChangeAlert(d["component"], d["total"], d["total_std"], d["change"],
+                        d["change_std"], math.nan if d["after_s"] is None else d["after_s"],
+                        d["since_s"], d["t_s"], d["segments"], d["statistic"], d["first"])
+    return ascii_text(alert_text(alert).text)
 
 
-@pytest.fixture(scope="module")
-def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """Run the set-up until MAVProxy has printed trimd's alert and values: what MAVProxy
-    printed, what the watch printed, MAVProxy's tlog, and the wall time [s]."""
-    tmp = tmp_path_factory.mktemp("gcs")
+@dataclass
+class AtMavproxy:
+    """What a run beside MAVProxy gave: each line MAVProxy printed with the wall time it
+    was read [s since the Unix epoch], trimd's first alert (as trimd gave it), MAVProxy's
+    tlog, when the run started [s since the Unix epoch] and the wall time it took [s]."""
+
+    lines: list[tuple[float, str]]
+    alert: dict[str, Any]
+    tlog: Path
+    started_unix: float
+    took: float
+
+    @property
+    def printed(self) -> str:
+        return "\n".join(line for _, line in self.lines)
+
+
+def _read_lines(stream: IO[bytes], into: list[tuple[float, str]]) -> None:
+    """Each line of ``stream`` into ``into`` with the wall time it was read, until EOF."""
+    for raw in stream:
+        into.append((time.time(), raw.decode("utf-8", errors="replace").rstrip("\n")))
+
+
+def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subprocess.Popen[bytes]],
+                         alert: Callable[[], dict[str, Any] | None]) -> AtMavproxy:
+    """Run the set-up until MAVProxy has printed trimd's alert and values.
+
+    ``start_trimd(profile, port)`` starts trimd listening on UDP ``port`` with the profile
+    (the Heavy's, fast holds) at ``profile``; ``alert()`` is trimd's first alert (None
+    before it). MAVProxy's stdout is read line by line as it comes (it runs unbuffered)."""
     profile = fast_profile(tmp, "bluerov2-heavy")
     trimd_port, gcs_port, helper_port = free_udp_port(), free_udp_port(), free_udp_port()
     env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
-    gcs_out, watch_out, tlog = tmp / "mavproxy.out", tmp / "watch.jsonl", tmp / "gcs.tlog"
-    watch_err = tmp / "watch.err"
+    tlog, lines = tmp / "gcs.tlog", []
     procs: list[subprocess.Popen[bytes]] = []
-    t0 = time.monotonic()
-    with gcs_out.open("wb") as gcs_file, watch_out.open("wb") as watch_file, \
-            watch_err.open("wb") as err_file:
+    t0, started_unix = time.monotonic(), time.time()
+    with (tmp / "sim.err").open("wb") as err_file:
         try:
-            procs.append(subprocess.Popen(
+            gcs = subprocess.Popen(
                 [*MAVPROXY, f"--master=udpin:127.0.0.1:{gcs_port}", "--daemon",
                  "--non-interactive", "--default-modules=", "--target-system=1",
-                 f"--logfile={tlog}",
-                 f"--state-basedir={tmp}", "--cmd=watch NAMED_VALUE_FLOAT"],
-                stdout=gcs_file, stderr=subprocess.STDOUT, cwd=tmp, env=env))
-            procs.insert(0, subprocess.Popen(
-                [*TRIMD, "watch", "--link", f"mavlink:udpin:127.0.0.1:{trimd_port}?ids=vehicle",
-                 "--profile", str(profile), "--headless", "--json", "--no-history",
-                 "--max-segment", "15", "--baseline-segments", "2"],
-                stdout=watch_file, stderr=err_file, cwd=REPO, env=env))
+                 f"--logfile={tlog}", f"--state-basedir={tmp}", "--cmd=watch NAMED_VALUE_FLOAT"],
+                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=tmp, env=env)
+            procs.append(gcs)
+            assert gcs.stdout is not None
+            threading.Thread(target=_read_lines, args=(gcs.stdout, lines), daemon=True).start()
+            procs.insert(0, start_trimd(profile, trimd_port))
             wait_bound(gcs_port)
             wait_bound(trimd_port)
             procs.append(subprocess.Popen(
@@ -135,37 +169,53 @@ def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]
             arm(helper_port)
             deadline = time.monotonic() + HANG_GUARD_S
             while True:
-                printed = gcs_out.read_text(encoding="utf-8", errors="replace")
-                alert = _first_alert(watch_out)
+                printed = "\n".join(line for _, line in lines)
+                found = alert()
                 names = {name for name, _ in _VALUE.findall(printed)}
-                if alert is not None and "AP: TRIMD heavier" in printed and "TRIMD_WB" in names:
+                if found is not None and "AP: TRIMD heavier" in printed and "TRIMD_WB" in names:
                     break
-                dead = [" ".join(p.args[2:4]) for p in procs if p.poll() is not None]
-                assert not dead, (dead, printed[-2000:], watch_err.read_text()[-2000:])
-                assert time.monotonic() < deadline, (
-                    f"hang guard: MAVProxy printed {printed[-3000:]}; the watch: "
-                    f"{watch_out.read_text(encoding='utf-8')[-3000:]}")
+                dead = [" ".join(map(str, p.args[2:4])) for p in procs if p.poll() is not None]
+                assert not dead, (dead, printed[-2000:], (tmp / "sim.err").read_text()[-2000:])
+                assert time.monotonic() < deadline, f"hang guard: MAVProxy: {printed[-3000:]}"
                 time.sleep(0.5)
             took = time.monotonic() - t0
         finally:
             _stop(procs)
-    return {"printed": gcs_out.read_text(encoding="utf-8", errors="replace"),
-            "watch": [json.loads(x) for x in watch_out.read_text(encoding="utf-8").splitlines()
-                      if x.startswith("{")],
-            "tlog": tlog, "took": took}
+    return AtMavproxy(lines, found, tlog, started_unix, took)
+
+
+@pytest.fixture(scope="module")
+def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> tuple[AtMavproxy,
+                                                                        list[dict[str, Any]]]:
+    """``trimd watch`` beside MAVProxy: what MAVProxy printed, and every JSON line of the
+    watch."""
+    tmp = tmp_path_factory.mktemp("gcs")
+    out = tmp / "watch.jsonl"
+
+    def watch(profile: Path, port: int) -> subprocess.Popen[bytes]:
+        with out.open("wb") as stdout, (tmp / "watch.err").open("wb") as stderr:
+            return subprocess.Popen(
+                [*TRIMD, "watch", "--link", f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle",
+                 "--profile", str(profile), "--headless", "--json", "--no-history",
+                 *FAST_WATCH], stdout=stdout, stderr=stderr, cwd=REPO,
+                env={**os.environ, "PYTHONPATH": str(REPO)})
+
+    run = leak_beside_mavproxy(tmp, watch, lambda: _first_alert(out))
+    return run, [json.loads(x) for x in out.read_text(encoding="utf-8").splitlines()
+                 if x.startswith("{")]
 
 
 @pytest.mark.slow
 @needs_mavproxy
 def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
-        leak_at_mavproxy: dict[str, Any]) -> None:
-    printed, watch = leak_at_mavproxy["printed"], leak_at_mavproxy["watch"]
-    print(f"alert at MAVProxy after {leak_at_mavproxy['took']:.0f} s of wall time")
+        leak_at_mavproxy: tuple[AtMavproxy, list[dict[str, Any]]]) -> None:
+    run, watch = leak_at_mavproxy
+    printed = run.printed
+    print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
     print("\n".join(x for x in printed.splitlines() if "TRIMD" in x))
     alert = next(r for r in watch if r["type"] == "alert")
     assert alert["component"] == 0 and alert["total"] > 0
-    expected = ascii_text(alert_text(_as_alert(alert)).text)   # "TRIMD heavier 2.4+-0.1N …"
-    assert f"AP: {expected}" in printed.splitlines(), expected
+    assert f"AP: {station_text(alert)}" in printed.splitlines()
     assert "AP: TRIMD watch on: baseline after 2 hovers" in printed
     # each printed W − B is one of the watch's segments' (float32 on the wire)
     segments = [r["net_force_N"] for r in watch if r["type"] == "segment"]
@@ -179,11 +229,11 @@ def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
 @pytest.mark.slow
 @needs_mavproxy
 def test_the_watch_sends_mavproxy_nothing_but_its_heartbeat_requests_texts_and_values(
-        leak_at_mavproxy: dict[str, Any]) -> None:
+        leak_at_mavproxy: tuple[AtMavproxy, list[dict[str, Any]]]) -> None:
     """In MAVProxy's tlog (every packet that reached it through the router): what came
     from trimd's ids, 1/191, is the watch's set and no command but stream rates."""
     kinds: dict[str, set[int]] = {}
-    for _, msg in TlogReader.open(leak_at_mavproxy["tlog"]).messages():
+    for _, msg in TlogReader.open(leak_at_mavproxy[0].tlog).messages():
         if (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 191):
             kinds.setdefault(msg.get_type(), set()).add(
                 int(getattr(msg, "command", getattr(msg, "type", 0))))

@@ -39,7 +39,8 @@ PAYLOAD = "10@AftSB"
 NAME = "sabertooth-dh2"
 
 
-def _mavproxy_installed() -> bool:
+def mavproxy_installed() -> bool:
+    """Whether MAVProxy can be imported here."""
     try:
         import MAVProxy  # noqa: F401
     except ImportError:
@@ -103,7 +104,7 @@ def error(result: dict[str, Any]) -> tuple[np.ndarray, float]:
             result["estimate"]["m_ext_kg"] - truth.m_ext_kg)
 
 
-needs_mavproxy = pytest.mark.skipif(not _mavproxy_installed(),
+needs_mavproxy = pytest.mark.skipif(not mavproxy_installed(),
                                     reason="MAVProxy not installed (make install)")
 
 

@@ -27,6 +27,7 @@ is flushed and synced at least once a second, so after ``kill -9`` at most a sec
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import json
 import math
@@ -62,7 +63,7 @@ from trimd.drivers.mavlink.ardusub import mode_name, mode_number
 from trimd.drivers.mavlink.statustext import text_chunks
 
 __all__ = ["PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK",
-           "TlogRecorder"]
+           "TlogRecorder", "session_s", "session_us"]
 
 TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
 VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
@@ -80,6 +81,23 @@ _SEVERITY = {"warning": 4, "state": 6, "info": 6, "result": 6}
 
 def _f32(x: float) -> float:
     return float(np.float32(x))
+
+
+def session_us(t_s: float) -> int:
+    """Session time ``t_s`` [s] as a record's offset from the session's start [µs]."""
+    return round(t_s * 1e6)
+
+
+def session_s(offset_us: int) -> float:
+    """A record's offset from the session's start [µs] as the session time a replay
+    reads [s] (:meth:`trimd.logs.tlog.TlogReader.samples`).
+
+    Examples
+    --------
+    >>> 1234.55 - 1200.0, session_s(session_us(1234.55 - 1200.0))
+    (34.549999999999955, 34.55)
+    """
+    return offset_us * 1e-6
 
 
 class TlogRecorder:
@@ -112,7 +130,7 @@ class TlogRecorder:
 
     def raw(self, t_s: float, packet: bytes) -> None:
         """Record a packet (e.g. as received from a MAVLink link) at session time ``t_s``."""
-        stamp = self._epoch_us + round(t_s * 1e6)
+        stamp = self._epoch_us + session_us(t_s)
         self._file.write(struct.pack(">Q", stamp) + packet)
         self.flush_due()
 
@@ -154,7 +172,9 @@ class TlogRecorder:
 
     # ---------------------------------------------------------------- Recorder protocol
     def sample(self, s: Sample) -> Sample:
-        """Write ``s``; return it as the log stores it (what a replay will read)."""
+        """Write ``s``; return it as the log stores it (what a replay will read), its time
+        included: to the microsecond, as :func:`session_s` reads it back."""
+        s = dataclasses.replace(s, t_s=session_s(session_us(s.t_s)))
         ms = round(s.t_s * 1000) & 0xFFFFFFFF
         v = self._vehicle
         if isinstance(s, Attitude):

@@ -47,7 +47,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from trimd.core.errors import DataError
 from trimd.core.samples import Confirmed, Sample
 from trimd.drivers.mavlink.decode import MavlinkDecoder
-from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM
+from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM, session_s
 
 __all__ = ["MAX_TIME_JUMP_US", "TlogReader", "TlogStats"]
 
@@ -223,7 +223,7 @@ class TlogReader:
         for stamp, msg in self.messages():
             decoder.bad_frames = st.bad_frames
             assert st.first_us is not None
-            t_s = (stamp - st.first_us) * 1e-6
+            t_s = session_s(stamp - st.first_us)
             if (msg.get_srcSystem(), msg.get_srcComponent()) == (TRIMD_SYSTEM,
                                                                  TRIMD_COMPONENT):
                 kind = msg.get_type()

@@ -1,0 +1,45 @@
+"""How soon a ``trimd serve`` alert reaches the pilot's ground station (issue 26: "within
+1 s of the alert").
+
+The set-up of ``tests/app/test_serve_gcs.py``: ``trimd sim`` serving the BlueROV2 Heavy with
+water coming in (2 N per simulated minute, at 10×) behind its router to ``trimd serve
+…?ids=vehicle`` and to MAVProxy 1.8.75, ``TRIMD_ALERT_RUNS`` times (default 3). Measured
+per run, on the wall clock of this machine [s]: from the alert's time as trimd logs it
+(``t_unix`` of the alert in ``/api/alerts``: ``trimd serve`` stores it in its history just
+before it hands the STATUSTEXT to its link) to the moment this process read MAVProxy's
+printed ``AP: TRIMD heavier …`` line from MAVProxy's stdout (unbuffered, read line by line
+as it comes). That spans trimd's outbox, UDP to the simulator's router, the router's
+forwarding, MAVProxy's decoding and printing, and the pipe. Also: when the alert came after
+the start of the run [s]. Prints that MAVProxy is missing instead where it is.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+from pathlib import Path
+
+from bench.size import size
+from tests.app.test_serve_gcs import serve_beside_mavproxy
+from tests.drivers.test_mavlink_gcs import station_text
+from tests.drivers.test_mavlink_mavproxy import mavproxy_installed
+
+
+def main() -> None:
+    if not mavproxy_installed():
+        print("MAVProxy is not installed (make install): nothing measured")
+        return
+    runs = int(os.environ.get("TRIMD_ALERT_RUNS", size(3, 1)))
+    latencies = []
+    for i in range(runs):
+        with tempfile.TemporaryDirectory() as tmp:
+            run, _ = serve_beside_mavproxy(Path(tmp))
+        text = f"AP: {station_text(run.alert)}"
+        shown = next(t for t, line in run.lines if line == text)
+        latencies.append(shown - run.alert["t_unix"])
+        print(f"  run {i + 1}: alert {run.alert['t_unix'] - run.started_unix:5.1f} s after "
+              f"the start, at MAVProxy {latencies[-1] * 1000:6.1f} ms later "
+              f"({run.took:.0f} s wall in all)", flush=True)
+    print(f"alert → MAVProxy's printed line over {runs} run(s): median "
+          f"{statistics.median(latencies) * 1000:.1f} ms, max {max(latencies) * 1000:.1f} ms")
