@@ -111,7 +111,9 @@ class StreamSteadiness:
         if self._ratio.count <= MIN_RATIO_SAMPLES or t_s - t_short[0] < 0.9 * WINDOW_S:
             self.steady = False
             return False
-        ok = (R < R_CRIT) | (last_window_drift(t_short, x[short], WINDOW_S) <= self.floor)
+        ok = R < R_CRIT
+        if not np.all(ok):          # a channel the ratio test passes needs no drift test
+            ok |= last_window_drift(t_short, x[short], WINDOW_S) <= self.floor
         if t_s - t[0] >= 0.9 * LONG_WINDOW_S and not np.all(ok):
             ok |= last_window_drift(t, x, LONG_WINDOW_S) <= self.floor
         self.steady = bool(np.all(ok))
