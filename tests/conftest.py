@@ -3,6 +3,7 @@ live in tests/helpers.py)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -30,3 +31,68 @@ def sabertooth() -> Profile:
 @pytest.fixture(scope="session")
 def bluerov() -> Profile:
     return load_profile(PROFILES / "bluerov2-heavy.yaml")
+
+
+#: The modules that take the longest [s of one worker, measured with ``--durations`` on
+#: this 2-core machine], longest first. Only the order matters: it lets the longest start
+#: first, spread over the workers, so that no long module is left to run alone at the end.
+#: A module not listed counts as short; a stale figure costs wall time, never a test.
+MODULE_COST_S = {
+    "tests/drivers/test_mavlink_gcs.py": 120,
+    "tests/identify/test_staged.py": 110,
+    "tests/test_bench_smoke.py": 110,
+    "tests/tui/test_tui_after_trim.py": 100,
+    "tests/drivers/test_mavlink_link.py": 100,
+    "tests/drivers/test_mavlink_stations.py": 85,
+    "tests/tui/test_tui_snapshots.py": 70,
+    "tests/app/test_watch_sim.py": 70,
+    "tests/drivers/test_fuzz_mavlink.py": 60,
+    "tests/tui/test_tui.py": 60,
+    "tests/identify/test_identify.py": 55,
+    "tests/cli/test_cli_watch.py": 50,
+    "tests/drivers/test_serial_protocol.py": 50,
+    "tests/test_package.py": 50,
+    "tests/drivers/test_mavlink_mavproxy.py": 45,
+    "tests/app/test_run_sim.py": 45,
+    "tests/logs/test_replay.py": 45,
+    "tests/core/test_estimate.py": 45,
+    "tests/tui/test_tui_replay.py": 40,
+    "tests/drivers/test_serial_link.py": 40,
+    "tests/app/test_wander.py": 35,
+    "tests/app/test_verify.py": 30,
+    "tests/tui/test_tui_watch.py": 30,
+    "tests/cli/test_json_contract.py": 30,
+    "tests/drivers/test_sim_disturbance.py": 30,
+}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Under pytest-xdist, order the collection so that each worker's first share (``--dist
+    worksteal`` hands worker k the k-th of equal shares, then moves tests from the end of
+    the longest queue) starts with its lane of the long modules, dealt longest first in
+    turn. A module's tests stay together and in order (a module fixture is set up once per
+    worker that runs them). Without xdist the order is left as collected."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0"))
+    if workers < 2:
+        return
+    modules: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        modules.setdefault(item.nodeid.split("::")[0], []).append(item)
+    long = sorted((m for m in modules if m in MODULE_COST_S), key=lambda m: -MODULE_COST_S[m])
+    lanes: list[list[pytest.Item]] = [[] for _ in range(workers)]
+    load = [0.0] * workers
+    for m in long:                              # each to the lane with the least so far
+        k = load.index(min(load))
+        lanes[k] += modules[m]
+        load[k] += MODULE_COST_S[m]
+    short = [item for m, its in modules.items() if m not in MODULE_COST_S for item in its]
+    ordered: list[pytest.Item] = []
+    pending, end = len(items), 0
+    for k in range(workers):        # the shares worksteal sends: pending // nodes remaining
+        end += pending // (workers - k)
+        pending -= pending // (workers - k)
+        ordered += lanes[k]
+        take = max(0, end - len(ordered))
+        ordered += short[:take]
+        short = short[take:]
+    items[:] = ordered + short

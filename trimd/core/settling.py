@@ -58,7 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.profile import ProcedureLimits
 from trimd.core.samples import Attitude
-from trimd.core.steady import RatioTest, window_drift
+from trimd.core.steady import RatioTest, last_window_drift
 
 __all__ = ["ATTITUDE_DRIFT_SHARE", "EFFORT_WAIVER_S", "LONG_WINDOW_S", "UNSTEADY_GRACE_S",
            "WINDOW_S", "HoldSettling", "StreamSteadiness"]
@@ -98,26 +98,24 @@ class StreamSteadiness:
     def __init__(self, floor: ArrayLike) -> None:
         self.floor = np.asarray(floor, dtype=float)
         self._ratio = RatioTest()
-        self._window: deque[tuple[float, NDArray[np.float64]]] = deque()
+        self._window = _Window()
         self.steady = False
 
     def update(self, t_s: float, x: ArrayLike) -> bool:
         """A new sample ``x`` at ``t_s`` [s]; is the stream steady now?"""
         v = np.atleast_1d(np.asarray(x, dtype=float))
         R = self._ratio.update(v)
-        window = self._window
-        window.append((t_s, v))
-        while window[0][0] < t_s - LONG_WINDOW_S:
-            window.popleft()
-        t = np.array([w[0] for w in window])
+        t, x = self._window.push(t_s, v, t_s - LONG_WINDOW_S)
         short = t >= t_s - WINDOW_S
-        if self._ratio.count <= MIN_RATIO_SAMPLES or t_s - t[short][0] < 0.9 * WINDOW_S:
+        t_short = t[short]
+        if self._ratio.count <= MIN_RATIO_SAMPLES or t_s - t_short[0] < 0.9 * WINDOW_S:
             self.steady = False
             return False
-        x = np.array([w[1] for w in window])
-        ok = (R < R_CRIT) | (window_drift(t[short], x[short], WINDOW_S)[-1] <= self.floor)
+        ok = R < R_CRIT
+        if not np.all(ok):          # a channel the ratio test passes needs no drift test
+            ok |= last_window_drift(t_short, x[short], WINDOW_S) <= self.floor
         if t_s - t[0] >= 0.9 * LONG_WINDOW_S and not np.all(ok):
-            ok |= window_drift(t, x, LONG_WINDOW_S)[-1] <= self.floor
+            ok |= last_window_drift(t, x, LONG_WINDOW_S) <= self.floor
         self.steady = bool(np.all(ok))
         return self.steady
 
@@ -126,16 +124,47 @@ class StreamSteadiness:
         its least-squares drift (slope × window) within the floor or within
         :data:`WANDER_RATIO` times the scatter about that line? A transient — a creep
         towards a new level — drifts far more than it scatters."""
-        window = self._window
-        if len(window) < 3 or window[-1][0] - window[0][0] < 0.9 * LONG_WINDOW_S:
+        t, x = self._window.t.copy(), self._window.x.copy()
+        if len(t) < 3 or t[-1] - t[0] < 0.9 * LONG_WINDOW_S:
             return False
-        t = np.array([w[0] for w in window])
-        x = np.array([w[1] for w in window])
         tc = t - t.mean()
         slope = (tc @ (x - x.mean(axis=0))) / (tc @ tc)
         scatter = np.std(x - x.mean(axis=0) - np.outer(tc, slope), axis=0)
         drift = np.abs(slope) * LONG_WINDOW_S
         return bool(np.all((drift <= self.floor) | (drift <= WANDER_RATIO * scatter)))
+
+
+class _Window:
+    """A stream's trailing samples: times ``t`` (N,) and values ``x`` (N, k), oldest
+    first, in arrays that grow at the end and drop from the front (views of one buffer,
+    so a sample costs no copy of the window)."""
+
+    def __init__(self) -> None:
+        self._t = np.empty(0)
+        self._x = np.empty((0, 0))
+        self._start = self._end = 0
+        self.t, self.x = self._t, self._x
+
+    def push(self, t_s: float, v: NDArray[np.float64], drop_before: float
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Append the sample (``t_s``, ``v``), drop those before ``drop_before`` [s] from
+        the front (as long as the oldest is earlier), and return (t, x)."""
+        if self._end == len(self._t):
+            live = self._end - self._start
+            size = max(64, 2 * live)
+            t = np.empty(size)
+            x = np.empty((size, len(v)))
+            if live:
+                t[:live] = self._t[self._start:self._end]
+                x[:live] = self._x[self._start:self._end]
+            self._t, self._x, self._start, self._end = t, x, 0, live
+        self._t[self._end] = t_s
+        self._x[self._end] = v
+        self._end += 1
+        while self._t[self._start] < drop_before:
+            self._start += 1
+        self.t, self.x = self._t[self._start:self._end], self._x[self._start:self._end]
+        return self.t, self.x
 
 
 class HoldSettling:

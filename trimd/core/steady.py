@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
-__all__ = ["RatioTest", "ratio_statistic", "window_drift"]
+__all__ = ["RatioTest", "last_window_drift", "ratio_statistic", "window_drift"]
 
 FloatArray = NDArray[np.float64]
 _TINY = 1e-300
@@ -113,3 +113,30 @@ def window_drift(t: ArrayLike, x: ArrayLike, window_s: float, t_crit: float = 3.
     significant = np.abs(slope) > t_crit * se
     drift: FloatArray = np.where(significant, np.abs(slope) * window_s, 0.0)
     return drift.reshape(a.shape)
+
+
+def last_window_drift(t: FloatArray, X: FloatArray, window_s: float, t_crit: float = 3.0
+                      ) -> FloatArray:
+    """:func:`window_drift` of the last sample alone (``t`` (N,), ``X`` (N, k)): the
+    live test's question, sample by sample. Equal bit for bit to
+    ``window_drift(t, X, window_s, t_crit)[-1]`` (the same running sums, the same
+    arithmetic, on the last row only)."""
+    tc = (t - t[0])[:, None]
+    X0 = X - X[0]
+    k = X.shape[1]
+    j = int(np.searchsorted(t, t[-1] - window_s, side="left"))
+    # every running sum in one cumsum (column by column, the same additions in order)
+    c = np.cumsum(np.hstack([np.ones_like(tc), tc, tc * tc, X0, X0 * X0, tc * X0]), axis=0)
+    sums = c[-1] - (c[j - 1] if j > 0 else 0.0)
+    n, St, Stt = sums[0:1], sums[1:2], sums[2:3]
+    Sx, Sxx, Stx = sums[3:3 + k], sums[3 + k:3 + 2 * k], sums[3 + 2 * k:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tt = Stt - St * St / n
+        tx = Stx - St * Sx / n
+        xx = Sxx - Sx * Sx / n
+        slope = np.where(tt > 1e-12, tx / tt, 0.0)
+        sse = np.maximum(xx - slope * tx, 0.0)
+        se = np.sqrt(np.where((n > 2) & (tt > 1e-12), sse / (n - 2) / tt, np.inf))
+    significant = np.abs(slope) > t_crit * se
+    drift: FloatArray = np.where(significant, np.abs(slope) * window_s, 0.0)
+    return drift
