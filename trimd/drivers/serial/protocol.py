@@ -31,6 +31,7 @@ from trimd.core.samples import (
     Depth,
     Health,
     HoldAttitude,
+    ModeClass,
     OpenLoop,
     PilotInput,
     Release,
@@ -41,9 +42,25 @@ from trimd.core.samples import (
 )
 
 __all__ = [
-    "BAD_COUNTERS", "CONTROLS", "MAX_LINE_BYTES", "MAX_OUTPUTS", "TRIMD", "VEHICLE", "VERSION",
-    "Heartbeat", "LineParser", "Sentence", "Version", "checksum", "encode",
-    "encode_command", "encode_sample", "heading_deg", "to_command", "to_sample",
+    "BAD_COUNTERS",
+    "CONTROLS",
+    "MAX_LINE_BYTES",
+    "MAX_OUTPUTS",
+    "MODE_CLASSES",
+    "TRIMD",
+    "VEHICLE",
+    "VERSION",
+    "Heartbeat",
+    "LineParser",
+    "Sentence",
+    "Version",
+    "checksum",
+    "encode",
+    "encode_command",
+    "encode_sample",
+    "heading_deg",
+    "to_command",
+    "to_sample",
 ]
 
 VERSION = 1
@@ -53,6 +70,19 @@ MAX_OUTPUTS = 16
 VEHICLE, TRIMD = "VH", "TR"
 #: Who is in control, as the vehicle's STA sentence reports it.
 CONTROLS = ("PILOT", "HOLD", "OPEN")
+#: What the mode tokens of STA mean (docs/serial-protocol.md, "Modes"): ArduSub's names
+#: with ArduSub's meaning (a recording stores the mode as ArduSub's number, so a
+#: token spelled as an ArduSub mode must mean what that mode does); any other token is
+#: :attr:`ModeClass.UNKNOWN`.
+MODE_CLASSES: dict[str, ModeClass] = {
+    "MANUAL": ModeClass.MANUAL, "ACRO": ModeClass.MANUAL,
+    "STABILIZE": ModeClass.STABILISED,
+    "ALT_HOLD": ModeClass.DEPTH_HOLDING, "POSHOLD": ModeClass.DEPTH_HOLDING,
+    "AUTO": ModeClass.AUTONOMOUS, "GUIDED": ModeClass.AUTONOMOUS,
+    "CIRCLE": ModeClass.AUTONOMOUS, "SURFTRAK": ModeClass.AUTONOMOUS,
+    "SURFACE": ModeClass.FAILSAFE,
+    "MOTOR_DETECT": ModeClass.SERVICE,
+}
 #: The counters of dropped lines, in the order a receiver checks them.
 BAD_COUNTERS = ("too_long", "malformed", "bad_checksum", "unknown", "bad_fields", "bad_value")
 
@@ -287,7 +317,9 @@ def to_sample(s: Sentence, t_s: float, channels: Sequence[int]) -> Sample | Vers
     if s.kind == "BAT":
         return Battery(t_s, float(v[1]))
     if s.kind == "STA":
-        return Health(t_s, True, str(v[1]), v[2] == 1, detail=f"control {v[3]}")
+        mode = str(v[1])
+        return Health(t_s, True, mode, v[2] == 1, detail=f"control {v[3]}",
+                      mode_class=MODE_CLASSES.get(mode, ModeClass.UNKNOWN))
     if s.kind == "TXT":
         return VehicleText(t_s, int(v[1]), str(v[2]))
     return Version(int(v[0]), str(v[1]))
@@ -344,7 +376,7 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
     if isinstance(sample, Battery):
         return encode(VEHICLE, "BAT", [t, _f(_clamp(sample.voltage_V, 100, 1), 2)])
     if isinstance(sample, Health):
-        return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
+        return encode(VEHICLE, "STA", [t, sample.mode, str(int(bool(sample.armed))), control])
     if isinstance(sample, PilotInput):
         raise ValueError("a pilot taking over is sent as STA with control PILOT, not as a "
                          "sentence of its own")
