@@ -84,3 +84,13 @@ def test_the_check_catches_a_wrong_import(tmp_path: Path) -> None:
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from trimd.app.session import Session\n    import time\n")
     assert {"trimd.app.session", "time"} <= _imports(bad)
+
+
+#: The longest a module of trimd may be [lines]: past it, split it along its seams.
+MAX_MODULE_LINES = 400
+
+
+def test_no_module_is_over_the_line_limit() -> None:
+    long = {name: n for name, path in MODULES
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES}
+    assert long == {}, f"modules over {MAX_MODULE_LINES} lines (split them): {long}"

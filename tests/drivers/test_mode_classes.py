@@ -8,7 +8,7 @@ import pytest
 
 from trimd.core.samples import Health, ModeClass
 from trimd.drivers.mavlink import ardusub
-from trimd.drivers.serial.protocol import MODE_CLASSES as SERIAL_CLASSES
+from trimd.drivers.serial.modes import MODE_CLASSES as SERIAL_CLASSES
 from trimd.drivers.serial.protocol import VEHICLE, LineParser, checksum, to_sample
 from trimd.drivers.sim.controller import MODE_CLASSES as SIM_CLASSES
 from trimd.drivers.sim.controller import MODES as SIM_MODES

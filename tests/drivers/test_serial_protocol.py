@@ -32,10 +32,10 @@ from trimd.core.samples import (
     Velocity,
 )
 from trimd.drivers.mavlink.decode import LIMITS
+from trimd.drivers.serial.modes import mode_class
 from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
-    MODE_CLASSES,
     TRIMD,
     VEHICLE,
     Heartbeat,
@@ -417,7 +417,7 @@ def random_sample(kind: str, rng: random.Random) -> Sample:
         return Battery(0.0, u(1, 100))
     mode = rng.choice(["MANUAL", "ALT_HOLD", "STABILIZE", "SURFACE", "MY_MODE"])
     return Health(0.0, True, mode, rng.random() < 0.5, detail="control PILOT",
-                  mode_class=MODE_CLASSES.get(mode, ModeClass.UNKNOWN))
+                  mode_class=mode_class(mode))
 
 
 def mutate(line: bytes, how: str, rng: random.Random) -> bytes:

@@ -31,7 +31,6 @@ from trimd.core.samples import (
     Depth,
     Health,
     HoldAttitude,
-    ModeClass,
     OpenLoop,
     PilotInput,
     Release,
@@ -40,13 +39,13 @@ from trimd.core.samples import (
     VehicleText,
     Velocity,
 )
+from trimd.drivers.serial.modes import mode_class
 
 __all__ = [
     "BAD_COUNTERS",
     "CONTROLS",
     "MAX_LINE_BYTES",
     "MAX_OUTPUTS",
-    "MODE_CLASSES",
     "TRIMD",
     "VEHICLE",
     "VERSION",
@@ -70,19 +69,6 @@ MAX_OUTPUTS = 16
 VEHICLE, TRIMD = "VH", "TR"
 #: Who is in control, as the vehicle's STA sentence reports it.
 CONTROLS = ("PILOT", "HOLD", "OPEN")
-#: What the mode tokens of STA mean (docs/serial-protocol.md, "Modes"): ArduSub's names
-#: with ArduSub's meaning (a recording stores the mode as ArduSub's number, so a
-#: token spelled as an ArduSub mode must mean what that mode does); any other token is
-#: :attr:`ModeClass.UNKNOWN`.
-MODE_CLASSES: dict[str, ModeClass] = {
-    "MANUAL": ModeClass.MANUAL, "ACRO": ModeClass.MANUAL,
-    "STABILIZE": ModeClass.STABILISED,
-    "ALT_HOLD": ModeClass.DEPTH_HOLDING, "POSHOLD": ModeClass.DEPTH_HOLDING,
-    "AUTO": ModeClass.AUTONOMOUS, "GUIDED": ModeClass.AUTONOMOUS,
-    "CIRCLE": ModeClass.AUTONOMOUS, "SURFTRAK": ModeClass.AUTONOMOUS,
-    "SURFACE": ModeClass.FAILSAFE,
-    "MOTOR_DETECT": ModeClass.SERVICE,
-}
 #: The counters of dropped lines, in the order a receiver checks them.
 BAD_COUNTERS = ("too_long", "malformed", "bad_checksum", "unknown", "bad_fields", "bad_value")
 
@@ -317,9 +303,8 @@ def to_sample(s: Sentence, t_s: float, channels: Sequence[int]) -> Sample | Vers
     if s.kind == "BAT":
         return Battery(t_s, float(v[1]))
     if s.kind == "STA":
-        mode = str(v[1])
-        return Health(t_s, True, mode, v[2] == 1, detail=f"control {v[3]}",
-                      mode_class=MODE_CLASSES.get(mode, ModeClass.UNKNOWN))
+        return Health(t_s, True, str(v[1]), v[2] == 1, detail=f"control {v[3]}",
+                      mode_class=mode_class(str(v[1])))
     if s.kind == "TXT":
         return VehicleText(t_s, int(v[1]), str(v[2]))
     return Version(int(v[0]), str(v[1]))
