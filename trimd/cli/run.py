@@ -37,7 +37,7 @@ from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS, propose_ballast
 from trimd.ballast.verify import Verification
-from trimd.cli.argtypes import integer
+from trimd.cli.argtypes import integer, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
 from trimd.core.estimate import StaticEstimate
@@ -48,7 +48,7 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
-__all__ = ["register", "run", "run_demo", "wants_tui"]
+__all__ = ["register", "run", "run_demo"]
 
 #: ``--verify`` without a file: the vehicle's last trim in the history.
 LAST_TRIM = "<last trim>"
@@ -276,8 +276,3 @@ def run(args: argparse.Namespace) -> int:
 def run_demo(args: argparse.Namespace) -> int:
     args.yes = True
     return _start(args, truth=True)
-
-
-def wants_tui(args: argparse.Namespace) -> bool:
-    """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
-    return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()
