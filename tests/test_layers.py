@@ -133,8 +133,7 @@ TESTS = PACKAGE.parent / "tests"
 #: (``trimd.cli.main.main``) but import nothing else of the cli: library functions live
 #: below it. The tests listed here still reach into a command module (to be moved).
 TESTS_REACHING_INTO_CLI = {
-    "tests/app/test_announce.py", "tests/identify/test_identify.py",
-    "tests/identify/test_staged.py", "tests/tui/test_tui_after_trim.py",
+    "tests/tui/test_tui_after_trim.py",
     "tests/tui/test_tui_replay.py", "tests/drivers/test_serial_link.py",
     "tests/drivers/test_mavlink_link.py",
 }
