@@ -146,7 +146,7 @@ class TrimWatch:
         #: it) and notes (a link that ended)
         self.vehicle = ""
         self.notes: list[str] = []
-        #: what was seen: modes (by name, with their class), attitude samples and how many counted,
+        #: what was seen: modes (by name), attitude samples and how many counted,
         #: thruster samples
         self.modes_seen: set[str] = set()
         self.attitude_samples = self.counted_samples = self.thruster_samples = 0
@@ -182,7 +182,7 @@ class TrimWatch:
             self._state, self._seen_health = s, True
             self.vehicle = s.vehicle or self.vehicle
             if s.mode:
-                self.modes_seen.add(f"{s.mode} ({s.mode_class.value})")
+                self.modes_seen.add(s.mode)
         elif isinstance(s, PilotInput):
             self._quiet_until = s.t_s + PILOT_QUIET_S
         elif isinstance(s, Depth):
