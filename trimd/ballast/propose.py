@@ -31,7 +31,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.ballast.check import SlotLoad, Trim, check_trim
 from trimd.ballast.line import line_split
@@ -49,6 +48,7 @@ from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import covariance_problem
 from trimd.core.profile import InstalledPiece, Profile
+from trimd.core.types import FloatArray
 
 __all__ = [
     "METHODS",
@@ -60,7 +60,6 @@ __all__ = [
     "slot_to_dict",
 ]
 
-FloatArray = NDArray[np.float64]
 METHODS = ("lp", "line", "general", "milp")
 #: Angle [rad] within which a continuous proposal counts as exactly level (solver tolerance).
 _EXACT_RAD = 1e-6

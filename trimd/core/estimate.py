@@ -69,13 +69,13 @@ from trimd.core.systematics import (
     drift_moments,
     thrust_map_factors,
 )
+from trimd.core.types import FloatArray
 
 __all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldRecord", "HoldSamples",
            "HoldSummary",
            "StaticEstimate", "check_samples", "estimate_static", "is_level",
            "measurable_dofs", "net_estimate"]
 
-FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 #: Holds whose stacked design has a relative singular value below this cannot separate

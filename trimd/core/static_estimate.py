@@ -12,14 +12,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
 __all__ = ["HoldSummary", "StaticEstimate", "net_estimate"]
 
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

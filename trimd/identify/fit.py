@@ -36,10 +36,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.errors import DataError, EstimationError
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment
 from trimd.identify.excitation import (
     excitation_of,
@@ -73,7 +73,6 @@ from trimd.identify.start import LAG_GRID, equation_error_start
 __all__ = ["NEEDS_DVL", "NOT_DETERMINED", "FitOptions", "ParameterEstimate", "StageFit",
            "fit_stage"]
 
-FloatArray = NDArray[np.float64]
 #: A parameter whose standard deviation moves less than this share of its DOF's force or
 #: moment counts as determined (negligible) even when its relative uncertainty is large.
 MIN_SHARE = 0.02

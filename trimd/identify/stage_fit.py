@@ -7,15 +7,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-import numpy as np
-from numpy.typing import NDArray
-
+from trimd.core.types import FloatArray
 from trimd.identify.excitation import MIN_EXCITATION, DofExcitation
 from trimd.identify.model import Statics
 
 __all__ = ["NEEDS_DVL", "NOT_DETERMINED", "FitOptions", "ParameterEstimate", "StageFit"]
 
-FloatArray = NDArray[np.float64]
 
 #: Note of a parameter of surge or sway fitted from logs without body velocity.
 NEEDS_DVL = "needs a DVL: profile's value kept (fitted only as the unmeasured motion)"

@@ -22,11 +22,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.model import restoring_forces
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, Velocity
+from trimd.core.types import FloatArray
 from trimd.drivers.sim.config import SimConfig
 from trimd.drivers.sim.controller import MODE_CLASSES, MODES, Controller
 from trimd.drivers.sim.disturbance import Disturbances
@@ -40,7 +40,6 @@ from trimd.drivers.sim.wander import torque_std_for_wander
 
 __all__ = ["SAMPLE_KINDS", "SimVehicle", "Truth"]
 
-FloatArray = NDArray[np.float64]
 
 #: What :meth:`SimVehicle.sample` can produce.
 SAMPLE_KINDS = ("attitude", "thrusters", "depth", "velocity", "battery", "health")
