@@ -7,16 +7,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from trimd.app.announce import announce_run
 from trimd.app.session import Presenter, Session
 from trimd.app.verify import verify_procedure
+from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
 from trimd.core.estimate import StaticEstimate
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
+from trimd.core.types import JsonObject
 from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["TrimRequest", "trim_session"]
@@ -42,7 +43,7 @@ class TrimRequest:
     confirmed: bool = False
     ballast_method: str = "milp"
     record: Path | None = None
-    target: dict[str, Any] | None = None
+    target: JsonObject | None = None
     target_source: str | None = None
 
 
@@ -56,7 +57,7 @@ def trim_session(link: Link, profile: Profile, presenters: list[Presenter],
                                 read_profile_text(request.profile_ref)[0],
                                 verify_target=target)
 
-    def propose(estimate: StaticEstimate) -> Any:
+    def propose(estimate: StaticEstimate) -> Proposal:
         return propose_ballast(estimate, profile, method=request.ballast_method)
 
     procedure = None if target is None else verify_procedure(

@@ -7,8 +7,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from trimd.app.history import History
 from trimd.app.history.baseline import latest_baseline
@@ -57,7 +57,8 @@ def _baseline(args: argparse.Namespace, profile: Profile) -> Baseline | None:
     return baseline_from_estimate(estimate_from_dict(data, path), f"the estimate in {path}")
 
 
-def new_watch(args: argparse.Namespace, profile: Profile, clock: Any = None) -> TrimWatch:
+def new_watch(args: argparse.Namespace, profile: Profile,
+              clock: Callable[[float], str] | None = None) -> TrimWatch:
     """A watch with the options of :func:`add_watch_args`; ``clock`` names a sample time
     [s] for people (None: ``t = … s``)."""
     kwargs = {"clock": clock} if clock is not None else {}
