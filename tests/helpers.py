@@ -37,6 +37,7 @@ from trimd.core.samples import (
     Sample,
     Thrusters,
 )
+from trimd.drivers.mavlink.ardusub import mode_class_of
 from trimd.drivers.sim.config import SimConfig, with_presets
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.truth import implied_mass, passive_trim_deg
@@ -140,7 +141,8 @@ class FakeVehicle:
             return True
 
         if due("health"):
-            out.append(Health(t, True, self.mode, self.armed))
+            out.append(Health(t, True, self.mode, self.armed,
+                              mode_class=mode_class_of(self.mode)))
         if due("thrusters"):
             tau = restoring_forces(self.phi, self.theta, self.W, self.profile.buoyancy_N,
                                    self.r_g, self.profile.r_b_m)

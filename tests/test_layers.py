@@ -84,3 +84,71 @@ def test_the_check_catches_a_wrong_import(tmp_path: Path) -> None:
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from trimd.app.session import Session\n    import time\n")
     assert {"trimd.app.session", "time"} <= _imports(bad)
+
+
+#: The longest a module of trimd may be [lines]: past it, split it along its seams.
+MAX_MODULE_LINES = 400
+
+
+def test_no_module_is_over_the_line_limit() -> None:
+    long = {name: n for name, path in MODULES
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES}
+    assert long == {}, f"modules over {MAX_MODULE_LINES} lines (split them): {long}"
+
+
+#: Modules of the cli that a command may import: main.py registers the commands, a command
+#: registers its own sub-commands (``trimd ballast apply``), and the shared reading of
+#: arguments. Everything else a command needs lives below the cli (app/, logs/, …).
+CLI_SHARED = {"trimd.cli.argtypes", "trimd.cli.history_args", "trimd.cli.watch_args"}
+CLI_REGISTERS = {"trimd.cli.ballast": {"trimd.cli.ballast_apply"}}
+
+
+def _cli_imports(path: Path) -> set[str]:
+    """The trimd.cli modules ``path`` imports (``from trimd.cli import x`` as trimd.cli.x)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("trimd.cli"))
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module == "trimd.cli":
+                out.update(f"trimd.cli.{a.name}" for a in node.names)
+            elif node.module.startswith("trimd.cli."):
+                out.add(node.module)
+    return out
+
+
+CLI = [m for m in MODULES if m[0].startswith("trimd.cli.") and m[0] != "trimd.cli.main"]
+
+
+@pytest.mark.parametrize(("name", "path"), CLI, ids=[m[0] for m in CLI])
+def test_no_command_imports_another(name: str, path: Path) -> None:
+    allowed = CLI_SHARED | CLI_REGISTERS.get(name, set()) | {name}
+    wrong = sorted(_cli_imports(path) - allowed)
+    assert wrong == [], (f"{name} imports {wrong}: a command may import only "
+                         f"{sorted(CLI_SHARED)}; move what it shares below the cli")
+
+
+TESTS = PACKAGE.parent / "tests"
+#: Outside tests/cli a test may run the command line as a user does
+#: (``trimd.cli.main.main``) but import nothing else of the cli: library functions live
+#: below it. The tests listed here still reach into a command module (to be moved).
+TESTS_REACHING_INTO_CLI = {
+    "tests/tui/test_tui_after_trim.py",
+    "tests/tui/test_tui_replay.py", "tests/drivers/test_serial_link.py",
+    "tests/drivers/test_mavlink_link.py",
+}
+OUTSIDE_CLI_TESTS = sorted(p for p in TESTS.rglob("*.py")
+                           if p.relative_to(TESTS).parts[0] != "cli")
+
+
+def test_tests_outside_the_cli_import_only_its_entry_point() -> None:
+    wrong = {}
+    for path in OUTSIDE_CLI_TESTS:
+        name = path.relative_to(PACKAGE.parent).as_posix()
+        reached = _cli_imports(path) - {"trimd.cli.main"}
+        if reached and name not in TESTS_REACHING_INTO_CLI:
+            wrong[name] = sorted(reached)
+    assert wrong == {}, f"tests importing the cli's insides (import from app/, logs/): {wrong}"
+    fixed = sorted(n for n in TESTS_REACHING_INTO_CLI
+                   if not _cli_imports(PACKAGE.parent / n) - {"trimd.cli.main"})
+    assert fixed == [], f"no longer reach into the cli: drop from the list: {fixed}"

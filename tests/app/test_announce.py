@@ -4,7 +4,6 @@ verdict (NOTICE) from a whole session on an announcing link."""
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
@@ -14,7 +13,7 @@ from tests.app.test_session import run
 from tests.helpers import PROFILES, FakeLink, FakeVehicle, payload_truth
 from trimd.app.announce import RunAnnouncer, alert_text
 from trimd.app.session import Session
-from trimd.cli.run import _make_session
+from trimd.app.trim import TrimRequest, trim_session
 from trimd.core.announce import Announcement, Severity, Text
 from trimd.core.change import ChangeAlert
 from trimd.core.events import Phase
@@ -79,9 +78,9 @@ def test_a_trim_announces_its_phases_at_info_and_its_verdict_at_notice(
         sabertooth: Profile) -> None:
     link = _link(sabertooth)
     assert isinstance(link, Announces)
-    args = argparse.Namespace(target=None, no_record=True, record=None, ballast="milp",
-                              yes=True, profile=str(PROFILES / "sabertooth-dh2.yaml"))
-    session = _make_session(args, sabertooth, link, [])     # as trimd run builds it
+    request = TrimRequest(profile_ref=str(PROFILES / "sabertooth-dh2.yaml"), confirmed=True,
+                          ballast_method="milp")
+    session = trim_session(link, sabertooth, [], request)     # as trimd run builds it
     assert any(isinstance(p, RunAnnouncer) for p in session.presenters)
     result = run(session)
     assert result.phase is Phase.DONE, result.reason

@@ -18,7 +18,7 @@ from trimd.app.serve import Service
 from trimd.app.watch import watch_log
 from trimd.app.web import make_app
 from trimd.core.profile_yaml import load_profile, read_profile_text
-from trimd.core.samples import Health
+from trimd.core.samples import Health, ModeClass
 from trimd.core.watch import TrimWatch
 
 GOLDEN = REPO / "tests" / "data" / "golden" / "sabertooth-10kg-aftsb.expected.json"
@@ -40,7 +40,7 @@ def _service(tmp_path: Path, history: History, url: str = "mavlink:udpin:127.0.0
 
 
 def _health(t_s: float, connected: bool, armed: bool) -> Health:
-    return Health(t_s, connected, "ALT_HOLD", armed)
+    return Health(t_s, connected, "ALT_HOLD", armed, mode_class=ModeClass.DEPTH_HOLDING)
 
 
 def test_a_dive_is_armed_with_the_heartbeat_coming(tmp_path: Path) -> None:

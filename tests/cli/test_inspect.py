@@ -11,7 +11,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.helpers import ARDUSUB_LOGS
-from trimd.cli.inspect import NO_PROFILE, inspect_log
+from trimd.app.log_report import NO_PROFILE, inspect_log
 from trimd.cli.main import main
 from trimd.core.profile_yaml import load_profile
 

@@ -290,7 +290,8 @@ def test_each_hold_uses_only_its_own_steady_samples(sabertooth: Profile,
 
 
 @pytest.mark.parametrize(("change", "expected"), [
-    ({"mode": "AUTO"}, "vehicle in AUTO: switch it to MANUAL"),
+    ({"mode": "AUTO"}, "vehicle in AUTO (autonomous): switch it to a mode the pilot flies"),
+    ({"mode": "SURFACE"}, "vehicle in SURFACE (failsafe): switch it"),
     ({"depth_drift_m_s": 0.2}, "depth not steady: 1.0"),
 ])
 def test_precheck_refuses_a_busy_or_moving_vehicle(

@@ -15,7 +15,15 @@ from tests.helpers import payload_truth
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
-from trimd.core.samples import Attitude, Depth, Health, Sample, Thrusters, Velocity
+from trimd.core.samples import (
+    Attitude,
+    Depth,
+    Health,
+    ModeClass,
+    Sample,
+    Thrusters,
+    Velocity,
+)
 from trimd.core.watch import TrimWatch
 
 TRANSIT_S, TURN_S = 20.0, 4.0
@@ -68,7 +76,8 @@ def _dive(profile: Profile, W: float, r_g: np.ndarray, dvl: bool, seed: int = 0
     for k in range(int(end * 20)):
         t = k / 20
         if k % 20 == 0:
-            out.append(Health(t, True, "ALT_HOLD", True))
+            out.append(Health(t, True, "ALT_HOLD", True,
+                              mode_class=ModeClass.DEPTH_HOLDING))
         if k % 4 == 0:
             out.append(Depth(t, 5.0 + 0.003 * rng.standard_normal()))
             if dvl:

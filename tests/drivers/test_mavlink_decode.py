@@ -9,7 +9,15 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Battery, Depth, Health, Thrusters, VehicleText
+from trimd.core.samples import (
+    Attitude,
+    Battery,
+    Depth,
+    Health,
+    ModeClass,
+    Thrusters,
+    VehicleText,
+)
 from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams, motor_function
 
 SUB, ARDUPILOT, GCS, INVALID = 12, 3, 6, 8
@@ -45,7 +53,8 @@ def test_heartbeat_only_from_the_autopilot_gives_mode_and_armed() -> None:
     assert d.decode(heartbeat(mav_type=30, autopilot=INVALID, compid=100), 0) == []
     assert d.vehicle is None
     assert d.decode(heartbeat(21, ARMED_MANUAL), 1.5) == [
-        Health(1.5, True, "SURFTRAK", True, vehicle="sysid 1 ArduPilot submarine")]
+        Health(1.5, True, "SURFTRAK", True, vehicle="sysid 1 ArduPilot submarine",
+               mode_class=ModeClass.AUTONOMOUS)]
     assert d.vehicle == (1, 1)
     [h] = d.decode(heartbeat(20, 81), 2.0)
     assert (h.mode, h.armed) == ("MOTOR_DETECT", False)

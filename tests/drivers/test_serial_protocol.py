@@ -22,6 +22,7 @@ from trimd.core.samples import (
     Depth,
     Health,
     HoldAttitude,
+    ModeClass,
     OpenLoop,
     PilotInput,
     Release,
@@ -31,6 +32,7 @@ from trimd.core.samples import (
     Velocity,
 )
 from trimd.drivers.mavlink.decode import LIMITS
+from trimd.drivers.serial.modes import mode_class
 from trimd.drivers.serial.protocol import (
     BAD_COUNTERS,
     MAX_LINE_BYTES,
@@ -121,7 +123,7 @@ def test_depth_velocity_battery_status_version() -> None:
     assert vehicle_sample(frame("VHVEL,5,0.25,-0.125,0.5")) == Velocity(7.0, 0.25, -0.125, 0.5)
     assert vehicle_sample(frame("VHBAT,5,15.92")) == Battery(7.0, 15.92)
     assert vehicle_sample(frame("VHSTA,5,ALT_HOLD,1,HOLD")) == Health(
-        7.0, True, "ALT_HOLD", True, detail="control HOLD")
+        7.0, True, "ALT_HOLD", True, detail="control HOLD", mode_class=ModeClass.DEPTH_HOLDING)
     assert vehicle_sample(frame("VHVER,1,sabertooth-dh2")) == Version(1, "sabertooth-dh2")
     assert vehicle_sample(frame("VHTXT,5,2,Leak detected: forward hull!")) == VehicleText(
         7.0, 2, "Leak detected: forward hull!")
@@ -413,8 +415,9 @@ def random_sample(kind: str, rng: random.Random) -> Sample:
         return Velocity(0.0, u(-20, 20), u(-20, 20), u(-20, 20))
     if kind == "battery":
         return Battery(0.0, u(1, 100))
-    return Health(0.0, True, rng.choice(["MANUAL", "ALT_HOLD", "STABILIZE"]), rng.random() < 0.5,
-                  detail="control PILOT")
+    mode = rng.choice(["MANUAL", "ALT_HOLD", "STABILIZE", "SURFACE", "MY_MODE"])
+    return Health(0.0, True, mode, rng.random() < 0.5, detail="control PILOT",
+                  mode_class=mode_class(mode))
 
 
 def mutate(line: bytes, how: str, rng: random.Random) -> bytes:

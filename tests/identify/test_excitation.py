@@ -13,6 +13,7 @@ from trimd.core.samples import (
     Attitude,
     Depth,
     Health,
+    ModeClass,
     OpenLoop,
     PilotInput,
     Release,
@@ -52,13 +53,14 @@ def test_doublets_keep_position_axes_balanced(bluerov: Profile) -> None:
     assert abs(np.sum(heave * durations)) < 0.1 * np.sum(np.abs(heave) * durations)
 
 
-def _ready(e: Excite, t: float = 0.0, mode: str = "MANUAL") -> list[object]:
-    """5.98 s of telemetry at 50 Hz from a vehicle armed in ``mode``: the precheck's
-    window."""
+def _ready(e: Excite, t: float = 0.0, mode: str = "MANUAL",
+           mode_class: ModeClass = ModeClass.MANUAL) -> list[object]:
+    """5.98 s of telemetry at 50 Hz from a vehicle armed in ``mode`` (of ``mode_class``,
+    as its driver classed it): the precheck's window."""
     out: list[object] = []
     for k in range(300):
         s = t + 0.02 * k
-        out += e.step(Health(s, True, mode, True))
+        out += e.step(Health(s, True, mode, True, mode_class=mode_class))
         out += e.step(Depth(s, 10.0))
         out += e.step(Attitude(s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     return out
@@ -76,17 +78,22 @@ def test_no_command_before_confirmation_then_inputs(sabertooth: Profile) -> None
     assert started[-1].axes == sig.at(0.0)
 
 
-@pytest.mark.parametrize("mode", ["AUTO", "GUIDED", "SURFACE"])
-def test_a_vehicle_on_its_own_plan_or_failsafe_is_not_taken_over(sabertooth: Profile,
-                                                                 mode: str) -> None:
+@pytest.mark.parametrize(("mode", "mode_class"), [
+    ("AUTO", ModeClass.AUTONOMOUS), ("GUIDED", ModeClass.AUTONOMOUS),
+    ("SURFACE", ModeClass.FAILSAFE), ("MOTOR_DETECT", ModeClass.SERVICE),
+    ("MISSION", ModeClass.AUTONOMOUS),     # a vehicle's own word: its driver's class decides
+])
+def test_a_vehicle_on_its_own_plan_or_failsafe_is_not_taken_over(
+        sabertooth: Profile, mode: str, mode_class: ModeClass) -> None:
     """The trim procedure's precheck (trimd.core.precheck): confirmed up front, the
-    experiment still does not take a vehicle out of a mission or a failsafe."""
+    experiment still does not take a vehicle out of a mission or a failsafe, whatever
+    the mode is called."""
     sig = design_signal(sabertooth, "uvr", duration_s=10.0, seed=0)
     e = Excite(sabertooth, sig, confirmed=True)
-    out = _ready(e, 0.0, mode)
+    out = _ready(e, 0.0, mode, mode_class)
     assert e.phase is Phase.PRECHECK and f"vehicle in {mode}" in e.reason
     for t in range(6, 42, 6):      # the vehicle stays in that mode past connect_timeout_s
-        out += _ready(e, float(t), mode)
+        out += _ready(e, float(t), mode, mode_class)
     assert not [o for o in out if isinstance(o, OpenLoop | Release)]
     assert e.phase is Phase.FAILED and f"timeout: waiting: vehicle in {mode}" in e.reason
 

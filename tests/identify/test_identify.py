@@ -3,7 +3,6 @@ grey-box fit against the simulator's truth, validation on held-out data."""
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import dataclasses
 import math
@@ -345,14 +344,11 @@ def test_identify_writes_fragment_summary_and_png_plots(sabertooth: Profile, tmp
 
     from matplotlib.image import imread
 
-    from trimd.cli.identify import run_identify
+    from trimd.cli.main import main
 
     out = tmp_path / "out"
-    args = argparse.Namespace(logs=uvr_logs[:1], validate=uvr_logs[1:],
-                              profile=sabertooth.source, stage="uvr",
-                              segment=FitOptions.segment_s, estimate=None, out=str(out),
-                              json=False)
-    assert run_identify(args) == 0
+    assert main(["identify", *uvr_logs[:1], "--validate", *uvr_logs[1:], "--profile",
+                 sabertooth.source, "--stage", "uvr", "--out", str(out)]) == 0
     assert (out / "fragment.yaml").is_file()
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["stages"]["uvr"]["validation"]

@@ -137,7 +137,7 @@ def test_identify_runs_the_staged_procedure_from_recordings(
     """`trimd identify uvr.tlog uwq.tlog uvwpqr.tlog --validate …`: the stages come from the
     recordings, one fragment and one summary for all three, exit 0; the fragment merged
     into the shipped profile gives a vehicle that validates on the held-out logs."""
-    from trimd.cli.identify import recorded_stage
+    from trimd.app.excite_logs import recorded_stage
     from trimd.cli.main import main
     from trimd.logs.recorder import TlogRecorder
 

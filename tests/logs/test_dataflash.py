@@ -11,7 +11,7 @@ from pymavlink import DFReader
 
 from tests.helpers import ARDUSUB_LOGS
 from trimd.core.errors import DataError
-from trimd.core.samples import Attitude, Battery, Depth, Health, Thrusters
+from trimd.core.samples import Attitude, Battery, Depth, Health, ModeClass, Thrusters
 from trimd.logs.dataflash import DataflashReader
 
 SMALL = ARDUSUB_LOGS / "mcqueen-small.BIN"
@@ -47,6 +47,7 @@ def test_small_bin_is_a_six_thruster_bench_log() -> None:
     assert reader.rejected == {"ATT": 1}
     health = kinds(samples, Health)
     assert [(h.mode, h.armed) for h in health][-1] == ("MANUAL", False)  # the ARM 0 record
+    assert health[-1].mode_class is ModeClass.MANUAL
     assert reader.armed_known
 
 
@@ -69,8 +70,14 @@ def test_gat_bin_without_unit_records_is_a_live_dive() -> None:
     assert reader.counts["UNIT"] == reader.counts["MULT"] == 0
     assert reader.firmware is None and reader.params.frame_config is None
     assert not reader.armed_known and reader.error is None
-    modes = [h.mode for h in kinds(samples, Health)]
+    health = kinds(samples, Health)
+    modes = [h.mode for h in health]
     assert modes == ["SURFTRAK", "GUIDED", "ALT_HOLD", "GUIDED", "STABILIZE", "GUIDED"]
+    # ArduSub's classes; the log does not say whether the vehicle was armed
+    assert [h.mode_class for h in health][1:5] == [
+        ModeClass.AUTONOMOUS, ModeClass.DEPTH_HOLDING, ModeClass.AUTONOMOUS,
+        ModeClass.STABILISED]
+    assert {h.armed for h in health} == {None}
     depth = [d.depth_m for d in kinds(samples, Depth)]
     assert min(depth) > 12.4 and max(depth) < 13.8
     ctun = raw(GAT, "CTUN")

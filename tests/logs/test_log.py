@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from tests.helpers import ARDUSUB_LOGS
-from trimd.cli.inspect import inspect_log
+from trimd.app.log_report import inspect_log
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.logs.log import DataflashLog, TlogLog, open_log

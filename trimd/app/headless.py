@@ -20,7 +20,7 @@ from trimd.app.report import (
     format_verification,
 )
 from trimd.app.session import Session
-from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict

@@ -21,14 +21,13 @@ from trimd.core.errors import DataError
 from trimd.core.holdfinder import FoundHold, locate_holds
 from trimd.core.model import thrust_configuration
 from trimd.core.profile import Profile
-from trimd.core.samples import Attitude, Battery, Health, Sample, Thrusters
-from trimd.core.watch import ARMED_NOT_LOGGED
+from trimd.core.samples import Attitude, Battery, Health, ModeClass, Sample, Thrusters
 
-__all__ = ["HOLD_MODES", "format_hold", "hold_to_dict", "log_holds"]
+__all__ = ["HOLD_CLASSES", "format_hold", "hold_to_dict", "log_holds"]
 
-#: ArduSub modes in which the autopilot holds an attitude.
-HOLD_MODES = frozenset({"STABILIZE", "ALT_HOLD", "AUTO", "GUIDED", "CIRCLE", "POSHOLD",
-                        "SURFTRAK"})
+#: Mode classes in which the autopilot holds an attitude.
+HOLD_CLASSES = frozenset({ModeClass.STABILISED, ModeClass.DEPTH_HOLDING,
+                          ModeClass.AUTONOMOUS})
 
 
 def _holding(samples: Sequence[Sample]) -> tuple[list[Attitude], list[str]]:
@@ -44,8 +43,8 @@ def _holding(samples: Sequence[Sample]) -> tuple[list[Attitude], list[str]]:
             if s.mode not in modes:
                 modes.append(s.mode)
         elif isinstance(s, Attitude) and (not seen or (
-                state is not None and state.mode in HOLD_MODES
-                and (state.armed or state.detail == ARMED_NOT_LOGGED))):
+                state is not None and state.mode_class in HOLD_CLASSES
+                and state.armed is not False)):
             out.append(s)
     return out, modes
 
@@ -60,8 +59,8 @@ def log_holds(samples: Sequence[Sample], profile: Profile) -> list[FoundHold]:
                         "the effort)")
     att, modes = _holding(samples)
     if not att:
-        raise DataError("never armed in a mode that holds attitude ("
-                        f"{', '.join(sorted(HOLD_MODES))}); modes seen: "
+        held = ", ".join(sorted(c.value for c in HOLD_CLASSES))
+        raise DataError(f"never armed in a mode that holds attitude ({held}); modes seen: "
                         f"{', '.join(modes) or 'none'}")
     t = np.array([s.t_s for s in thr])
     thrust, ok = thrust_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])

@@ -16,7 +16,7 @@ from typing import Any
 
 from trimd.app.files import installed_from_json
 from trimd.ballast.check import SlotLoad
-from trimd.ballast.propose import slot_to_dict
+from trimd.ballast.proposal import slot_to_dict
 from trimd.ballast.verify import verify_hold
 from trimd.core.errors import DataError
 from trimd.core.estimate import StaticEstimate

@@ -29,7 +29,7 @@ from trimd.core.link import Announces, Link
 from trimd.core.profile import Profile
 from trimd.core.samples import Sample
 from trimd.core.watch import (
-    DEPTH_HOLD_MODES,
+    DEPTH_HOLD_CLASSES,
     MIN_SEGMENT_S,
     TrimWatch,
     WatchAlert,
@@ -155,8 +155,9 @@ def _why_none(watch: TrimWatch, rejected: str) -> str:
     if not watch.thruster_samples:
         return "no thruster outputs in the samples (nothing measures the effort)"
     if not watch.counted_samples:
-        return (f"never armed in a depth-holding mode ({', '.join(sorted(DEPTH_HOLD_MODES))})"
-                f" with the depth held and the sticks at rest; modes seen: {modes}")
+        held = " or ".join(sorted(c.value for c in DEPTH_HOLD_CLASSES))
+        return (f"never armed in a mode that holds depth ({held}) with the depth held and "
+                f"the sticks at rest; modes seen: {modes}")
     share = f"{watch.counted_samples} of {watch.attitude_samples} attitude samples"
     broken = f" between motion: {_breaks(watch)}" if watch.breaks else ""
     if rejected:

@@ -27,14 +27,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.estimate import StaticEstimate
+from trimd.core.types import FloatArray, Vec3
 
 __all__ = ["MIN_GM_M", "SlotLoad", "Trim", "check_trim", "equilibrium_attitude"]
 
-FloatArray = NDArray[np.float64]
-Vec3 = tuple[float, float, float]
 #: Metacentric height m_z/W [m] at or below which a vehicle counts as having no static
 #: stability in roll and pitch (zero to rounding: a nanometre).
 MIN_GM_M = 1e-9

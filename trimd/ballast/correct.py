@@ -25,11 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
+from trimd.ballast.proposal import Proposal, proposal_to_dict
+from trimd.ballast.propose import propose_ballast
 from trimd.ballast.verify import Verification
-from trimd.core.estimate import HoldSummary, StaticEstimate, net_estimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.profile import InstalledPiece, Profile
+from trimd.core.static_estimate import HoldSummary, StaticEstimate, net_estimate
 
 __all__ = ["Correction", "correction_to_dict", "measured_vehicle", "needs_correction",
            "propose_correction"]

@@ -15,11 +15,11 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+
+from trimd.core.types import FloatArray
 
 __all__ = ["LineSplit", "line_split"]
 
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

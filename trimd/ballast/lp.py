@@ -60,11 +60,11 @@ from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, linprog, mi
 from trimd.ballast.check import MIN_GM_M
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece, Profile
+from trimd.core.types import FloatArray
 
 __all__ = ["Item", "Programme", "Solution", "build_programme", "ideal_items",
            "moment_resolution", "piece_items", "solve_programme"]
 
-FloatArray = NDArray[np.float64]
 _N_SLACK = 6
 #: Relative optimality gap of every integer solve.
 _MIP_GAP = 1e-6

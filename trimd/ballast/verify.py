@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.stats import norm
 
 from trimd.ballast.check import MIN_GM_M, SlotLoad, Trim, check_trim, equilibrium_attitude
@@ -33,10 +32,10 @@ from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 from trimd.core.segment import SegmentEstimate, estimate_segment
+from trimd.core.types import FloatArray
 
 __all__ = ["VERIFIED", "Verification", "verification_to_dict", "verify_hold"]
 
-FloatArray = NDArray[np.float64]
 #: The quantities compared, for people and JSON keys.
 VERIFIED = ("net vertical force W − B [N]", "net moment W·x_g − B·x_b [N·m]",
             "net moment W·y_g − B·y_b [N·m]")

@@ -1,13 +1,15 @@
-"""argparse ``type`` functions for numbers with a range: a value outside is a one-line
-usage error naming the range (exit code 2), never a traceback further on."""
+"""Shared argument reading of the commands: argparse ``type`` functions for numbers with a
+range (a value outside is a one-line usage error naming the range, exit code 2, never a
+traceback further on), and whether the options and the terminal ask for the TUI."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 
-__all__ = ["bounded", "integer"]
+__all__ = ["bounded", "integer", "wants_tui"]
 
 
 def bounded(low: float, high: float = math.inf) -> Callable[[str], float]:
@@ -41,3 +43,8 @@ def integer(low: int, high: int | None = None) -> Callable[[str], int]:
         return n
 
     return parse
+
+
+def wants_tui(args: argparse.Namespace) -> bool:
+    """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
+    return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()

@@ -31,6 +31,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from trimd.app.excite_logs import experiments_by_stage, stopped_early
 from trimd.app.experiment import run_experiment
 from trimd.app.files import read_statics
 from trimd.app.jsonlines import print_result
@@ -38,23 +39,18 @@ from trimd.app.session import SessionResult
 from trimd.cli.argtypes import bounded, integer
 from trimd.core.errors import DataError
 from trimd.core.events import Phase
-from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
-from trimd.identify.data import Experiment, experiments_from_samples
 from trimd.identify.envelope import STOP_EARLY
 from trimd.identify.excitation import DofExcitation, not_excited_message
-from trimd.identify.experiment import STREAM_HZ, Excite, stage_of_notice
+from trimd.identify.experiment import STREAM_HZ, Excite
 from trimd.identify.fit import NEEDS_DVL, NOT_DETERMINED, FitOptions, StageFit
 from trimd.identify.model import HYDRO_NAMES, STAGES
 from trimd.identify.report import best_values, format_fit, profile_fragment, summary_dict
 from trimd.identify.signals import KINDS, design_signal
 from trimd.identify.staged import fit_stages
 from trimd.identify.validation import Validation, validate
-from trimd.logs.log import open_log
-from trimd.logs.replay import recorded_notices
 
-__all__ = ["read_log", "recorded_stage", "register", "run_excite", "run_identify",
-           "stopped_early"]
+__all__ = ["register", "run_excite", "run_identify"]
 
 #: Longest excitation experiment [s] (an hour; the signal is built in memory up front).
 MAX_DURATION_S = 3600.0
@@ -144,39 +140,6 @@ def run_excite(args: argparse.Namespace) -> int:
     return 0 if result.phase is Phase.DONE else (3 if result.cause == "link" else 1)
 
 
-def read_log(path: str, profile: Profile) -> list[Experiment]:
-    """The experiments of a recorded ``.tlog`` or DataFlash ``.BIN`` (trimd.logs.log)."""
-    samples = list(open_log(path, profile).samples())
-    return experiments_from_samples(samples, profile, label=Path(path).name)
-
-
-def recorded_stage(path: str) -> str | None:
-    """The stage a ``trimd excite`` recording names (:func:`stage_of_notice` on trimd's
-    own notices); None for a DataFlash log or a log without it."""
-    return next((st for st in map(stage_of_notice, recorded_notices(path)) if st is not None),
-                None)
-
-
-def stopped_early(path: str) -> str | None:
-    """The notice of a ``trimd excite`` recording whose excitation stopped early (at the
-    edge of its envelope, :mod:`trimd.identify.envelope`); None when it did not."""
-    return next((t for t in recorded_notices(path) if t.startswith(STOP_EARLY)), None)
-
-
-def _by_stage(paths: Sequence[str], profile: Profile, stage: str | None
-              ) -> dict[str, list[Experiment]]:
-    """The experiments of ``paths`` grouped by stage (``stage`` for all, else each
-    recording's own)."""
-    out: dict[str, list[Experiment]] = {}
-    for path in paths:
-        own = stage or recorded_stage(path)
-        if own is None:
-            raise DataError(f"{path}: the log does not say which stage it holds (not a trimd "
-                            f"excite recording): pass --stage ({', '.join(STAGES)})")
-        out.setdefault(own, []).extend(read_log(path, profile))
-    return out
-
-
 def _missing(fits: Sequence[StageFit]) -> list[tuple[StageFit, tuple[DofExcitation, ...]]]:
     """Per fit, its DOFs that no fitted stage excited."""
     excited = {d.dof for f in fits for d in f.excitation if d.excited}
@@ -191,7 +154,7 @@ def _missing(fits: Sequence[StageFit]) -> list[tuple[StageFit, tuple[DofExcitati
 def run_identify(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
     statics = read_statics(args.estimate) if args.estimate else None
-    experiments = _by_stage(args.logs, profile, args.stage)
+    experiments = experiments_by_stage(args.logs, profile, args.stage)
     fits = fit_stages(experiments, profile, FitOptions(segment_s=args.segment),
                       statics=statics)
     by_name = {f.stage: f for f in fits}
@@ -205,7 +168,7 @@ def run_identify(args: argparse.Namespace) -> int:
         return fits[-1].values() | best
 
     validations: dict[str, list[Validation]] = {}
-    for stage, held_out in _by_stage(args.validate, profile, args.stage).items():
+    for stage, held_out in experiments_by_stage(args.validate, profile, args.stage).items():
         for e in held_out:
             validations.setdefault(stage, []).extend(
                 validate(values(stage), [e], profile, stage, statics=statics))

@@ -26,13 +26,13 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from trimd.app.headless import HeadlessPresenter
+from trimd.app.log_report import log_report, print_report
 from trimd.app.report import format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure
+from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.cli.argtypes import bounded
-from trimd.cli.inspect import log_report, print_report
-from trimd.cli.run import wants_tui
+from trimd.cli.argtypes import bounded, wants_tui
 from trimd.core.errors import DataError, EstimationError, NoResultError
 from trimd.core.estimate import StaticEstimate, estimate_static
 from trimd.core.events import Phase
@@ -97,7 +97,7 @@ def _session(link: Link, path: str, profile: Profile, *,
     procedure = None if target is None else verify_procedure(
         profile, target, confirmed=False, source=f"{path} (recorded verify target)")
 
-    def propose(estimate: StaticEstimate) -> Any:
+    def propose(estimate: StaticEstimate) -> Proposal:
         return propose_ballast(estimate, profile, method=method)
 
     return Session(link, profile, recorder=None, presenters=presenters, confirmed=False,

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.after_trim import AfterTrim
-from trimd.app.announce import announce_run
 from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
@@ -33,14 +32,14 @@ from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction, format_result
 from trimd.app.session import Presenter, Session, SessionResult
-from trimd.app.verify import verify_procedure, verify_target
+from trimd.app.trim import TrimRequest, trim_session
+from trimd.app.verify import verify_target
 from trimd.ballast.correct import Correction, correction_to_dict
-from trimd.ballast.propose import METHODS, propose_ballast
+from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
-from trimd.cli.argtypes import integer
+from trimd.cli.argtypes import integer, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
-from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
@@ -48,7 +47,7 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
-__all__ = ["register", "run", "run_demo", "wants_tui"]
+__all__ = ["register", "run", "run_demo"]
 
 #: ``--verify`` without a file: the vehicle's last trim in the history.
 LAST_TRIM = "<last trim>"
@@ -108,21 +107,13 @@ def _exit_code(result: SessionResult) -> int:
 def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
                   presenters: list[Presenter]) -> Session:
     """The trim's session, or with ``--verify`` the verify hold of ``args.target``."""
-    target = args.target
-    recorder = None
+    record = None
     if not args.no_record:
-        path = Path(args.record) if args.record else default_record_path(profile)
-        recorder = TlogRecorder(path, profile, read_profile_text(args.profile)[0],
-                                verify_target=target)
-
-    def propose(estimate: StaticEstimate) -> Any:
-        return propose_ballast(estimate, profile, method=args.ballast)
-
-    procedure = None if target is None else verify_procedure(
-        profile, target, confirmed=args.yes, source=_target_source(args))
-    announce_run(link, presenters)  # the phases and the verdict for the ground station
-    return Session(link, profile, recorder=recorder, presenters=presenters,
-                   confirmed=args.yes, propose=propose, procedure=procedure)
+        record = Path(args.record) if args.record else default_record_path(profile)
+    return trim_session(link, profile, presenters, TrimRequest(
+        profile_ref=args.profile, confirmed=args.yes, ballast_method=args.ballast,
+        record=record, target=args.target,
+        target_source=None if args.target is None else _target_source(args)))
 
 
 def _target_source(args: argparse.Namespace) -> str:
@@ -276,8 +267,3 @@ def run(args: argparse.Namespace) -> int:
 def run_demo(args: argparse.Namespace) -> int:
     args.yes = True
     return _start(args, truth=True)
-
-
-def wants_tui(args: argparse.Namespace) -> bool:
-    """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
-    return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()

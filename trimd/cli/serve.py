@@ -28,7 +28,7 @@ from trimd.app.serve import Clock, Service
 from trimd.app.web import make_app
 from trimd.cli.argtypes import bounded, integer
 from trimd.cli.history_args import vehicle_of
-from trimd.cli.watch import add_watch_args, new_watch
+from trimd.cli.watch_args import add_watch_args, new_watch
 from trimd.core.errors import UsageError
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.core.watch import TrimWatch

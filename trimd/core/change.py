@@ -39,15 +39,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.estimate import StaticEstimate
 from trimd.core.segment import SegmentEstimate
+from trimd.core.types import FloatArray
 
 __all__ = ["COMPONENTS", "CUSUM_K", "Baseline", "ChangeAlert", "ChangeDetector",
            "baseline_from_estimate", "baseline_from_segments", "threshold_for"]
 
-FloatArray = NDArray[np.float64]
 #: CUSUM reference value k [σ]: half the shift it is tuned to.
 CUSUM_K = 0.5
 #: A segment this many σ off on its own marks where a change began.

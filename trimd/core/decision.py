@@ -26,7 +26,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.stats import norm
 
 from trimd.core.estimate import HoldSamples, StaticEstimate
@@ -34,10 +33,10 @@ from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
 from trimd.core.systematics import thrust_map_std
+from trimd.core.types import FloatArray
 
 __all__ = ["LOOK_GROWTH", "STIFFNESS_TOLERANCE", "StopRule"]
 
-FloatArray = NDArray[np.float64]
 #: Each look comes this many times later (in collection time) than the one before.
 LOOK_GROWTH = 1.5
 #: The stiffness must be known to this share of its value.

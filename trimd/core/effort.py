@@ -3,8 +3,8 @@ onto each time by zero-order hold (:func:`trimd.core.resample.zoh_align`), throu
 profile's thrust curves and geometry (:func:`trimd.core.model.tau_from_pwm`).
 
 One function for every consumer: the replay of foreign logs and identification; the live
-procedure holds the latest outputs the same way, one sample at a time, with the same age
-limit :data:`MAX_THRUSTER_AGE_S`.
+procedure holds the latest outputs the same way, one sample at a time
+(:class:`HeldThrust`), with the same age limit :data:`MAX_THRUSTER_AGE_S`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from trimd.core.profile import Profile
 from trimd.core.resample import zoh_align
 from trimd.core.samples import Battery, Thrusters
 
-__all__ = ["MAX_THRUSTER_AGE_S", "tau_at", "thrust_at"]
+__all__ = ["MAX_THRUSTER_AGE_S", "HeldThrust", "tau_at", "thrust_at"]
 
 #: Thruster outputs older than this [s] are not held onto a later time: a gap, not a value.
 #: ArduSub streams SERVO_OUTPUT_RAW at 2–10 Hz; a ground station may leave 1 Hz.
@@ -79,3 +79,38 @@ def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
     else:
         tau[ok] = 0.0
     return tau, ok
+
+
+class HeldThrust:
+    """The latest thruster outputs and battery voltage, held onto later times one sample
+    at a time (the live procedure's zero-order hold): each thruster's thrust and τ."""
+
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        #: the thrust configuration matrix T: τ = T·f
+        self.T = thrust_configuration(profile.thrusters)
+        self.voltage_V = profile.nominal_voltage_V
+        self.outputs: Thrusters | None = None
+
+    def battery(self, s: Battery) -> None:
+        """A battery sample: its voltage from now on (a non-positive or NaN one is not)."""
+        if np.isfinite(s.voltage_V) and s.voltage_V > 0:
+            self.voltage_V = s.voltage_V
+
+    def thrust(self, t_s: float) -> NDArray[np.float64] | None:
+        """Each thruster's thrust [N] from the latest outputs held onto ``t_s`` (None when
+        there are none within :data:`MAX_THRUSTER_AGE_S` before it); ValueError when the
+        outputs do not match the profile's thrusters."""
+        p = self.outputs
+        if p is None or not 0 <= t_s - p.t_s <= MAX_THRUSTER_AGE_S:
+            return None
+        if len(p.pwm_us) != len(self.profile.thrusters):
+            raise ValueError(f"{len(p.pwm_us)} thruster outputs for "
+                             f"{len(self.profile.thrusters)} thrusters in the profile")
+        thrust: NDArray[np.float64] = thrusts_from_pwm(self.profile, p.pwm_us, self.voltage_V)
+        return thrust
+
+    def tau(self, t_s: float) -> NDArray[np.float64] | None:
+        """τ [N, N·m] from the latest outputs held onto ``t_s`` (None as :meth:`thrust`)."""
+        thrust = self.thrust(t_s)
+        return None if thrust is None else self.T @ thrust

@@ -51,7 +51,6 @@ the rows the fit uses.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -63,18 +62,20 @@ from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
+from trimd.core.static_estimate import HoldSummary, StaticEstimate, net_estimate
 from trimd.core.systematics import (
     attitude_error_factors,
     band_notes,
     drift_moments,
     thrust_map_factors,
 )
+from trimd.core.types import FloatArray
 
-__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldSamples", "HoldSummary",
+__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldRecord", "HoldSamples",
+           "HoldSummary",
            "StaticEstimate", "check_samples", "estimate_static", "is_level",
            "measurable_dofs", "net_estimate"]
 
-FloatArray = NDArray[np.float64]
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 #: Holds whose stacked design has a relative singular value below this cannot separate
@@ -110,73 +111,24 @@ class HoldSamples:
     thrust: FloatArray | None = None
 
 
-@dataclass(frozen=True)
-class HoldSummary:
-    """What one hold contributed: mean attitude [deg], sample count, window [s], and how
-    many independent samples they were worth (``effective_samples``); ``resolved`` is
-    False when the hold was too short for its own correlation time (its ± is then likely
-    too small: hold longer)."""
+@dataclass
+class HoldRecord:
+    """A hold's samples while they are collected (growing lists), frozen into
+    :class:`HoldSamples` at the end: the set-point roll and pitch [rad], and per sample its
+    time [s], roll and pitch [rad], τ [N, N·m] and each thruster's thrust [N]."""
 
-    label: str
-    roll_deg: float
-    pitch_deg: float
-    samples: int
-    t_start_s: float
-    t_end_s: float
-    effective_samples: float = math.nan
-    resolved: bool = True
+    phi: float
+    theta: float
+    t: list[float] = field(default_factory=list)
+    att: list[tuple[float, float]] = field(default_factory=list)
+    tau: list[FloatArray] = field(default_factory=list)
+    thrust: list[FloatArray] = field(default_factory=list)
 
-
-@dataclass(frozen=True, eq=False)
-class StaticEstimate:
-    """Result of :func:`estimate_static` (SI units, body FRD).
-
-    ``q``/``q_cov`` are the net quantities [W − B, W·r_g − B·r_b] and their covariance;
-    ``cov`` is the covariance of [W, x_g, y_g, z_g] (N, m). Standard deviations are 1σ.
-    ``q_cov_noise`` is the part of ``q_cov`` that collecting longer reduces (noise and
-    wander); the rest is systematic (thrust curves, drift model). None: all of it.
-    ``q_cov_band`` is the part from thrusters at or near their dead band (ESC offsets);
-    ``notes`` say, for people, which rows and quantities rest on such thrusters.
-    """
-
-    q: FloatArray
-    q_cov: FloatArray
-    weight_N: float
-    buoyancy_N: float
-    r_b_m: FloatArray
-    r_g_m: FloatArray
-    cov: FloatArray
-    m_ext_kg: float
-    gravity_m_s2: float
-    holds: tuple[HoldSummary, ...]
-    dofs_used: tuple[str, ...]
-    residual_rms: FloatArray = field(repr=False)
-    success: bool = True
-    message: str = "ok"
-    q_cov_noise: FloatArray | None = field(default=None, repr=False)
-    q_cov_band: FloatArray | None = field(default=None, repr=False)
-    notes: tuple[str, ...] = ()
-
-    @property
-    def weight_std_N(self) -> float:
-        return float(np.sqrt(self.cov[0, 0]))
-
-    @property
-    def m_ext_std_kg(self) -> float:
-        return self.weight_std_N / self.gravity_m_s2
-
-    @property
-    def r_g_std_m(self) -> FloatArray:
-        return np.sqrt(np.diag(self.cov)[1:])
-
-    @property
-    def net_moment_Nm(self) -> FloatArray:
-        """W·r_g − B·r_b [N·m]: independent of the profile's centre-of-buoyancy prior."""
-        return self.q[1:].copy()
-
-    @property
-    def net_moment_std_Nm(self) -> FloatArray:
-        return np.sqrt(np.diag(self.q_cov)[1:])
+    def samples(self, label: str) -> HoldSamples:
+        a = np.array(self.att, dtype=float).reshape(-1, 2)
+        return HoldSamples(np.array(self.t), a[:, 0], a[:, 1],
+                           np.array(self.tau).reshape(-1, 6), label,
+                           np.array(self.thrust).reshape(len(self.t), -1))
 
 
 def measurable_dofs(profile: Profile) -> tuple[bool, ...]:
@@ -370,34 +322,3 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         residual_rms=np.sqrt(np.mean(residuals**2, axis=0)), q_cov_noise=q_cov_noise,
         q_cov_band=q_cov_band,
         notes=band_notes(holds, used, gains, means, q, q_cov, q_cov_band))
-
-
-def net_estimate(q: FloatArray, q_cov: FloatArray, profile: Profile, *,
-                 holds: tuple[HoldSummary, ...], dofs_used: tuple[str, ...],
-                 residual_rms: FloatArray, notes: tuple[str, ...] = (),
-                 q_cov_noise: FloatArray | None = None,
-                 q_cov_band: FloatArray | None = None) -> StaticEstimate:
-    """The estimate of the net quantities ``q`` = [W − B, W·r_g − B·r_b] [N, N·m] (body
-    FRD, origin CG0) with covariance ``q_cov`` on ``profile``: W = q₀ + B and
-    r_g = (q₁₋₃ + B·r_b)/W with the profile's B and r_b, their covariance by the Jacobian.
-
-    Raises
-    ------
-    EstimationError : W ≤ 0.
-    """
-    B, r_b = profile.buoyancy_N, np.asarray(profile.r_b_m, float)
-    W = float(q[0] + B)
-    if W <= 0:
-        raise EstimationError(f"estimated weight {W:.1f} N is not positive: check the thrust "
-                              "signs and the profile's buoyancy")
-    r_g = (q[1:] + B * r_b) / W
-    J = np.zeros((4, 4))
-    J[0, 0] = 1.0
-    J[1:, 0] = -r_g / W
-    J[1:, 1:] = np.eye(3) / W
-    return StaticEstimate(
-        q=q, q_cov=q_cov, weight_N=W, buoyancy_N=B, r_b_m=r_b, r_g_m=r_g,
-        cov=J @ q_cov @ J.T, m_ext_kg=W / profile.gravity_m_s2 - profile.mass_kg,
-        gravity_m_s2=profile.gravity_m_s2, holds=holds, dofs_used=dofs_used,
-        residual_rms=residual_rms, q_cov_noise=q_cov_noise, q_cov_band=q_cov_band,
-        notes=notes)

@@ -19,7 +19,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.decision import StopRule
 from trimd.core.effort import MAX_THRUSTER_AGE_S
@@ -27,10 +26,10 @@ from trimd.core.estimate import HoldSamples
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude
 from trimd.core.settling import UNSTEADY_GRACE_S, HoldSettling
+from trimd.core.types import FloatArray
 
 __all__ = ["FoundHold", "find_holds", "find_segments", "locate_holds"]
 
-FloatArray = NDArray[np.float64]
 
 
 def _plateaus(attitude: Sequence[Attitude], tol_rad: float, min_s: float

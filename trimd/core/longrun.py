@@ -31,11 +31,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+
+from trimd.core.types import FloatArray
 
 __all__ = ["MeanCovariance", "mean_covariance"]
 
-FloatArray = NDArray[np.float64]
 #: Sokal's window factor: M ≥ SOKAL_C·τ_int(M).
 SOKAL_C = 5.0
 #: The window may span at most this share of the samples.

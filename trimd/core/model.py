@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
+from trimd.core.types import FloatArray
 
 __all__ = [
     "INFORMATIVE",
@@ -30,7 +31,6 @@ __all__ = [
     "thrusts_from_pwm",
 ]
 
-FloatArray = NDArray[np.float64]
 
 
 def restoring_matrix(phi: ArrayLike, theta: ArrayLike) -> FloatArray:

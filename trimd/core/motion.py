@@ -43,18 +43,17 @@ import math
 from collections import deque
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.decision import StopRule
 from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Velocity
 from trimd.core.settling import LONG_WINDOW_S, RATE_WINDOW_S
+from trimd.core.types import FloatArray
 
 __all__ = ["COASTING", "EFFORT_WINDOW_S", "HYDRO_SPREAD", "MAX_SPEED_M_S", "MOVING_DVL",
            "TRANSIT", "TURNING", "VELOCITY_AGE_S", "MotionGate", "SpeedObserver"]
 
-FloatArray = NDArray[np.float64]
 
 #: Largest horizontal speed of a vehicle at rest [m/s] (over ground by a DVL, through the
 #: water by :class:`SpeedObserver`).

@@ -3,7 +3,8 @@
 :class:`~trimd.identify.experiment.Excite`).
 
 trimd takes control only of a vehicle that is armed, in a mode the pilot flies (not one
-in which it follows its own plan or failsafe: :data:`BUSY_MODES`), with every stream it
+in which it follows its own plan or failsafe: :data:`BUSY_CLASSES`, the mode's
+:class:`~trimd.core.samples.ModeClass` as the driver decided it), with every stream it
 steers by arriving at its minimum rate, and holding depth. Rates and depth are judged
 over the trailing :data:`PRECHECK_WINDOW_S` of the samples' own time [s].
 """
@@ -13,12 +14,14 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Mapping
 
-from trimd.core.samples import Attitude, Depth, Health, Sample, Thrusters
+from trimd.core.samples import Attitude, Depth, Health, ModeClass, Sample, Thrusters
 
-__all__ = ["BUSY_MODES", "DEPTH_STABLE_SHARE", "PRECHECK_WINDOW_S", "Precheck"]
+__all__ = ["BUSY_CLASSES", "DEPTH_STABLE_SHARE", "PRECHECK_WINDOW_S", "Precheck"]
 
-#: Modes in which the vehicle follows its own plan or failsafe: trimd does not take over.
-BUSY_MODES = frozenset({"AUTO", "GUIDED", "CIRCLE", "SURFACE", "MOTOR_DETECT", "SURFTRAK"})
+#: Mode classes in which the vehicle follows its own plan, failsafe or routine: trimd
+#: does not take over. (An UNKNOWN mode is not refused: the pilot may fly a vehicle whose
+#: modes its driver does not know.)
+BUSY_CLASSES = frozenset({ModeClass.AUTONOMOUS, ModeClass.FAILSAFE, ModeClass.SERVICE})
 #: The window [s] over which rates and depth are judged.
 PRECHECK_WINDOW_S = 5.0
 #: Depth may wander by this share of max_depth_excursion_m over the window.
@@ -72,10 +75,14 @@ class Precheck:
             if rate < need:
                 out.append(f"{stream} at {rate:.1f} Hz (need ≥ {need:g} Hz)")
         h = self.health
-        if h is not None and not h.armed:
+        if h is not None and h.armed is None:
+            out.append("the vehicle does not say whether it is armed")
+        elif h is not None and not h.armed:
             out.append("vehicle disarmed: arm it")
-        if h is not None and h.mode in BUSY_MODES:
-            out.append(f"vehicle in {h.mode}: switch it to MANUAL, STABILIZE or ALT_HOLD")
+        if h is not None and h.mode_class in BUSY_CLASSES:
+            out.append(f"vehicle in {h.mode} ({h.mode_class.value}): switch it to a mode "
+                       "the pilot flies (manual, stabilised or depth-holding: e.g. MANUAL, "
+                       "STABILIZE or ALT_HOLD)")
         depths = [d for _, d in self._depths]
         if depths and max(depths) - min(depths) > self.depth_limit_m:
             out.append(f"depth not steady: {max(depths) - min(depths):.2f} m of change in "

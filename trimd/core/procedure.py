@@ -13,15 +13,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
-
-import numpy as np
 
 from trimd.core.decision import StopRule
 from trimd.core.design import plan_extra_hold
-from trimd.core.effort import MAX_THRUSTER_AGE_S
+from trimd.core.effort import HeldThrust
 from trimd.core.errors import EstimationError
-from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
+from trimd.core.estimate import HoldRecord, HoldSamples, StaticEstimate, estimate_static
 from trimd.core.events import (
     Abort,
     Cause,
@@ -35,7 +32,6 @@ from trimd.core.events import (
     TrimResult,
 )
 from trimd.core.guards import Guard
-from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.phases import Phases
 from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
 from trimd.core.profile import HoldSetpoint, Profile
@@ -65,24 +61,6 @@ MIN_RATES_HZ = {"attitude": 4.0, "thrusters": 2.0, "depth": 1.0}
 HEADING_LEASH_DEG = 2.0
 #: How a verify hold that reached its verdict ends (its last state notice says so).
 VERIFY_DONE = "verify hold done"
-
-
-@dataclass
-class _Hold:
-    """Samples collected at one hold (growing lists, frozen into HoldSamples at the end)."""
-
-    phi: float
-    theta: float
-    t: list[float] = field(default_factory=list)
-    att: list[tuple[float, float]] = field(default_factory=list)
-    tau: list[np.ndarray] = field(default_factory=list)
-    thrust: list[np.ndarray] = field(default_factory=list)  # per thruster [N]
-
-    def samples(self, label: str) -> HoldSamples:
-        a = np.array(self.att, dtype=float).reshape(-1, 2)
-        return HoldSamples(np.array(self.t), a[:, 0], a[:, 1],
-                           np.array(self.tau).reshape(-1, 6), label,
-                           np.array(self.thrust).reshape(len(self.t), -1))
 
 
 class Procedure(Phases):
@@ -121,13 +99,11 @@ class Procedure(Phases):
         self._t = math.nan
         self._t_phase = math.nan
         self._health: Health | None = None
-        self._pwm: Thrusters | None = None
-        self._T = thrust_configuration(profile.thrusters)
-        self._voltage = profile.nominal_voltage_V
+        self._held = HeldThrust(profile)
         self._depth: Depth | None = None
         self._attitude: Attitude | None = None
         self.precheck = Precheck(MIN_RATES_HZ, profile.procedure.max_depth_excursion_m)
-        self._holds: list[_Hold] = []
+        self._holds: list[HoldRecord] = []
         self._psi = 0.0
         self._settling: HoldSettling | None = None
         self._look = 0
@@ -175,12 +151,11 @@ class Procedure(Phases):
         if isinstance(s, Health):
             self._health = s
         elif isinstance(s, Battery):
-            if math.isfinite(s.voltage_V) and s.voltage_V > 0:
-                self._voltage = s.voltage_V
+            self._held.battery(s)
         elif isinstance(s, Thrusters):
-            self._pwm = s
+            self._held.outputs = s
             if self._settling is not None:
-                tau = self._tau(s.t_s)
+                tau = self._held.tau(s.t_s)
                 if tau is not None:
                     self._settling.effort(s.t_s, tau)
         elif isinstance(s, Depth):
@@ -212,10 +187,10 @@ class Procedure(Phases):
 
     def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output]:
         """An attitude sample during a hold: settle, collect, move on."""
-        thrust = self._thrust(a.t_s)
+        thrust = self._held.thrust(a.t_s)
         if not settling.attitude(a, thrust is not None) or thrust is None:
             return []
-        tau = self._T @ thrust
+        tau = self._held.T @ thrust
         if self.phase is Phase.SETTLE:
             if a.t_s - settling.steady_since >= self.proc.min_steady_s:
                 return self._enter(Phase.COLLECT, f"hold {len(self._holds)} steady: collecting")
@@ -271,7 +246,7 @@ class Procedure(Phases):
         k = len(self._holds)
         sp = self.holds[k]
         phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
-        self._holds.append(_Hold(phi, theta))
+        self._holds.append(HoldRecord(phi, theta))
         self._settling = HoldSettling(self.proc, phi, theta, self.rule.effort_floor(
             math.radians(self.proc.attitude_tol_deg), phi, theta))
         self._look = 0
@@ -371,22 +346,6 @@ class Procedure(Phases):
     # ---------------------------------------------------------------- helpers
     def _hold_samples(self) -> list[HoldSamples]:
         return [h.samples(f"hold {k + 1}") for k, h in enumerate(self._holds) if h.t]
-
-    def _tau(self, t_s: float) -> np.ndarray | None:
-        """τ from the latest thruster outputs held onto ``t_s`` (zero-order hold)."""
-        thrust = self._thrust(t_s)
-        return None if thrust is None else self._T @ thrust
-
-    def _thrust(self, t_s: float) -> np.ndarray | None:
-        """Each thruster's thrust [N] from the latest outputs held onto ``t_s`` (ZOH)."""
-        p = self._pwm
-        if p is None or not 0 <= t_s - p.t_s <= MAX_THRUSTER_AGE_S:
-            return None
-        if len(p.pwm_us) != len(self.profile.thrusters):
-            raise ValueError(f"{len(p.pwm_us)} thruster outputs for "
-                             f"{len(self.profile.thrusters)} thrusters in the profile")
-        thrust: np.ndarray = thrusts_from_pwm(self.profile, p.pwm_us, self._voltage)
-        return thrust
 
     def _check_time(self) -> list[Output]:
         if self.phase.final:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from trimd.core.errors import ProfileError
+from trimd.core.types import Vec3
 
 __all__ = [
     "BallastPiece",
@@ -28,7 +29,6 @@ __all__ = [
     "Thruster",
 ]
 
-Vec3 = tuple[float, float, float]
 Vec6 = tuple[float, float, float, float, float, float]
 
 

@@ -29,8 +29,8 @@ from trimd.core.profile import (
     ThrustCurve,
     Thruster,
     ThrustTable,
-    Vec3,
 )
+from trimd.core.types import Vec3
 
 __all__ = ["load_profile", "parse_profile", "read_profile_text", "shipped_profiles"]
 

@@ -8,6 +8,7 @@ for a replay). The core measures every timeout and window on these stamps.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 
 __all__ = [
     "Arm",
@@ -18,6 +19,7 @@ __all__ = [
     "Depth",
     "Health",
     "HoldAttitude",
+    "ModeClass",
     "OpenLoop",
     "PilotInput",
     "Release",
@@ -75,22 +77,52 @@ class Battery:
     voltage_V: float
 
 
+class ModeClass(Enum):
+    """What a vehicle's flight mode does, whatever the vehicle calls it: each driver maps
+    its own vocabulary (ArduSub's mode numbers, a serial vehicle's mode tokens, a log's
+    mode records) to one of these, and the core and the application reason on the class
+    only (the mode's name is for people)."""
+
+    #: the pilot's sticks drive the thrusters directly (ArduSub MANUAL, ACRO)
+    MANUAL = "manual"
+    #: the autopilot holds the attitude, the pilot's throttle sets the vertical thrust
+    #: (ArduSub STABILIZE)
+    STABILISED = "stabilised"
+    #: the autopilot holds attitude and depth at the pilot's targets (ArduSub ALT_HOLD,
+    #: POSHOLD)
+    DEPTH_HOLDING = "depth-holding"
+    #: the autopilot follows its own plan or reference, holding attitude and depth on the
+    #: way (ArduSub AUTO, GUIDED, CIRCLE, SURFTRAK)
+    AUTONOMOUS = "autonomous"
+    #: the vehicle surfaces or otherwise runs its failsafe (ArduSub SURFACE)
+    FAILSAFE = "failsafe"
+    #: the autopilot runs a routine of its own that is not flying, e.g. ArduSub's
+    #: MOTOR_DETECT
+    SERVICE = "service"
+    #: the driver does not know the mode (or was told none)
+    UNKNOWN = "unknown"
+
+
 @dataclass(frozen=True, slots=True)
 class Health:
-    """Link and vehicle state: heartbeat seen, mode name, armed, bad frames so far.
+    """Link and vehicle state: heartbeat seen, mode, armed, bad frames so far.
 
-    ``detail`` is the link's warnings (or, when not connected, why); ``vehicle`` names the
-    vehicle as the link identifies it (e.g. ``"sysid 1 ArduPilot submarine"``), "" when
-    the link cannot tell.
+    ``mode`` is the mode's name as the vehicle gives it (for people); ``mode_class`` what
+    that mode does (:class:`ModeClass`, the driver's mapping). ``armed`` is None when the
+    source does not report arming (a DataFlash log without ARM records). ``detail`` is the
+    link's warnings (or, when not connected, why); ``vehicle`` names the vehicle as the
+    link identifies it (e.g. ``"sysid 1 ArduPilot submarine"``), "" when the link cannot
+    tell.
     """
 
     t_s: float
     connected: bool
     mode: str
-    armed: bool
+    armed: bool | None
     bad_frames: int = 0
     detail: str = ""
     vehicle: str = ""
+    mode_class: ModeClass = ModeClass.UNKNOWN
 
     def warnings(self) -> list[str]:
         """The link's warnings so far (from ``detail`` while connected)."""

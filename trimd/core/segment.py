@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.drift import DRIFT_MODEL_ERROR
 from trimd.core.estimate import (
@@ -45,10 +44,10 @@ from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
 from trimd.core.systematics import attitude_error_factors, drift_moments, thrust_map_factors
+from trimd.core.types import FloatArray
 
 __all__ = ["Q_NAMES", "SegmentEstimate", "estimate_segment", "nominal_q"]
 
-FloatArray = NDArray[np.float64]
 #: The net quantities q, for people, in order.
 Q_NAMES = ("W − B", "W·x_g − B·x_b", "W·y_g − B·y_b", "W·z_g − B·z_b")
 #: A component of q is observable when the unobservable directions move it by less than

@@ -14,12 +14,13 @@ finder of logs (:mod:`trimd.core.holdfinder`) runs that same test.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.signal import lfilter
+
+from trimd.core.types import FloatArray
 
 __all__ = ["RatioTest", "last_window_drift", "ratio_statistic", "window_drift"]
 
-FloatArray = NDArray[np.float64]
 _TINY = 1e-300
 
 

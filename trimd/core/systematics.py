@@ -26,6 +26,7 @@ from trimd.core.model import (
     thrust_configuration,
 )
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
 if TYPE_CHECKING:
     from trimd.core.estimate import HoldSamples
@@ -33,7 +34,6 @@ if TYPE_CHECKING:
 __all__ = ["BAND_SIGMA_SHARE", "attitude_error_factors", "band_notes", "drift_moments",
            "thrust_map_factors", "thrust_map_std"]
 
-FloatArray = NDArray[np.float64]
 _TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")
 #: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
 #: offset anywhere within ± the margin (uniform: 1/√3).

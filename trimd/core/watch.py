@@ -6,8 +6,9 @@ anything. Every :data:`TICK_S` of sample time it runs the trim procedure's own d
 test) over each stretch of samples that count, and turns each steady stretch into
 segments of at most ``max_segment_s``. Samples count while
 
-* the vehicle is armed in a depth-holding mode (:data:`DEPTH_HOLD_MODES`; all samples
-  count when the source reports no mode), the depth is held (its rate within
+* the vehicle is armed (or its arming is not reported) in a mode whose class holds depth
+  (:data:`DEPTH_HOLD_CLASSES`; all samples count when the source reports no mode), the
+  depth is held (its rate within
   :data:`MAX_DEPTH_RATE_M_S`), and no pilot stick input (a
   :class:`~trimd.core.samples.PilotInput`) came: for :data:`PILOT_QUIET_S` after the
   depth moved or the sticks did, nothing counts;
@@ -56,6 +57,7 @@ from trimd.core.samples import (
     Battery,
     Depth,
     Health,
+    ModeClass,
     PilotInput,
     Sample,
     Thrusters,
@@ -65,14 +67,12 @@ from trimd.core.segment import SegmentEstimate, estimate_segment, nominal_q
 from trimd.core.settling import WINDOW_S
 from trimd.core.watch_records import WatchAlert, WatchSegment, alert_text
 
-__all__ = ["DEPTH_HOLD_MODES", "TICK_S", "TrimWatch", "WatchAlert", "WatchSegment",
+__all__ = ["DEPTH_HOLD_CLASSES", "TICK_S", "TrimWatch", "WatchAlert", "WatchSegment",
            "alert_text"]
 
-#: ArduSub modes that hold depth (in STABILIZE the pilot's throttle, not the autopilot,
-#: sets the vertical thrust).
-DEPTH_HOLD_MODES = frozenset({"ALT_HOLD", "POSHOLD", "SURFTRAK", "GUIDED", "AUTO", "CIRCLE"})
-#: Health.detail of a log that does not record arming (then the mode alone decides).
-ARMED_NOT_LOGGED = "armed state not logged"
+#: Mode classes in which the autopilot holds depth (in a stabilised mode the pilot's
+#: throttle, not the autopilot, sets the vertical thrust).
+DEPTH_HOLD_CLASSES = frozenset({ModeClass.DEPTH_HOLDING, ModeClass.AUTONOMOUS})
 #: Sample time between two runs of the detector [s].
 TICK_S = 10.0
 #: Attitude samples this long after pilot stick input do not count [s].
@@ -252,8 +252,8 @@ class TrimWatch:
         if not self._seen_health:
             return True
         st = self._state
-        return st is not None and st.mode in DEPTH_HOLD_MODES and (
-            st.armed or st.detail == ARMED_NOT_LOGGED)
+        return st is not None and st.mode_class in DEPTH_HOLD_CLASSES and (
+            st.armed is not False)
 
     # ------------------------------------------------------------------ detection
     def _run(self, final: bool) -> list[WatchSegment | WatchAlert]:

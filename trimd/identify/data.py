@@ -39,11 +39,11 @@ from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.resample import zoh_align
 from trimd.core.samples import Attitude, Battery, Depth, Sample, Thrusters, Velocity
+from trimd.core.types import FloatArray
 
 __all__ = ["DEPTH_WINDOW_S", "DEPTH_WINDOW_SAMPLES", "Experiment", "depth_rate", "depth_window",
            "experiments_from_samples", "heave_from_depth", "z_dot"]
 
-FloatArray = NDArray[np.float64]
 
 #: Held values older than this [s] are a gap, per stream: tighter than the static
 #: estimate's limit (trimd.core.effort), since a fit integrates the held τ through time.

@@ -25,11 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import savgol_filter
 
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment, depth_window
 
 __all__ = ["DepthRate"]
 
-FloatArray = NDArray[np.float64]
 
 
 class DepthRate:

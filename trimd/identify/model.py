@@ -31,11 +31,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.signal import lfilter, lfilter_zi
 
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
 __all__ = [
     "DVL_DOFS",
@@ -55,7 +55,6 @@ __all__ = [
     "statics_of_profile",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: State components, in order.
 STATE_NAMES = ("u", "v", "w", "p", "q", "r", "phi", "theta")

@@ -22,14 +22,13 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment, depth_rate
 from trimd.identify.model import HYDRO_NAMES, LAG, lagged_thrust
 
 __all__ = ["with_estimated_velocity"]
 
-FloatArray = NDArray[np.float64]
 
 
 def with_estimated_velocity(experiments: Sequence[Experiment], values: Mapping[str, float],

@@ -17,9 +17,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.errors import DataError
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment, z_dot
 from trimd.identify.depthrate import DepthRate
 from trimd.identify.model import (
@@ -34,7 +34,6 @@ from trimd.identify.model import (
 
 __all__ = ["Problem", "bias_name"]
 
-FloatArray = NDArray[np.float64]
 _RATES = (3, 4, 5)
 
 

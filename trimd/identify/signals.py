@@ -70,16 +70,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.model import restoring_forces, thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 from trimd.identify.model import HYDRO_NAMES, STAGES, prior_values, restoring_vector
 
 __all__ = ["KINDS", "TARGET_SPEED", "AxisDesign", "HoldAxis", "Signal", "axis_authority",
            "axis_forces", "design_signal"]
 
-FloatArray = NDArray[np.float64]
 _HEAVE = 2
 #: Largest depth-hold integral output [input]: the trim of W − B, with room to spare.
 _MAX_TRIM_INPUT = 0.5

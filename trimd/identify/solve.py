@@ -16,11 +16,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+
+from trimd.core.types import FloatArray
 
 __all__ = ["Solution", "jacobian_covariance", "levenberg_marquardt"]
 
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,17 +19,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.optimize import nnls
 from scipy.signal import savgol_filter
 
 from trimd.core.model import restoring_matrix
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment
 from trimd.identify.model import HYDRO_NAMES, LAG, Stage, Statics, lagged_thrust
 
 __all__ = ["LAG_GRID", "equation_error_start"]
 
-FloatArray = NDArray[np.float64]
 
 #: Thruster lags [s] tried for the starting point (the fit refines the best one).
 LAG_GRID = tuple(0.025 * k for k in range(17))

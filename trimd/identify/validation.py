@@ -10,9 +10,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment, depth_rate, z_dot
 from trimd.identify.model import (
     LAG,
@@ -30,7 +30,6 @@ from trimd.identify.problem import Problem
 
 __all__ = ["MIN_OUTPUT_SPREAD", "Validation", "gyro_bias", "nrmse", "validate"]
 
-FloatArray = NDArray[np.float64]
 
 
 #: An output whose standard deviation in a held-out experiment stays below this [m/s,

@@ -23,7 +23,9 @@ used (an excerpt such as gat-00000029_filtered.BIN has none). Sample time ``t_s`
 TimeUS [s since boot] minus that of the first timestamped record. Range checks are those
 of :mod:`trimd.drivers.mavlink.decode`; a rejected record is counted in ``rejected``.
 A log without ARM/EV records leaves the armed state unknown: Health then says
-``armed=False`` with ``detail="armed state not logged"`` and ``armed_known`` is False.
+``armed=None`` (with ``detail="armed state not logged"`` for people) and ``armed_known``
+is False. Mode numbers are ArduSub's: Health carries their
+:class:`~trimd.core.samples.ModeClass` (:func:`trimd.drivers.mavlink.ardusub.mode_class`).
 
 Damage: DFReader skips bytes it cannot parse and prints about them on stderr; here its
 output is kept off the terminal and the damage is counted instead: ``skipped_bytes``
@@ -46,8 +48,8 @@ from typing import Any, Literal
 from pymavlink import DFReader
 
 from trimd.core.errors import DataError
-from trimd.core.samples import Health, Sample, VehicleText
-from trimd.drivers.mavlink.ardusub import mode_name
+from trimd.core.samples import Health, ModeClass, Sample, VehicleText
+from trimd.drivers.mavlink.ardusub import mode_class, mode_name
 from trimd.drivers.mavlink.decode import (
     VehicleParams,
     checked_attitude,
@@ -104,6 +106,7 @@ class DataflashReader:
         self.first_us: int | None = None
         self.last_us: int | None = None
         self.mode: str | None = None
+        self.mode_class = ModeClass.UNKNOWN
         self.armed = False
         self.armed_known = False
         self.error: str | None = None  # why reading stopped early, if it did
@@ -186,7 +189,8 @@ class DataflashReader:
                 self.firmware = text
             return VehicleText(t_s, _MSG_SEVERITY, text)
         elif kind == "MODE":
-            self.mode = mode_name(int(getattr(msg, "ModeNum", msg.Mode)))
+            number = int(getattr(msg, "ModeNum", msg.Mode))
+            self.mode, self.mode_class = mode_name(number), mode_class(number)
             return self._health(t_s)
         elif kind == "ARM" or (kind == "EV" and msg.Id in (_EV_ARMED, _EV_DISARMED)):
             self.armed = bool(msg.ArmState) if kind == "ARM" else msg.Id == _EV_ARMED
@@ -197,5 +201,7 @@ class DataflashReader:
     def _health(self, t_s: float) -> Health | bool:
         if self.mode is None:  # armed before any MODE record: wait for the mode
             return True
-        return Health(t_s, True, self.mode, self.armed, 0,
-                      "" if self.armed_known else "armed state not logged")
+        if self.armed_known:
+            return Health(t_s, True, self.mode, self.armed, mode_class=self.mode_class)
+        return Health(t_s, True, self.mode, None, detail="armed state not logged",
+                      mode_class=self.mode_class)

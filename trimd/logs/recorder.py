@@ -59,7 +59,7 @@ from trimd.core.samples import (
     VehicleText,
     Velocity,
 )
-from trimd.drivers.mavlink.ardusub import mode_name, mode_number
+from trimd.drivers.mavlink.ardusub import mode_class, mode_name, mode_number
 from trimd.drivers.mavlink.statustext import text_chunks
 
 __all__ = ["PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK",
@@ -217,7 +217,8 @@ class TlogRecorder:
             self._write(s.t_s, v, v.heartbeat_encode(
                 mavlink2.MAV_TYPE_SUBMARINE, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
                 number, mavlink2.MAV_STATE_ACTIVE))
-            return Health(s.t_s, True, mode_name(number), s.armed, vehicle=s.vehicle)
+            return Health(s.t_s, True, mode_name(number), s.armed, vehicle=s.vehicle,
+                          mode_class=mode_class(number))
         if isinstance(s, VehicleText):
             severity = min(max(s.severity, 0), 7)
             self._write_text(s.t_s, s.text, severity, v)

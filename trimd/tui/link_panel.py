@@ -59,8 +59,8 @@ class LinkPanel(Static):
         else:
             text.append(h.mode or "?", style="bold")
             text.append("  ")
-            text.append("ARMED" if h.armed else "disarmed",
-                        style="bold green" if h.armed else "bold yellow")
+            text.append("ARMED" if h.armed else "arming unknown" if h.armed is None
+                        else "disarmed", style="bold green" if h.armed else "bold yellow")
             if not h.connected:
                 text.append("  LOST", style="bold red")
             text.append("\n")

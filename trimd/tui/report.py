@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.report import format_estimate, format_proposal, format_verification
-from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict

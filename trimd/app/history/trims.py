@@ -8,7 +8,7 @@ import time
 from trimd.app.history.store import History
 from trimd.app.session import SessionResult
 from trimd.ballast.correct import Correction
-from trimd.ballast.propose import Proposal, proposal_to_dict
+from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate_json import estimate_to_dict
 

@@ -5,6 +5,7 @@ thread (it owns the pymavlink ``MAVLink`` object there, so nothing else writes) 
 nothing of sockets:
 
 * (trimd's own HEARTBEAT, texts and values: :mod:`~trimd.drivers.mavlink.outbox`);
+* (each COMMAND_LONG re-sent until answered: :mod:`~trimd.drivers.mavlink.requests`);
 * when the vehicle appears (again): MAV_CMD_SET_MESSAGE_INTERVAL for each message in
   :data:`STREAMS`, one at a time; a refusal or no answer falls back to REQUEST_DATA_STREAM
   for that message's stream, with a warning; then, for the whole session, whenever
@@ -42,18 +43,23 @@ import math
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from trimd.core.errors import LinkError
 from trimd.core.model import quaternion_from_euler
 from trimd.core.profile import Profile
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release
 from trimd.drivers.mavlink.ardusub import mode_number
 from trimd.drivers.mavlink.decode import MavlinkDecoder
 from trimd.drivers.mavlink.rates import RateWatch
+from trimd.drivers.mavlink.requests import (
+    ACCEPTED,
+    CommandRequests,
+    fail,
+    result_name,
+    succeed,
+)
 from trimd.drivers.mavlink.stations import Stations
 from trimd.drivers.mavlink.url import MavlinkOptions
 
@@ -71,41 +77,9 @@ _DEPTH_MESSAGE = {"vfr_hud": "VFR_HUD", "global_position": "GLOBAL_POSITION_INT"
                   "pressure": "SCALED_PRESSURE2"}
 HOLD_PERIOD_S = 0.25        # SET_ATTITUDE_TARGET at 4 Hz (ArduSub drops a target after 5 s)
 PILOT_PERIOD_S = 0.1        # MANUAL_CONTROL at 10 Hz (pilot-input failsafe after 3 s)
-_RETRY_S = 1.0              # re-send an unanswered COMMAND_LONG after this long
-_ANSWER_S = 3.0             # give up on a command after this long
 _PARAM_WAIT_S = 3.0
 _TYPE_MASK = 0b1000111      # ignore body roll/pitch/yaw rates and throttle
 _NEUTRAL = (0, 0, 500, 0, 0, 0, 0)  # MANUAL_CONTROL x, y, z, r, s, t, enabled_extensions
-_ACCEPTED, _IN_PROGRESS = 0, 5
-
-
-def _result_name(result: int | None) -> str:
-    if result is None:
-        return "no answer in 3 s"
-    entry = mavlink2.enums["MAV_RESULT"].get(result)
-    return entry.name if entry is not None else f"result {result}"
-
-
-def _fail(done: Future[None] | None, text: str) -> None:
-    if done is not None and not done.done():
-        done.set_exception(LinkError(text))
-
-
-def _succeed(done: Future[None] | None) -> None:
-    if done is not None and not done.done():
-        done.set_result(None)
-
-
-@dataclass
-class _Request:
-    """An outstanding COMMAND_LONG, re-sent each second until answered or 3 s old."""
-
-    params: tuple[float, ...]
-    answered: Callable[[int | None], None]
-    deadline: float
-    done: Future[None] | None  # failed at once when the link is lost
-    next_send: float = -math.inf
-    tries: int = 0
 
 
 def pilot_axes(axes: tuple[float, ...]) -> tuple[int, ...]:
@@ -145,7 +119,7 @@ class Commander:
         self._mode: str | None = None       # the mode the present command flies in
         self._mode_reached = False          # a heartbeat has shown it since
         self._restore: str | None = None
-        self._requests: dict[int, _Request] = {}
+        self._requests = CommandRequests(mav, options.source[0])
         self._mode_wanted: tuple[str, Future[None] | None] | None = None
         self._streams: deque[str] = deque()
         self.rates = RateWatch()
@@ -179,9 +153,7 @@ class Commander:
         self.target = None
         self.pilot = None
         self._mode = None
-        for request in self._requests.values():
-            _fail(request.done, "link lost before the vehicle answered")
-        self._requests.clear()
+        self._requests.fail_all("link lost before the vehicle answered")
         self._mode_wanted = None
         self._params_due = math.inf
 
@@ -192,19 +164,14 @@ class Commander:
         kind = msg.get_type()
         self.rates.note(msg)
         if kind == "COMMAND_ACK":
-            request = self._requests.get(int(msg.command))
-            target = int(getattr(msg, "target_system", 0) or 0)  # MAVLink 2 extension
-            if (request is not None and int(msg.result) != _IN_PROGRESS
-                    and target in (0, self.options.source[0])):
-                del self._requests[int(msg.command)]
-                request.answered(int(msg.result))
+            self._requests.ack(msg)
         elif kind == "HEARTBEAT":
             mode = self.decoder.mode
             if self._mode_wanted is not None and mode == self._mode_wanted[0]:
                 done = self._mode_wanted[1]
                 self._mode_wanted = None
-                self._requests.pop(mavlink2.MAV_CMD_DO_SET_MODE, None)
-                _succeed(done)
+                self._requests.forget(mavlink2.MAV_CMD_DO_SET_MODE)
+                succeed(done)
             if self._mode is not None and mode == self._mode:
                 self._mode_reached = True
             elif self.commanding and self._mode_reached and self._mode_wanted is None:
@@ -242,19 +209,19 @@ class Commander:
         """Carry out ``command``; ``done`` completes when the vehicle confirms it."""
         others = self.stations.present(now)
         if self.decoder.vehicle is None:
-            _fail(done, "no vehicle heartbeat yet")
+            fail(done, "no vehicle heartbeat yet")
         elif isinstance(command, HoldAttitude) and self.target is not None:
             # already holding (the next hold, or its heading moved along): no mode change
             self.target = (command.phi, command.theta, command.psi)
             self._due["target"] = now
-            _succeed(done)
+            succeed(done)
         elif isinstance(command, HoldAttitude):
             self.target = (command.phi, command.theta, command.psi)
             self.pilot = _NEUTRAL
             self._due["target"] = self._due["pilot"] = now
             self._change_mode("ALT_HOLD", now, done)
         elif isinstance(command, OpenLoop) and (others or self.options.ids != "gcs"):
-            _fail(done, "open-loop input needs trimd to be the only ground station; " + (
+            fail(done, "open-loop input needs trimd to be the only ground station; " + (
                 f"{self.stations.describe(others[0])} is connected and has the sticks"
                 if others else "with ids=vehicle it is none (ArduSub takes MANUAL_CONTROL "
                 "only from SYSID_MYGCS)"))
@@ -265,14 +232,14 @@ class Commander:
             self._change_mode("MANUAL", now, done)
         elif isinstance(command, Release):
             self.release(now)
-            _succeed(done)
+            succeed(done)
         elif isinstance(command, Arm):
             verb = "arm" if command.armed else "disarm"
             self._command(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (float(command.armed),), now,
-                          lambda r: _succeed(done) if r == _ACCEPTED else _fail(
-                              done, f"the vehicle did not {verb}: {_result_name(r)}"), done)
+                          lambda r: succeed(done) if r == ACCEPTED else fail(
+                              done, f"the vehicle did not {verb}: {result_name(r)}"), done)
         else:
-            _fail(done, f"not supported over MAVLink: {command!r}")
+            fail(done, f"not supported over MAVLink: {command!r}")
 
     def release(self, now: float) -> None:
         """Level the vehicle, stop targeting and pilot input; restore the operator's mode."""
@@ -282,7 +249,7 @@ class Commander:
         self.pilot = _NEUTRAL if self.options.pilot == "always" else None
         self._mode = None
         if self._mode_wanted is not None:
-            _fail(self._mode_wanted[1], "released before the mode changed")
+            fail(self._mode_wanted[1], "released before the mode changed")
             self._mode_wanted = None
         restore, self._restore = self._restore, None
         if restore is not None and self.decoder.mode != restore:
@@ -292,35 +259,31 @@ class Commander:
         if done is not None:  # a command (not a restore): trimd flies in this mode now
             self._mode, self._mode_reached = mode, False
         if self.decoder.mode == mode:
-            _succeed(done)
+            succeed(done)
             return
         if self._restore is None and done is not None:
             self._restore = self.decoder.mode
         if self._mode_wanted is not None:
-            _fail(self._mode_wanted[1], f"superseded by a change to {mode}")
+            fail(self._mode_wanted[1], f"superseded by a change to {mode}")
         wanted = self._mode_wanted = (mode, done)
 
         def answered(result: int | None) -> None:
             if self._mode_wanted is wanted:
                 self._mode_wanted = None
-            if result == _ACCEPTED:
-                _succeed(done)
+            if result == ACCEPTED:
+                succeed(done)
                 return
-            text = f"the vehicle did not change to {mode}: {_result_name(result)}"
+            text = f"the vehicle did not change to {mode}: {result_name(result)}"
             if done is None:
                 self.warn(text)
-            _fail(done, text)
+            fail(done, text)
 
         self._command(mavlink2.MAV_CMD_DO_SET_MODE, (1.0, float(mode_number(mode))), now,
                       answered, done)
 
     def _command(self, command: int, params: tuple[float, ...], now: float,
                  answered: Callable[[int | None], None], done: Future[None] | None) -> None:
-        old = self._requests.pop(command, None)
-        if old is not None:
-            _fail(old.done, "superseded by a newer command")
-        self._requests[command] = _Request((*params, 0, 0, 0, 0, 0, 0, 0)[:7], answered,
-                                           now + _ANSWER_S, done)
+        self._requests.send(command, params, now, answered, done)
 
     # ---------------------------------------------------------------- periodic
     def tick(self, now: float) -> float:
@@ -341,9 +304,7 @@ class Commander:
             self._check_rates()
         if now >= self._params_due:
             self._params_answered(now)
-        waits = [self._params_due,
-                 *(r.next_send for r in self._requests.values()),
-                 *(r.deadline for r in self._requests.values())]
+        waits = [self._params_due, *self._requests.due()]
         if self.target is not None:
             waits.append(due["target"])
         if self.pilot is not None:
@@ -375,15 +336,7 @@ class Commander:
     def _tick_requests(self, now: float, sysid: int, compid: int) -> None:
         if self._streams and mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL not in self._requests:
             self._request_stream(self._streams.popleft(), now)
-        for command, request in list(self._requests.items()):
-            if now >= request.deadline:
-                del self._requests[command]
-                request.answered(None)
-            elif now >= request.next_send:
-                self.mav.command_long_send(sysid, compid, command, request.tries,
-                                           *request.params)
-                request.tries += 1
-                request.next_send = now + _RETRY_S
+        self._requests.tick(now, sysid, compid)
 
     def _check_rates(self) -> None:
         """Ask again for each watched message that arrives too slowly."""
@@ -408,11 +361,11 @@ class Commander:
         def answered(result: int | None) -> None:
             if name in self._watched and result is not None:
                 self.rates.asked_for(name, hz)
-            if result == _ACCEPTED:
+            if result == ACCEPTED:
                 return
             sysid, compid = self.decoder.vehicle or (0, 0)
             self.mav.request_data_stream_send(sysid, compid, stream, round(hz), 1)
-            self.warn(f"SET_MESSAGE_INTERVAL {name} at {hz:g} Hz: {_result_name(result)}; "
+            self.warn(f"SET_MESSAGE_INTERVAL {name} at {hz:g} Hz: {result_name(result)}; "
                       f"asked with REQUEST_DATA_STREAM (stream {stream}) instead")
 
         self._command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL,

@@ -59,12 +59,13 @@ from trimd.core.samples import (
     Battery,
     Depth,
     Health,
+    ModeClass,
     Sample,
     Thrusters,
     VehicleText,
     Velocity,
 )
-from trimd.drivers.mavlink.ardusub import mode_name
+from trimd.drivers.mavlink.ardusub import mode_class, mode_name
 
 __all__ = [
     "LIMITS",
@@ -258,6 +259,7 @@ class MavlinkDecoder:
         self._params_by_source: dict[tuple[int, int], VehicleParams] = {}
         self.vehicle: tuple[int, int] | None = None
         self.mode: str | None = None
+        self.mode_class = ModeClass.UNKNOWN
         self.armed: bool | None = None
         self.bad_frames = 0  # kept up to date by the transport; Health samples carry it
         self.rejected: Counter[str] = Counter()
@@ -328,11 +330,12 @@ class MavlinkDecoder:
             self.ignored += 1
             return []
         self.mode = mode_name(int(msg.custom_mode))
+        self.mode_class = mode_class(int(msg.custom_mode))
         self.armed = bool(msg.base_mode & _ARMED)
         early = self._early_texts.pop(source[0], [])
         self._early_texts.clear()
         return [Health(t_s, True, self.mode, self.armed, self.bad_frames,
-                       vehicle=self._vehicle_name), *early]
+                       vehicle=self._vehicle_name, mode_class=self.mode_class), *early]
 
     def _statustext(self, msg: Any, t_s: float) -> list[VehicleText]:
         # pymavlink decodes the text as ASCII; the raw bytes keep UTF-8 (e.g. "°") whole

@@ -356,7 +356,8 @@ class MavlinkLink:
         self._commander.on_lost()
         d = self._decoder
         self._push((now, None, [Health(now, False, d.mode or "", bool(d.armed),
-                                       self.stats.bad_frames, detail)]))
+                                       self.stats.bad_frames, detail,
+                                       mode_class=d.mode_class)]))
 
     def _warn(self, text: str) -> None:
         if text not in self.warnings:

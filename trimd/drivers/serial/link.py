@@ -48,6 +48,7 @@ from trimd.core.samples import (
     Command,
     Health,
     HoldAttitude,
+    ModeClass,
     OpenLoop,
     PilotInput,
     Release,
@@ -279,7 +280,7 @@ class SerialLink:
             self._connected = self.vehicle is not None
             out = Health(t_s, self._connected, out.mode, out.armed, self.parser.bad_lines,
                          out.detail if self._connected else self._problem,
-                         self.vehicle.name if self.vehicle else "")
+                         self.vehicle.name if self.vehicle else "", out.mode_class)
             self._last = out
             self._emit(out)
             self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
@@ -330,7 +331,8 @@ class SerialLink:
         last = self._last
         t_s = self._last_rx[1] + (now - self._last_rx[0])
         self._emit(Health(t_s, False, last.mode if last else "", bool(last and last.armed),
-                          self.parser.bad_lines, detail, last.vehicle if last else ""))
+                          self.parser.bad_lines, detail, last.vehicle if last else "",
+                          last.mode_class if last else ModeClass.UNKNOWN))
 
     def _emit(self, sample: Sample) -> None:
         if len(self._pending) >= _QUEUE_MAX:

@@ -39,11 +39,27 @@ from trimd.core.samples import (
     VehicleText,
     Velocity,
 )
+from trimd.drivers.serial.modes import mode_class
 
 __all__ = [
-    "BAD_COUNTERS", "CONTROLS", "MAX_LINE_BYTES", "MAX_OUTPUTS", "TRIMD", "VEHICLE", "VERSION",
-    "Heartbeat", "LineParser", "Sentence", "Version", "checksum", "encode",
-    "encode_command", "encode_sample", "heading_deg", "to_command", "to_sample",
+    "BAD_COUNTERS",
+    "CONTROLS",
+    "MAX_LINE_BYTES",
+    "MAX_OUTPUTS",
+    "TRIMD",
+    "VEHICLE",
+    "VERSION",
+    "Heartbeat",
+    "LineParser",
+    "Sentence",
+    "Version",
+    "checksum",
+    "encode",
+    "encode_command",
+    "encode_sample",
+    "heading_deg",
+    "to_command",
+    "to_sample",
 ]
 
 VERSION = 1
@@ -287,7 +303,8 @@ def to_sample(s: Sentence, t_s: float, channels: Sequence[int]) -> Sample | Vers
     if s.kind == "BAT":
         return Battery(t_s, float(v[1]))
     if s.kind == "STA":
-        return Health(t_s, True, str(v[1]), v[2] == 1, detail=f"control {v[3]}")
+        return Health(t_s, True, str(v[1]), v[2] == 1, detail=f"control {v[3]}",
+                      mode_class=mode_class(str(v[1])))
     if s.kind == "TXT":
         return VehicleText(t_s, int(v[1]), str(v[2]))
     return Version(int(v[0]), str(v[1]))
@@ -344,7 +361,7 @@ def encode_sample(sample: Sample, t_ms: int, outputs: int = 0,
     if isinstance(sample, Battery):
         return encode(VEHICLE, "BAT", [t, _f(_clamp(sample.voltage_V, 100, 1), 2)])
     if isinstance(sample, Health):
-        return encode(VEHICLE, "STA", [t, sample.mode, str(int(sample.armed)), control])
+        return encode(VEHICLE, "STA", [t, sample.mode, str(int(bool(sample.armed))), control])
     if isinstance(sample, PilotInput):
         raise ValueError("a pilot taking over is sent as STA with control PILOT, not as a "
                          "sentence of its own")

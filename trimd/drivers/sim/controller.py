@@ -21,13 +21,17 @@ import math
 
 from trimd.core.model import quaternion_from_euler
 from trimd.core.profile import Profile
+from trimd.core.samples import ModeClass
 from trimd.drivers.sim.sensors import Reading
 from trimd.drivers.sim.thrusters import Mixer
 
-__all__ = ["MODES", "Controller"]
+__all__ = ["MODES", "MODE_CLASSES", "Controller"]
 
 #: Modes the simulated vehicle flies (ArduSub names).
 MODES = ("MANUAL", "STABILIZE", "ALT_HOLD")
+#: What each of them does, as its Health samples say (ArduSub's classes).
+MODE_CLASSES = {"MANUAL": ModeClass.MANUAL, "STABILIZE": ModeClass.STABILISED,
+                "ALT_HOLD": ModeClass.DEPTH_HOLDING}
 
 _CLIMB_M_S = 0.5      # depth-target rate at full pilot throttle [m/s]
 _YAW_RATE = 0.8       # heading-target rate at full pilot yaw [rad/s]

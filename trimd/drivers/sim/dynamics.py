@@ -22,15 +22,14 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.model import quaternion_from_euler
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 from trimd.drivers.sim.payload import MassProperties
 
 __all__ = ["RigidBody", "State", "euler_from_quaternion", "initial_state"]
 
-FloatArray = NDArray[np.float64]
 State = tuple[float, ...]
 
 

@@ -22,14 +22,13 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.errors import ProfileError
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
 __all__ = ["MassProperties", "PayloadItem", "mass_properties", "parse_payload"]
 
-FloatArray = NDArray[np.float64]
 
 _ITEM = re.compile(r"^\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*@\s*(.+?)\s*$")
 

@@ -30,14 +30,13 @@ from collections.abc import Sequence
 from operator import mul
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.model import thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
 __all__ = ["ARDUSUB_HEAVY_FACTORS", "Mixer", "ThrusterBank"]
 
-FloatArray = NDArray[np.float64]
 
 #: AP_Motors6DOF factors of FRAME_CONFIG 2 per motor 1..8:
 #: roll, pitch, yaw, throttle, forward, lateral.

@@ -22,13 +22,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from trimd.core.model import restoring_forces
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Battery, Depth, Health, Sample, Thrusters, Velocity
+from trimd.core.types import FloatArray
 from trimd.drivers.sim.config import SimConfig
-from trimd.drivers.sim.controller import MODES, Controller
+from trimd.drivers.sim.controller import MODE_CLASSES, MODES, Controller
 from trimd.drivers.sim.disturbance import Disturbances
 from trimd.drivers.sim.dynamics import RigidBody, euler_from_quaternion, initial_state
 from trimd.drivers.sim.payload import MassProperties, PayloadItem, mass_properties, parse_payload
@@ -40,7 +40,6 @@ from trimd.drivers.sim.wander import torque_std_for_wander
 
 __all__ = ["SAMPLE_KINDS", "SimVehicle", "Truth"]
 
-FloatArray = NDArray[np.float64]
 
 #: What :meth:`SimVehicle.sample` can produce.
 SAMPLE_KINDS = ("attitude", "thrusters", "depth", "velocity", "battery", "health")
@@ -243,7 +242,8 @@ class SimVehicle:
             return Battery(t, self.voltage_V)
         if kind == "health":
             return Health(t, True, self.mode, self.armed,
-                          vehicle=f"simulated {self.profile.name}")
+                          vehicle=f"simulated {self.profile.name}",
+                          mode_class=MODE_CLASSES[self.mode])
         raise ValueError(f"unknown sample kind {kind!r} (known: {', '.join(SAMPLE_KINDS)})")
 
     @property
