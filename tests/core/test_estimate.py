@@ -85,6 +85,28 @@ def test_intervals_cover_the_net_quantities_under_correlated_noise(
     assert np.all(np.abs(np.sqrt(np.mean(z**2, axis=0)) - 1) <= 0.2), np.sqrt(np.mean(z**2, axis=0))
 
 
+def test_intervals_cover_the_net_quantities_when_the_wander_is_slower_than_the_hold(
+        sabertooth: Profile) -> None:
+    """Wander of 0.2° with a 20 s correlation over 3 min holds: each hold is worth 1–10
+    independent samples, and the Student-t widening of those below five
+    (:func:`trimd.core.longrun.small_sample_factor`) keeps the 95 % intervals covering
+    90–99 % over 200 seeds (88.5–96 % without it). error/σ is then heavy-tailed, so its
+    RMS is checked from above only."""
+    sabertooth = dataclasses.replace(sabertooth, attitude_error_deg=0.0)
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    truth = np.r_[W - sabertooth.buoyancy_N, W * r_g - sabertooth.buoyancy_N * np.asarray(
+        sabertooth.r_b_m)]
+    ests = [estimate_static(equilibrium_holds(
+        sabertooth, W, r_g, n=1800, attitude_noise_deg=0.05, thrust_noise=0.02, wander_deg=0.2,
+        wander_tau_s=20.0, thruster_every=2, rng=np.random.default_rng(seed)), sabertooth)
+        for seed in range(200)]
+    assert sum(not h.resolved for e in ests for h in e.holds) > 100
+    z = np.array([(e.q - truth) / np.sqrt(np.diag(e.q_cov)) for e in ests])
+    coverage = np.mean(np.abs(z) <= 1.96, axis=0)
+    assert np.all((coverage >= 0.90) & (coverage <= 0.99)), coverage
+    assert np.all(np.sqrt(np.mean(z**2, axis=0)) <= 1.2), np.sqrt(np.mean(z**2, axis=0))
+
+
 @pytest.mark.parametrize("profile_name", ["sabertooth", "bluerov"])
 def test_intervals_cover_a_slow_error_of_the_attitude_reference(
         profile_name: str, request: pytest.FixtureRequest) -> None:

@@ -280,7 +280,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         drift = drift_moments(attitude, used, profile, float(q[0]))
         tilt = attitude_error_factors(attitude, used, profile, q)
         means = _residual_means(holds, used, q)
-        var = [np.diag(m.cov) + (g**2).sum(axis=1)
+        var = [np.diag(m.interval_cov) + (g**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * d)**2 + (e**2).sum(axis=1)
                for m, g, d, e in zip(means, gains, drift, tilt, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
@@ -291,7 +291,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     means = _residual_means(holds, used, q)
     # sandwich covariance: the weights need not be exact for it to hold
     H_inv = np.linalg.inv(sum((Ak.T * w**2) @ Ak for Ak, w in zip(A, weights, strict=True)))
-    meat = sum(((Ak.T * w**2) @ m.cov @ (Ak * w[:, None]**2) for Ak, w, m in
+    meat = sum(((Ak.T * w**2) @ m.interval_cov @ (Ak * w[:, None]**2) for Ak, w, m in
                 zip(A, weights, means, strict=True)), np.zeros((4, 4)))
     q_cov_noise = H_inv @ meat @ H_inv
     # the thrust map's errors (curve gains, dead-band edges), shared by all holds:

@@ -151,11 +151,11 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
                                        restoring_matrix(h.phi, h.theta)[:, used], q)
         mc = mean_covariance(e)
         tilt = attitude_error_factors([(phi, theta)], [used], profile, q)[0]
-        var = (np.diag(mc.cov) + (factors**2).sum(axis=1)
+        var = (np.diag(mc.interval_cov) + (factors**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * drift)**2 + (tilt**2).sum(axis=1))
         weights = 1 / np.sqrt(np.maximum(var, 1e-12 * max(float(var.max()), 1e-300)))
     J = V_o @ L  # q = prior + J·(τ̄ − drift − A·prior)
-    noise = J @ mc.cov @ J.T
+    noise = J @ mc.interval_cov @ J.T
     gain = J @ factors
     d = J @ (DRIFT_MODEL_ERROR * drift)
     reference = J @ tilt

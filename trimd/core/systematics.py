@@ -122,7 +122,8 @@ def band_notes(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
     for h, r, f, m in zip(holds, used, factors, means, strict=True):
         n = f.shape[1] // 4
         band = f[:, 2 * n:]
-        share = (band**2).sum(axis=1) / (np.diag(m.cov) + (f**2).sum(axis=1) + 1e-300)
+        noise = np.diag(m.interval_cov)
+        share = (band**2).sum(axis=1) / (noise + (f**2).sum(axis=1) + 1e-300)
         for row, s, b in zip(np.flatnonzero(r), share, band, strict=True):
             if s > 0.5:
                 c = b[:n]**2 + b[n:]**2  # each thruster's share of the row's band variance
