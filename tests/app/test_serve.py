@@ -23,8 +23,8 @@ from tests.app.serve_process import Serve, free_tcp_port
 from tests.drivers.test_mavlink_link import TRIMD
 from tests.helpers import REPO
 from trimd import __version__
+from trimd.app.serve import DEFAULT_PORT
 from trimd.cli.main import main
-from trimd.cli.serve import DEFAULT_PORT
 
 DOCKERFILE = REPO / "blueos" / "Dockerfile"
 

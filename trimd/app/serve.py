@@ -37,7 +37,11 @@ from trimd.core.samples import Health, Sample
 from trimd.core.watch import TrimWatch, WatchAlert
 from trimd.logs.recorder import TlogRecorder
 
-__all__ = ["RETRY_S", "Dive", "Service", "dive_clock", "dive_id"]
+__all__ = ["DEFAULT_PORT", "RETRY_S", "Dive", "Service", "dive_clock", "dive_id"]
+
+#: The HTTP port (BlueOS's extensions take ports of their own; 8970 is not one of
+#: BlueOS's services').
+DEFAULT_PORT = 8970
 
 #: Wait before opening a failed link again [s, wall clock].
 RETRY_S = 2.0

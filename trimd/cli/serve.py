@@ -24,7 +24,7 @@ from aiohttp import web
 from trimd.app.files import data_dir
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
-from trimd.app.serve import Clock, Service
+from trimd.app.serve import DEFAULT_PORT, Clock, Service
 from trimd.app.web import make_app
 from trimd.cli.argtypes import bounded, integer
 from trimd.cli.history_args import vehicle_of
@@ -33,11 +33,7 @@ from trimd.core.errors import UsageError
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.core.watch import TrimWatch
 
-__all__ = ["DEFAULT_PORT", "register", "run"]
-
-#: The HTTP port (BlueOS's extensions take ports of their own; 8970 is not one of
-#: BlueOS's services').
-DEFAULT_PORT = 8970
+__all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
