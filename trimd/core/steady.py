@@ -104,6 +104,14 @@ def window_drift(t: ArrayLike, x: ArrayLike, window_s: float, t_crit: float = 3.
     n = windowed(np.ones_like(tc))
     St, Stt = windowed(tc), windowed(tc * tc)
     Sx, Sxx, Stx = windowed(X0), windowed(X0 * X0), windowed(tc * X0)
+    return _drift(n, St, Stt, Sx, Sxx, Stx, window_s, t_crit).reshape(a.shape)
+
+
+def _drift(n: FloatArray, St: FloatArray, Stt: FloatArray, Sx: FloatArray, Sxx: FloatArray,
+           Stx: FloatArray, window_s: float, t_crit: float) -> FloatArray:
+    """The significant drift over ``window_s`` of each channel from the window's running
+    sums (count, Σt, Σt², Σx, Σx², Σtx): |slope|·window where the least-squares slope
+    exceeds ``t_crit`` standard errors, else 0."""
     with np.errstate(divide="ignore", invalid="ignore"):
         tt = Stt - St * St / n
         tx = Stx - St * Sx / n
@@ -113,7 +121,7 @@ def window_drift(t: ArrayLike, x: ArrayLike, window_s: float, t_crit: float = 3.
         se = np.sqrt(np.where((n > 2) & (tt > 1e-12), sse / (n - 2) / tt, np.inf))
     significant = np.abs(slope) > t_crit * se
     drift: FloatArray = np.where(significant, np.abs(slope) * window_s, 0.0)
-    return drift.reshape(a.shape)
+    return drift
 
 
 def last_window_drift(t: FloatArray, X: FloatArray, window_s: float, t_crit: float = 3.0
@@ -131,13 +139,4 @@ def last_window_drift(t: FloatArray, X: FloatArray, window_s: float, t_crit: flo
     sums = c[-1] - (c[j - 1] if j > 0 else 0.0)
     n, St, Stt = sums[0:1], sums[1:2], sums[2:3]
     Sx, Sxx, Stx = sums[3:3 + k], sums[3 + k:3 + 2 * k], sums[3 + 2 * k:]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tt = Stt - St * St / n
-        tx = Stx - St * Sx / n
-        xx = Sxx - Sx * Sx / n
-        slope = np.where(tt > 1e-12, tx / tt, 0.0)
-        sse = np.maximum(xx - slope * tx, 0.0)
-        se = np.sqrt(np.where((n > 2) & (tt > 1e-12), sse / (n - 2) / tt, np.inf))
-    significant = np.abs(slope) > t_crit * se
-    drift: FloatArray = np.where(significant, np.abs(slope) * window_s, 0.0)
-    return drift
+    return _drift(n, St, Stt, Sx, Sxx, Stx, window_s, t_crit)
