@@ -17,8 +17,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from trimd.app import connect
 from trimd.app.after_trim import AfterTrim
-from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
     installed_from_json,
@@ -147,7 +147,7 @@ def _truth(link: Link, wanted: bool) -> str | None:
 
 async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
                     ) -> tuple[SessionResult, str | None]:
-    link = await open_link(args.link, profile)
+    link = await connect.open_link(args.link, profile)
     presenters: list[Presenter] = [HeadlessPresenter(json_lines=args.json)]
     session = _make_session(args, profile, link, presenters)
     if not args.yes:
@@ -162,7 +162,7 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
     from trimd.tui import make_app
     from trimd.tui.run import run_in_tui
 
-    link = await open_link(args.link, profile)
+    link = await connect.open_link(args.link, profile)
     truth_text = _truth(link, truth)
     app = make_app(_make_session(args, profile, link, []), profile,
                    link_description=link.description, truth=truth_text,
@@ -187,7 +187,7 @@ def _after_trim(args: argparse.Namespace, profile: Profile) -> AfterTrim:
 
     return AfterTrim(None if args.no_history else Path(db_path(args)),
                      vehicle_of(args, profile.name), profile, args.yes,
-                     lambda: open_link(args.link, profile), recorder)
+                     lambda: connect.open_link(args.link, profile), recorder)
 
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
