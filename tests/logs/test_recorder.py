@@ -27,7 +27,7 @@ from trimd.core.samples import (
 )
 from trimd.drivers.mavlink.decode import MavlinkDecoder
 from trimd.logs.log import open_log
-from trimd.logs.recorder import TlogRecorder
+from trimd.logs.recorder import TlogRecorder, session_s, session_us
 from trimd.logs.tlog import TlogReader
 
 
@@ -165,3 +165,14 @@ def test_a_dive_longer_than_the_uint32_microsecond_clock_is_recorded(
         stamps.append((m.get_type(), m._timestamp))
     servo = next(t for kind, t in stamps if kind == "SERVO_OUTPUT_RAW")
     assert round(servo - stamps[0][1], 6) == 5000.0
+
+
+def test_a_millisecond_session_time_reads_back_bit_for_bit() -> None:
+    """The live session rounds sample times to the millisecond and hands its procedure the
+    time as the log stores it; the replay's session rounds the stored time to the
+    millisecond again. Both must be the same float, or a cut at 15.0 s falls one sample
+    apart (live 19.9 − 4.9 < 15 where the replay has 15.0): 2 h of milliseconds."""
+    t = [k / 1000 for k in range(0, 7_200_000, 7)]
+    stored = [session_s(session_us(x)) for x in t]
+    assert stored == t
+    assert [round(x * 1000.0) / 1000.0 for x in stored] == t

@@ -91,14 +91,19 @@ def session_us(t_s: float) -> int:
 
 def session_s(offset_us: int) -> float:
     """A record's offset from the session's start [µs] as the session time a replay
-    reads [s] (:meth:`trimd.logs.tlog.TlogReader.samples`).
+    reads [s] (:meth:`trimd.logs.tlog.TlogReader.samples`): the float nearest the stored
+    µs, so a time the session rounded to the millisecond reads back bit for bit (a
+    product with 1e-6 would not: 50000 · 1e-6 is 0.049999999999999996, not 0.05, and the
+    live procedure and its replay would see times one ulp apart, enough to move a cut).
 
     Examples
     --------
     >>> 1234.55 - 1200.0, session_s(session_us(1234.55 - 1200.0))
     (34.549999999999955, 34.55)
+    >>> session_s(session_us(0.05)), session_s(50_000) == round(0.049999999999999996, 3)
+    (0.05, True)
     """
-    return offset_us * 1e-6
+    return offset_us / 1e6
 
 
 class TlogRecorder:
