@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from tests.drivers.test_mavlink_gcs import FAST_WATCH, AtMavproxy, leak_beside_mavproxy
 from tests.helpers import REPO
 
 #: the longest any wait may take before the test fails as hung [s, wall clock]
@@ -83,3 +84,27 @@ class Serve:
             raise
         finally:
             self._out.close()
+
+
+def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
+    """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
+    printed its alert; the run and the stopped service."""
+    http = free_tcp_port()
+    started: list[Serve] = []
+
+    def start(profile: Path, port: int) -> subprocess.Popen[bytes]:
+        started.append(Serve(
+            [sys.executable, "-m", "trimd", "serve", "--link",
+             f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle", "--profile", str(profile),
+             "--data", str(tmp / "data"), "--host", "127.0.0.1", "--port", str(http),
+             *FAST_WATCH], http))
+        return started[0].proc
+
+    def alert() -> dict[str, Any] | None:
+        alerts = started[0].get("/api/alerts")
+        return alerts["alerts"][0] if alerts and alerts["alerts"] else None
+
+    run = leak_beside_mavproxy(tmp, start, alert)
+    code = started[0].stop()
+    assert code == 0, (code, started[0].output())
+    return run, started[0]
