@@ -124,6 +124,7 @@ def test_headless_confirmation_prompt_refuses_or_stops(tmp_path: Path, how: str)
     assert "command: hold" not in out  # nothing was commanded
 
 
+@pytest.mark.slow
 def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
     """One seed, one result (the coverage bench relies on it), on a vehicle off its
     profile; the truth it returns is that vehicle's."""

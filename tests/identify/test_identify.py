@@ -511,6 +511,7 @@ def test_estimate_file_shapes_are_read(sabertooth: Profile, tmp_path: Path) -> N
             read_statics(str(tmp_path / name))
 
 
+@pytest.mark.slow
 def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
         sabertooth: Profile) -> None:
     """10 kg aft starboard (docs/method.md §3): W − B +40 N (the profile: −58 N) and −101 N·m

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 from textual.pilot import Pilot
 
-import trimd.app.session
 from tests.helpers import carried, passive_attitude_deg
 from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
 from trimd.app.after_trim import AfterTrim
@@ -39,13 +38,11 @@ from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 from trimd.tui.verdict_panel import VerdictPanel
 
+#: sample time alone (tests/tui/conftest.py): a busy machine is no lost link
+pytestmark = pytest.mark.usefixtures("no_ticks")
 PAYLOAD = "10@AftSB"
 
 
-@pytest.fixture(autouse=True)
-def _no_ticks(monkeypatch: pytest.MonkeyPatch) -> None:
-    """No quiet-link Ticks from the wall clock: sample time alone, as in a replay."""
-    monkeypatch.setattr(trimd.app.session, "TICK_S", 1e6)
 
 
 def _phase(app: TrimApp) -> Phase | None:
@@ -106,6 +103,7 @@ async def trim_app(profile: Profile, tmp_path: Path, *, confirmed: bool,
     return app
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
                                                           tmp_path: Path) -> None:
@@ -212,6 +210,7 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_correction_apply_and_verify_again(sabertooth: Profile, tmp_path: Path) -> None:
     """The chain trim → apply → verify → correction → apply → verify: the pilot did not fit
@@ -283,6 +282,7 @@ async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
         assert "address in use" in str(app.query_one(NextSteps).content)
 
 
+@pytest.mark.slow
 def test_trimd_run_in_the_terminal_ui_apply_and_verify(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -332,6 +332,7 @@ def test_trimd_run_in_the_terminal_ui_apply_and_verify(
         verifications[0].values["measured_N_Nm"], verifications[0].values["message"])
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_without_a_history_apply_and_verify_are_not_offered(
         sabertooth: Profile, tmp_path: Path) -> None:
@@ -344,6 +345,7 @@ async def test_without_a_history_apply_and_verify_are_not_offered(
     assert not (tmp_path / "h.db").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Profile,
                                                                 tmp_path: Path) -> None:
