@@ -21,8 +21,10 @@ from tests.helpers import REPO
 
 #: the longest any wait may take before the test fails as hung [s, wall clock]
 HANG_GUARD_S = 180.0
-#: a dive whose leak raises an alert soon: 2 N/min from 300 s of simulated time
-LEAKY_DIVE = "sim:pilot=dive,leak_N_min=2,leak_start_s=300"
+#: a dive whose leak raises an alert soon: 6 N/min from 230 s of simulated time, after the
+#: three level segments of the baseline (21–212 s); the second segment after it alerts, at
+#: 310 s (2 N/min from 300 s alerted at the third, at 617 s: twice the simulating)
+LEAKY_DIVE = "sim:pilot=dive,leak_N_min=6,leak_start_s=230"
 
 
 def free_tcp_port() -> int:
