@@ -83,6 +83,7 @@ async def _saved_report(pilot: Pilot[object], directory: Path, result: SessionRe
     return md, report
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path: Path) -> None:
     link = FakeLink(thesis_vehicle(sabertooth))
@@ -219,6 +220,7 @@ async def test_link_warnings_and_vehicle_messages_reach_the_messages_panel(
         await until(pilot, lambda: app.result is not None)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_abort_mid_hold_from_the_help_screen_releases_at_once(
         sabertooth: Profile) -> None:

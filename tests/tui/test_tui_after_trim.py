@@ -184,6 +184,7 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
                                                       tmp_path: Path) -> None:
@@ -262,6 +263,7 @@ async def _apply_and_verify(pilot: Pilot[Any], app: TrimApp) -> None:
     await until(pilot, lambda: len(app.results) == 2)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
                                                            tmp_path: Path) -> None:
@@ -367,6 +369,7 @@ async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Prof
         assert app.check_action("verify", ())
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_a_replayed_verify_hold_shows_its_verdict(sabertooth: Profile,
                                                         tmp_path: Path) -> None:

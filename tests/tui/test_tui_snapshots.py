@@ -37,6 +37,7 @@ HOLD_AT_S = 40.0
 
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
 def test_during_a_hold(snap_compare: Callable[..., bool], sabertooth: Profile,
                        size: tuple[int, int]) -> None:
