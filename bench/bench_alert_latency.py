@@ -18,28 +18,42 @@ from __future__ import annotations
 import os
 import statistics
 import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from bench.size import size
-from tests.app.test_serve_gcs import serve_beside_mavproxy
-from tests.drivers.test_mavlink_gcs import station_text
+from tests.app.serve_process import serve_beside_mavproxy
+from tests.drivers.test_mavlink_gcs import AtMavproxy, station_text
 from tests.drivers.test_mavlink_mavproxy import mavproxy_installed
+
+
+def latency_s(run: AtMavproxy) -> float:
+    """From trimd's alert to MAVProxy's printed line of it, in ``run`` [s, wall clock]."""
+    text = f"AP: {station_text(run.alert)}"
+    shown = next(t for t, line in run.lines if line == text)
+    return shown - float(run.alert["t_unix"])
+
+
+def report(runs: Iterable[AtMavproxy]) -> None:
+    """Print each run's latency as it comes, then their median and maximum."""
+    latencies = []
+    for i, run in enumerate(runs):
+        latencies.append(latency_s(run))
+        print(f"  run {i + 1}: alert {run.alert['t_unix'] - run.started_unix:5.1f} s after "
+              f"the start, at MAVProxy {latencies[-1] * 1000:6.1f} ms later "
+              f"({run.took:.0f} s wall in all)", flush=True)
+    print(f"alert → MAVProxy's printed line over {len(latencies)} run(s): median "
+          f"{statistics.median(latencies) * 1000:.1f} ms, max {max(latencies) * 1000:.1f} ms")
+
+
+def _runs(n: int) -> Iterator[AtMavproxy]:
+    for _ in range(n):
+        with tempfile.TemporaryDirectory() as tmp:
+            yield serve_beside_mavproxy(Path(tmp))[0]
 
 
 def main() -> None:
     if not mavproxy_installed():
         print("MAVProxy is not installed (make install): nothing measured")
         return
-    runs = int(os.environ.get("TRIMD_ALERT_RUNS", size(3, 1)))
-    latencies = []
-    for i in range(runs):
-        with tempfile.TemporaryDirectory() as tmp:
-            run, _ = serve_beside_mavproxy(Path(tmp))
-        text = f"AP: {station_text(run.alert)}"
-        shown = next(t for t, line in run.lines if line == text)
-        latencies.append(shown - run.alert["t_unix"])
-        print(f"  run {i + 1}: alert {run.alert['t_unix'] - run.started_unix:5.1f} s after "
-              f"the start, at MAVProxy {latencies[-1] * 1000:6.1f} ms later "
-              f"({run.took:.0f} s wall in all)", flush=True)
-    print(f"alert → MAVProxy's printed line over {runs} run(s): median "
-          f"{statistics.median(latencies) * 1000:.1f} ms, max {max(latencies) * 1000:.1f} ms")
+    report(_runs(int(os.environ.get("TRIMD_ALERT_RUNS", size(3, 1)))))

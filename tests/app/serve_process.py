@@ -16,12 +16,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from tests.drivers.test_mavlink_gcs import FAST_WATCH, AtMavproxy, leak_beside_mavproxy
 from tests.helpers import REPO
 
 #: the longest any wait may take before the test fails as hung [s, wall clock]
 HANG_GUARD_S = 180.0
-#: a dive whose leak raises an alert soon: 2 N/min from 300 s of simulated time
-LEAKY_DIVE = "sim:pilot=dive,leak_N_min=2,leak_start_s=300"
+#: a dive whose leak raises an alert soon: 6 N/min from 230 s of simulated time, after the
+#: three level segments of the baseline (21–212 s); the second segment after it alerts, at
+#: 310 s (2 N/min from 300 s alerted at the third, at 617 s: twice the simulating)
+LEAKY_DIVE = "sim:pilot=dive,leak_N_min=6,leak_start_s=230"
 
 
 def free_tcp_port() -> int:
@@ -83,3 +86,27 @@ class Serve:
             raise
         finally:
             self._out.close()
+
+
+def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
+    """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
+    printed its alert; the run and the stopped service."""
+    http = free_tcp_port()
+    started: list[Serve] = []
+
+    def start(profile: Path, port: int) -> subprocess.Popen[bytes]:
+        started.append(Serve(
+            [sys.executable, "-m", "trimd", "serve", "--link",
+             f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle", "--profile", str(profile),
+             "--data", str(tmp / "data"), "--host", "127.0.0.1", "--port", str(http),
+             *FAST_WATCH], http))
+        return started[0].proc
+
+    def alert() -> dict[str, Any] | None:
+        alerts = started[0].get("/api/alerts")
+        return alerts["alerts"][0] if alerts and alerts["alerts"] else None
+
+    run = leak_beside_mavproxy(tmp, start, alert)
+    code = started[0].stop()
+    assert code == 0, (code, started[0].output())
+    return run, started[0]

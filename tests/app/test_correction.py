@@ -99,6 +99,7 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
     assert corrected >= 1  # the seeds exercise the correction at all
 
 
+@pytest.mark.slow
 def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                       sabertooth: Profile) -> None:
     """trim → ``ballast apply`` (one foam-2kg fewer than proposed, recorded with --set) →

@@ -124,6 +124,7 @@ def test_headless_confirmation_prompt_refuses_or_stops(tmp_path: Path, how: str)
     assert "command: hold" not in out  # nothing was commanded
 
 
+@pytest.mark.slow
 def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
     """One seed, one result (the coverage bench relies on it), on a vehicle off its
     profile; the truth it returns is that vehicle's."""
@@ -135,6 +136,7 @@ def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
     assert first.vehicle.true_profile.buoyancy_N != bluerov.buoyancy_N
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 3])
 def test_a_trimmed_vehicle_can_be_trimmed_again(bluerov: Profile, seed: int) -> None:
     """Trim, put the proposal on, trim again: the second trim settles at its tilted hold

@@ -41,6 +41,7 @@ def _check_segment(s: dict[str, Any], dive: str) -> None:
     assert len(s["net_moment_Nm"]) == 3 and len(s["cov_net"]) == 4
 
 
+@pytest.mark.slow
 def test_the_api_during_a_leaky_dive_and_trimd_history(tmp_path: Path) -> None:
     serve = Serve.sim(tmp_path)
     try:
@@ -79,6 +80,7 @@ def test_the_api_during_a_leaky_dive_and_trimd_history(tmp_path: Path) -> None:
     assert alert["text"] in shown.stdout
 
 
+@pytest.mark.slow
 def test_a_kill_9_mid_dive_loses_no_stored_record(tmp_path: Path) -> None:
     serve = Serve.sim(tmp_path)
     try:
@@ -186,6 +188,7 @@ def test_the_build_stops_without_each_build_arg(missing: str | None) -> None:
         assert missing in done.stderr
 
 
+@pytest.mark.slow
 def test_the_blueos_entry_point_runs_as_the_dockerfile_says(tmp_path: Path) -> None:
     """The CMD with the image's ENV (only the data volume moved to a temporary folder),
     and a simulated ArduSub sending to its MAVLink port as BlueOS's router would; the

@@ -26,6 +26,7 @@ def _launch(p: sync_api.Playwright) -> sync_api.Browser:
                     f"chromium): {str(exc).splitlines()[0]}")
 
 
+@pytest.mark.slow
 def test_the_page_shows_the_alert_and_the_plot(tmp_path: Path) -> None:
     serve = Serve.sim(tmp_path)
     try:

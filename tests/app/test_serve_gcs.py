@@ -4,52 +4,23 @@ in the service's API and in ``trimd history``.
 
 The set-up of ``tests/drivers/test_mavlink_gcs.py`` (:func:`leak_beside_mavproxy`) with
 ``trimd serve …?ids=vehicle`` in place of ``trimd watch``. How soon the text reaches
-MAVProxy is measured by ``bench/bench_alert_latency.py``, not asserted here."""
+MAVProxy is measured by ``bench/bench_alert_latency.py``, not asserted here; its tiny run
+(``tests/test_bench_smoke.py``) is the measurement of this module's dive, the same set-up."""
 
 from __future__ import annotations
 
 import os
 import subprocess
-import sys
 from pathlib import Path
-from typing import Any
 
 import pytest
 
-from tests.app.serve_process import Serve, free_tcp_port
-from tests.drivers.test_mavlink_gcs import (
-    FAST_WATCH,
-    AtMavproxy,
-    leak_beside_mavproxy,
-    station_text,
-)
+from bench.bench_alert_latency import report
+from tests.app.serve_process import Serve, serve_beside_mavproxy
+from tests.drivers.test_mavlink_gcs import AtMavproxy, station_text
 from tests.drivers.test_mavlink_link import TRIMD
 from tests.drivers.test_mavlink_mavproxy import needs_mavproxy
 from tests.helpers import REPO
-
-
-def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
-    """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
-    printed its alert; the run and the stopped service."""
-    http = free_tcp_port()
-    started: list[Serve] = []
-
-    def start(profile: Path, port: int) -> subprocess.Popen[bytes]:
-        started.append(Serve(
-            [sys.executable, "-m", "trimd", "serve", "--link",
-             f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle", "--profile", str(profile),
-             "--data", str(tmp / "data"), "--host", "127.0.0.1", "--port", str(http),
-             *FAST_WATCH], http))
-        return started[0].proc
-
-    def alert() -> dict[str, Any] | None:
-        alerts = started[0].get("/api/alerts")
-        return alerts["alerts"][0] if alerts and alerts["alerts"] else None
-
-    run = leak_beside_mavproxy(tmp, start, alert)
-    code = started[0].stop()
-    assert code == 0, (code, started[0].output())
-    return run, started[0]
 
 
 @pytest.fixture(scope="module")
@@ -84,3 +55,16 @@ def test_trimd_history_shows_the_alert_mavproxy_printed(
                            env={**os.environ, "PYTHONPATH": str(REPO)})
     assert shown.returncode == 0, shown.stderr
     assert run.alert["text"] in shown.stdout, shown.stdout
+
+
+@pytest.mark.slow
+@needs_mavproxy
+def test_the_alert_latency_bench_measures_this_dive(
+        served: tuple[AtMavproxy, Serve, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    """``bench/bench_alert_latency.py`` at its tiny size, one run: the served dive above
+    (the bench's own runs are :func:`serve_beside_mavproxy` too) through its measurement
+    and report; the figures mean nothing here."""
+    report([served[0]])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[0].startswith("  run 1: alert "), lines
+    assert lines[1].startswith("alert → MAVProxy's printed line over 1 run(s): median"), lines

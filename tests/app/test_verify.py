@@ -88,6 +88,7 @@ def test_verify_hold_measures_what_the_ballast_left(bluerov: Profile) -> None:
     assert agree >= len(seeds) - 1
 
 
+@pytest.mark.slow
 def test_verify_hold_tells_a_wrongly_installed_ballast(sabertooth: Profile) -> None:
     """Sabertooth, 10 kg at AftSB: the proposal installed as proposed is level and as
     predicted; the same pieces mirrored port for starboard are neither, and the message

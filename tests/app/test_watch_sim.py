@@ -57,6 +57,7 @@ def _watch(options: str, duration_s: float, link: list[PassiveSimLink] | None = 
     return watch, vehicle, records
 
 
+@pytest.mark.slow
 def test_a_dive_without_change_gives_segments_at_the_true_net_force() -> None:
     watch, vehicle, records = _watch("pilot=dive,seed=1", 400.0)
     segments = [r for r in records if isinstance(r, WatchSegment)]

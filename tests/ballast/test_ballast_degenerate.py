@@ -91,6 +91,7 @@ def test_no_static_stability_gives_best_achievable(sabertooth: Profile, method: 
         assert "cannot meet level;" in p.message
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_little_static_stability(sabertooth: Profile, method: str) -> None:
     """m_z = 5 N·m: the continuous methods level exactly; milp cannot within 0.25°, says
@@ -157,6 +158,7 @@ def ballast(path: str, *extra: str) -> int:
     return main(["ballast", "--profile", "sabertooth-dh2", "--estimate", path, *extra])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", list(CASES))
 @pytest.mark.parametrize("method", METHODS)
 def test_cli_degenerate_json(tmp_path: Path, sabertooth: Profile,

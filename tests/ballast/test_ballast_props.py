@@ -65,6 +65,7 @@ def assert_within_limits(profile: Profile, p: Proposal) -> None:
     assert all(n <= pieces[k].count for k, n in used.items())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", PROFILES)
 @pytest.mark.parametrize("method", METHODS)
 @settings(max_examples=40, deadline=None)

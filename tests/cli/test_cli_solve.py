@@ -148,6 +148,7 @@ def test_no_steady_hold_and_level_only(tmp_path: Path, sabertooth: Profile,
     assert "z_g is not identifiable" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_missing_file_and_bad_profile_without_traceback(tmp_path: Path) -> None:
     bad_profile = tmp_path / "p.yaml"
     bad_profile.write_text("name: x\nmass_kgs: 3\n")

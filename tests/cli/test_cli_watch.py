@@ -64,6 +64,7 @@ def test_usage_mistakes(argv: list[str], code: int, words: str,
     assert words in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("source", ["file", "history"])
 def test_a_baseline_from_the_last_trim(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                        source: str) -> None:

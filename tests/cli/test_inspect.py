@@ -18,6 +18,7 @@ from trimd.core.profile_yaml import load_profile
 ARMED, DISARMED, ALT_HOLD, MANUAL = 128 | 81, 81, 2, 19
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["mcqueen-small.tlog", "mcqueen-bad-crc.tlog",
                                   "mcqueen-small.BIN", "gat-00000029_filtered.BIN"])
 def test_real_logs_end_with_a_clear_statement(name: str, capsys: pytest.CaptureFixture[str]

@@ -85,6 +85,7 @@ def test_intervals_cover_the_net_quantities_under_correlated_noise(
     assert np.all(np.abs(np.sqrt(np.mean(z**2, axis=0)) - 1) <= 0.2), np.sqrt(np.mean(z**2, axis=0))
 
 
+@pytest.mark.slow
 def test_intervals_cover_the_net_quantities_when_the_wander_is_slower_than_the_hold(
         sabertooth: Profile) -> None:
     """Wander of 0.2° with a 20 s correlation over 3 min holds: each hold is worth 1–10
@@ -275,6 +276,7 @@ def test_thrust_of_the_wrong_shape_is_refused(bluerov: Profile) -> None:
         estimate_static(holds, bluerov)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("m_ext", "position", "n"), [
     (8.0, (0.5, -0.4, 0.2), 300),
     (1.0, (0.78, -0.6, 0.0), 3000),     # a thesis case, long holds: a bias would show

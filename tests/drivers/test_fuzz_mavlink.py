@@ -12,6 +12,7 @@ import os
 import struct
 from typing import Any
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -76,6 +77,7 @@ def test_random_bytes_never_raise(data: bytes) -> None:
     read_all(data)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.integers(0, len(RECORDS) - 20), st.integers(1, 20), st.binary(max_size=24))
 def test_mutated_real_log_never_raises(first: int, count: int, script: bytes) -> None:
@@ -93,6 +95,7 @@ def test_mutated_real_log_never_raises(first: int, count: int, script: bytes) ->
     assert reader.stats.messages <= count + len(edits)  # no message is made up of nothing
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.integers(0, len(RECORDS) - 12), st.integers(1, 12), st.binary(min_size=36,
                                                                          max_size=36))
@@ -130,6 +133,7 @@ def _message(kind: int, raw: bytes) -> Any:
     return _MAV.battery_status_encode(0, 0, 0, 0, list(h[:10]), 0, 0, 0, 0)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.lists(st.tuples(st.integers(0, 4), st.binary(min_size=32, max_size=32)),
                 min_size=1, max_size=4))

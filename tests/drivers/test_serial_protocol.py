@@ -376,6 +376,7 @@ _FRAMED = st.lists(st.builds(_edge_line, st.sampled_from(list(_TEMPLATES)), st.l
     b"".join)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.one_of(st.binary(max_size=300), _SOUP.map(b"".join), _FRAMED),
        st.lists(st.integers(0, 300), max_size=6))
@@ -455,6 +456,7 @@ def close(a: Sample | Version | None, b: Sample) -> bool:
     return a == b
 
 
+@pytest.mark.slow
 @FUZZ
 @given(st.lists(st.tuples(st.sampled_from(KINDS), st.sampled_from(MUTATIONS),
                           st.integers(0, 2**32 - 1)), max_size=12),

@@ -102,6 +102,7 @@ def test_an_unseen_vehicle_completes_uwq_inside_the_default_envelope(
     assert np.abs(depth).max() < 0.5 * 5.0 and "excitation at 100 %" in result.reason
 
 
+@pytest.mark.slow
 def test_an_experiment_stopped_early_is_identified_and_said_so(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """In a 0.3 m envelope the Sabertooth's uwq stage stops early; its recording names the

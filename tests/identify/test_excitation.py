@@ -257,6 +257,7 @@ def test_the_depth_hold_pushes_back_towards_the_start_depth(sabertooth: Profile)
     assert heave[0] > base > heave[1]  # heave input is positive down
 
 
+@pytest.mark.slow
 def test_uvr_completes_within_the_default_depth_envelope(
         capsys: pytest.CaptureFixture[str]) -> None:
     """The Sabertooth's 58 N of buoyancy is an input inside the deadband: without the depth

@@ -125,18 +125,21 @@ def _fits_as_well_as_the_data_allow(fit: StageFit, val: list[Validation],
             assert x >= min(85.0, y - 1.0), (name, x, y)
 
 
+@pytest.mark.slow
 def test_uwq_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uwq", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
     _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
+@pytest.mark.slow
 def test_uvwpqr_sabertooth_short_run(sabertooth: Profile) -> None:
     fit, val = _fit_and_validate(sabertooth, "uvwpqr", 60.0, 30.0)
     assert not _judge(fit, sabertooth, 0.2), fit.values()
     _fits_as_well_as_the_data_allow(fit, val, sabertooth)
 
 
+@pytest.mark.slow
 def test_bluerov_is_excited_within_the_envelope_and_identified(bluerov: Profile) -> None:
     # its horizontal thrusters sit below the CG: open loop, surge and sway tip it over
     samples = record(bluerov, bluerov, "uvwpqr", 60.0, 5)
@@ -511,6 +514,7 @@ def test_estimate_file_shapes_are_read(sabertooth: Profile, tmp_path: Path) -> N
             read_statics(str(tmp_path / name))
 
 
+@pytest.mark.slow
 def test_a_static_estimate_makes_the_fit_of_a_loaded_vehicle_right(
         sabertooth: Profile) -> None:
     """10 kg aft starboard (docs/method.md §3): W − B +40 N (the profile: −58 N) and −101 N·m

@@ -107,6 +107,7 @@ def test_truncated_recording_replays_up_to_the_damage(
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     """The daemon is killed mid-procedure; at most a second is lost and the file replays."""
     log = tmp_path / "killed.tlog"

@@ -42,6 +42,9 @@ from trimd.tui.quit_screen import QuitScreen
 from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 
+#: sample time alone (tests/tui/conftest.py): a busy machine is no lost link
+pytestmark = pytest.mark.usefixtures("no_ticks")
+
 
 def _phase(app: object) -> Phase | None:
     progress = app.query_one(Stepper).progress  # type: ignore[attr-defined]
@@ -80,6 +83,7 @@ async def _saved_report(pilot: Pilot[object], directory: Path, result: SessionRe
     return md, report
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path: Path) -> None:
     link = FakeLink(thesis_vehicle(sabertooth))
@@ -110,6 +114,7 @@ async def test_whole_procedure_methods_and_report(sabertooth: Profile, tmp_path:
     assert sum(isinstance(m, TelemetryChanged) for m in seen) > 100
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile,
                                                         tmp_path: Path) -> None:
@@ -215,6 +220,7 @@ async def test_link_warnings_and_vehicle_messages_reach_the_messages_panel(
         await until(pilot, lambda: app.result is not None)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_abort_mid_hold_from_the_help_screen_releases_at_once(
         sabertooth: Profile) -> None:

@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 from textual.pilot import Pilot
 
-import trimd.app.session
 from tests.helpers import carried, passive_attitude_deg
 from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link, until
 from trimd.app.after_trim import AfterTrim
@@ -40,13 +39,11 @@ from trimd.tui.result_panel import ResultPanel
 from trimd.tui.stepper import Stepper
 from trimd.tui.verdict_panel import VerdictPanel
 
+#: sample time alone (tests/tui/conftest.py): a busy machine is no lost link
+pytestmark = pytest.mark.usefixtures("no_ticks")
 PAYLOAD = "10@AftSB"
 
 
-@pytest.fixture(autouse=True)
-def _no_ticks(monkeypatch: pytest.MonkeyPatch) -> None:
-    """No quiet-link Ticks from the wall clock: sample time alone, as in a replay."""
-    monkeypatch.setattr(trimd.app.session, "TICK_S", 1e6)
 
 
 def _phase(app: TrimApp) -> Phase | None:
@@ -107,6 +104,7 @@ async def trim_app(profile: Profile, tmp_path: Path, *, confirmed: bool,
     return app
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
                                                           tmp_path: Path) -> None:
@@ -187,6 +185,7 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
                                                       tmp_path: Path) -> None:
@@ -213,6 +212,7 @@ async def test_ballast_not_fitted_is_not_as_predicted(sabertooth: Profile,
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_correction_apply_and_verify_again(sabertooth: Profile, tmp_path: Path) -> None:
     """The chain trim → apply → verify → correction → apply → verify: the pilot did not fit
@@ -264,6 +264,7 @@ async def _apply_and_verify(pilot: Pilot[Any], app: TrimApp) -> None:
     await until(pilot, lambda: len(app.results) == 2)
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
                                                            tmp_path: Path) -> None:
@@ -284,6 +285,7 @@ async def test_verify_link_that_does_not_open_is_a_message(sabertooth: Profile,
         assert "address in use" in str(app.query_one(NextSteps).content)
 
 
+@pytest.mark.slow
 def test_trimd_run_in_the_terminal_ui_apply_and_verify(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -333,6 +335,7 @@ def test_trimd_run_in_the_terminal_ui_apply_and_verify(
         verifications[0].values["measured_N_Nm"], verifications[0].values["message"])
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_without_a_history_apply_and_verify_are_not_offered(
         sabertooth: Profile, tmp_path: Path) -> None:
@@ -345,6 +348,7 @@ async def test_without_a_history_apply_and_verify_are_not_offered(
     assert not (tmp_path / "h.db").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Profile,
                                                                 tmp_path: Path) -> None:
@@ -366,6 +370,7 @@ async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Prof
         assert app.check_action("verify", ())
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_a_replayed_verify_hold_shows_its_verdict(sabertooth: Profile,
                                                         tmp_path: Path) -> None:

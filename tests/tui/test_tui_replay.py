@@ -42,6 +42,7 @@ def _json(obj: object) -> object:
     return json.loads(json.dumps(obj))
 
 
+@pytest.mark.slow
 @pytest.mark.asyncio
 async def test_replay_pauses_changes_speed_and_gives_the_live_result(
         recording: tuple[Path, dict[str, Any]], sabertooth: Profile) -> None:

@@ -13,7 +13,6 @@ from typing import Any
 import pytest
 from textual.pilot import Pilot
 
-import trimd.app.session
 from tests.helpers import FakeLink, carried
 from tests.tui.tui_helpers import (
     PausedLink,
@@ -29,16 +28,16 @@ from trimd.tui import TrimApp
 from trimd.tui.event_log import EventLog
 from trimd.tui.result_panel import ResultPanel
 
+#: sample time alone (tests/tui/conftest.py): a busy machine is no lost link
+pytestmark = pytest.mark.usefixtures("no_ticks")
 SIZES = [(80, 24), (120, 40)]
 #: Mid-way through hold 2's settling (hold 2 is commanded at 29.95 s): tilting to 20°.
 HOLD_AT_S = 40.0
 
 
-@pytest.fixture(autouse=True)
-def _no_ticks(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(trimd.app.session, "TICK_S", 1e6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
 def test_during_a_hold(snap_compare: Callable[..., bool], sabertooth: Profile,
                        size: tuple[int, int]) -> None:
@@ -52,6 +51,7 @@ def test_during_a_hold(snap_compare: Callable[..., bool], sabertooth: Profile,
     assert snap_compare(app, terminal_size=size, run_before=run_before)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
 def test_with_the_proposal(snap_compare: Callable[..., bool], sabertooth: Profile,
                            size: tuple[int, int]) -> None:
@@ -90,6 +90,7 @@ def after_sabertooth(sabertooth: Profile, tmp_path: Path, monkeypatch: pytest.Mo
     return build
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", [(80, 24)], ids=lambda s: f"{s[0]}x{s[1]}")
 def test_offer_after_the_trim(snap_compare: Callable[..., bool],
                               after_sabertooth: Callable[[], Any],
@@ -112,6 +113,7 @@ def test_offer_after_the_trim(snap_compare: Callable[..., bool],
     assert snap_compare(app, terminal_size=size, run_before=run_before)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
 def test_verdict_after_apply_and_verify(snap_compare: Callable[..., bool],
                                         after_sabertooth: Callable[[], Any],

@@ -122,6 +122,7 @@ def test_a_signal_mid_hold_releases_and_closes_the_log(tmp_path: Path, how: str)
         assert f"trimd: aborted: stopped by {how}" in term.text
 
 
+@pytest.mark.slow
 def test_demo_prints_the_result_after_the_tui_quits(tmp_path: Path) -> None:
     log = tmp_path / "demo.tlog"
     term = Terminal("demo", "--record", str(log))
