@@ -71,7 +71,7 @@ def test_thrust_err_max_draws_each_error_between_the_bounds(bluerov: Profile) ->
         assert np.all(np.sign(f_wide) == np.sign(f_plain))
         assert np.allclose(np.abs(f_plain), 0.05)
         sizes += list(np.abs(f_wide).ravel())
-    assert 0.05 <= min(sizes) and max(sizes) <= 0.1 and np.std(sizes) > 0.01, sizes
+    assert min(sizes) >= 0.05 and max(sizes) <= 0.1 and np.std(sizes) > 0.01, sizes
 
 
 @pytest.mark.parametrize("name", ["bluerov", "sabertooth"])
