@@ -151,8 +151,13 @@ def _within(angles: tuple[float, float] | None, tol_deg: float) -> bool:
 
 
 def _worst(angles: list[tuple[float, float] | None]) -> str:
+    """Largest and RMS |roll|, |pitch| [deg] of ``angles``."""
     a = np.abs(np.array([x for x in angles if x is not None]).reshape(-1, 2))
-    return f"|roll| {a[:, 0].max():.2f}°, |pitch| {a[:, 1].max():.2f}°" if len(a) else "—"
+    if not len(a):
+        return "—"
+    rms = np.sqrt(np.mean(a**2, axis=0))
+    return (f"|roll| {a[:, 0].max():.2f}°, |pitch| {a[:, 1].max():.2f}° (rms {rms[0]:.2f}°, "
+            f"{rms[1]:.2f}°)")
 
 
 def _share(flags: list[bool]) -> str:
