@@ -144,7 +144,8 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
 def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                       sabertooth: Profile) -> None:
     """trim → ``ballast apply`` (one foam-2kg fewer than proposed, recorded with --set) →
-    ``run --verify``: NOT level, and a ``correction`` line; ``ballast apply --estimate`` of
+    ``run --verify``: NOT level, predicted for the ballast recorded, and a ``correction``
+    line; ``ballast apply --estimate`` of
     that output records the correction; ``run --verify`` again (no file: the correction
     applied since the trim) finds the vehicle level and as predicted, "no correction
     needed", and the true vehicle floats level. The history holds the chain."""
@@ -170,7 +171,8 @@ def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main(["ballast", "apply", "--profile", "sabertooth-dh2", "--estimate", str(trim),
                  "--set", f"{foam['slot']}:foam-2kg={foam['count'] - 1}", "--json",
                  *history]) == 0
-    first = out()[-1]["installed"]
+    applied = out()[-1]
+    first = applied["installed"]
 
     assert main(["run", "--link", fitted(first), "--verify", *common]) == 0
     verify = tmp_path / "verify.jsonl"
@@ -178,6 +180,10 @@ def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixt
     lines = [json.loads(x) for x in verify.read_text().splitlines()]
     v, c = lines[-2], lines[-1]
     assert v["type"] == "verification" and not v["level"], v["message"]
+    # the prediction is for the ballast recorded (one foam-2kg fewer), as ``ballast
+    # apply``'s physics check said, not the trim's proposal
+    assert [v["predicted_roll_deg"], v["predicted_pitch_deg"]] == pytest.approx(
+        [applied["predicted"]["roll_deg"], applied["predicted"]["pitch_deg"]], abs=1e-6)
     assert c["type"] == "correction" and c["needed"] and c["proposal"]["feasible"], c
     assert [x["text"] for x in c["proposal"]["changes"]] == [
         f"add 1 × foam-2kg to {foam['slot']}"]
