@@ -50,11 +50,12 @@ def _counts(pieces: Sequence[InstalledPiece]) -> dict[tuple[str, str], int]:
 
 
 def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
-                    installed: Sequence[InstalledPiece], profile: Profile, source: str
-                    ) -> dict[str, Any]:
+                    installed: Sequence[InstalledPiece] | None, profile: Profile,
+                    source: str) -> dict[str, Any]:
     """The verify target of a recorded trim or correction (its ``estimate`` and
     ``proposal`` JSON) with ``installed`` on the vehicle now (what ``trimd ballast apply``
-    recorded last): the proposal's slots when ``installed`` is what it proposed; else what
+    recorded since; None: nothing recorded, the proposal taken as fitted as proposed):
+    the proposal's slots when ``installed`` is None or what it proposed; else what
     takes the configuration it started from (``installed_before``) to ``installed`` (the
     operator recorded other counts, ``--set``), so that the prediction, and the correction
     that builds on it, are for the ballast recorded as on the vehicle. DataError naming
@@ -62,7 +63,8 @@ def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
     est = estimate_from_dict(estimate, source)
     before = _pieces(proposal.get("installed_before"))
     after = _pieces(proposal.get("installed_after"))
-    if before is None or after is None or _counts(after) == _counts(installed):
+    if (installed is None or before is None or after is None
+            or _counts(after) == _counts(installed)):
         loads = installed_from_json(json.dumps({"estimate": estimate, "proposal": proposal}),
                                     source, profile)
         return verify_target(est, loads)

@@ -25,7 +25,7 @@ from trimd.app.files import (
 )
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
-from trimd.app.history.chain import proposal_on_vehicle
+from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction, format_result
@@ -122,19 +122,22 @@ def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any
     ``--verify FILE`` (a trim's, or a verify hold's correction), or (``--verify`` alone)
     of the vehicle's last trim in the history, or of the correction since that was
     applied (:func:`trimd.app.history.chain.proposal_on_vehicle`), predicting for the
-    ballast recorded as installed now (:func:`trimd.app.verify.recorded_target`)."""
+    ballast recorded as installed since the trim, if any
+    (:func:`trimd.app.verify.recorded_target`)."""
     if args.verify != LAST_TRIM:
         loads = read_installed(args.verify, profile)
         return verify_target(read_estimate(args.verify), loads)
     vehicle = vehicle_of(args, profile.name)
     with History(db_path(args)) as history:
         found = proposal_on_vehicle(history, vehicle, profile.installed)
+        recorded = installed_since_trim(history, vehicle)
         where = history.path
     if found is None:
         raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
                         "the trim to verify (--verify TRIM.json)")
     estimate, proposal, what = found
-    return recorded_target(estimate, proposal, profile.installed, profile, what)
+    return recorded_target(estimate, proposal, profile.installed if recorded else None,
+                           profile, what)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
