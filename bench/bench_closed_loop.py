@@ -29,7 +29,7 @@ count as outside the tolerance (the loop did not deliver) and are listed.
 curves 5–10 % off, ESC dead bands up to 4 µs off with outputs hunting at their edge);
 ``TRIMD_LOOP_SECOND_TRIMS`` (default 20); ``TRIMD_LOOP_CASES`` comma-separated words
 picking cases; ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes
-≈ 3 s (Heavy) and ≈ 8 s (Sabertooth) of one core, plus a trim's for a second trim.
+≈ 5 s (Heavy) and ≈ 10 s (Sabertooth) of one core, plus a trim's for a second trim.
 """
 
 from __future__ import annotations
