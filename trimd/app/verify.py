@@ -35,9 +35,11 @@ def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[s
             "proposal": {"slots": [slot_to_dict(ld) for ld in loads]}}
 
 
-def _pieces(items: Any) -> list[InstalledPiece] | None:
+def _pieces(items: object) -> list[InstalledPiece] | None:
     """A proposal's ``installed_before``/``installed_after`` list as pieces (None when
     absent or malformed: an older record)."""
+    if not isinstance(items, list):
+        return None
     try:
         return [InstalledPiece(str(x["slot"]), str(x["piece"]), int(x["count"]))
                 for x in items]
