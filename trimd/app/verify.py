@@ -73,7 +73,7 @@ def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
     return verify_target(est, change_loads(profile, before, installed))
 
 
-def read_target(target: Any, source: str, profile: Profile
+def read_target(target: object, source: str, profile: Profile
                 ) -> tuple[StaticEstimate, list[SlotLoad]]:
     """The estimate and installed loads of a verify target (DataError naming ``source``
     when it is malformed or its slots are not ``profile``'s)."""

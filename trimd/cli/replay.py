@@ -21,7 +21,7 @@ import asyncio
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import yaml
 
@@ -32,7 +32,7 @@ from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.cli.argtypes import bounded, wants_tui
+from trimd.cli.argtypes import Subcommands, bounded, wants_tui
 from trimd.core.errors import DataError, EstimationError, NoResultError
 from trimd.core.estimate import StaticEstimate, estimate_static
 from trimd.core.events import Phase
@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 __all__ = ["register", "replay_app", "replay_session", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "replay", help="replay a recorded session or analyse a vehicle log",
         description="Replay a trimd recording through the procedure (same result as live), "

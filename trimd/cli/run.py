@@ -35,7 +35,7 @@ from trimd.app.verify import recorded_target, verify_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
-from trimd.cli.argtypes import integer, wants_tui
+from trimd.cli.argtypes import Subcommands, integer, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
 from trimd.core.events import Phase
@@ -54,7 +54,7 @@ DEMO_PROFILE = "sabertooth-dh2"
 DEMO_LINK = "sim:payload=10@AftSB"
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "run", help="run the trim procedure on a vehicle",
         description="Hold the vehicle level, then tilted; estimate its centre of gravity and "
