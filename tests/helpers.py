@@ -24,8 +24,10 @@ from trimd.app.connect import open_link
 from trimd.app.session import Session, SessionResult
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
-from trimd.core.estimate import HoldSamples
+from trimd.ballast.verify import verify_hold
+from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
+from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.samples import (
     Attitude,
@@ -290,6 +292,41 @@ def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
                           wall_clock=False)
         try:
             return SimTrim(await session.run(), link.vehicle)
+        finally:
+            await link.close()
+    return asyncio.run(go())
+
+
+@dataclass(frozen=True)
+class SimVerify:
+    """One verify hold on the simulated vehicle: the session's result (``verification``
+    when it ended DONE) and the simulated time it took [s] (the dive's, from the start)."""
+
+    result: SessionResult
+    t_s: float
+
+
+def sim_verify(profile: Profile, payload: str, seed: int, options: str,
+               estimate: StaticEstimate, installed: Sequence[SlotLoad],
+               on_vehicle: Sequence[SlotLoad] | None = None) -> SimVerify:
+    """The verify hold (:func:`trimd.ballast.verify.verify_hold`) of the trim ``estimate``
+    with the ballast ``installed`` since (per slot, what changed), headless and confirmed,
+    on the in-process simulated vehicle ``sim:payload=PAYLOAD+ON_VEHICLE,seed=SEED,
+    OPTIONS`` (``on_vehicle`` default: ``installed``, fitted at their positions:
+    :func:`carried`). Same seed, same true vehicle as the trim's."""
+    extra = carried(installed if on_vehicle is None else on_vehicle, profile.gravity_m_s2)
+
+    async def go() -> SimVerify:
+        url = f"sim:payload={'+'.join(filter(None, (payload, extra)))},seed={seed}" + (
+            f",{options}" if options else "")
+        link = await open_link(url, profile)
+        assert isinstance(link, SimLink)
+        procedure = Procedure(profile, confirmed=True,
+                              verify=lambda hold: verify_hold(hold, profile, estimate, installed))
+        try:
+            result = await Session(link, profile, recorder=None, presenters=[],
+                                   procedure=procedure, wall_clock=False).run()
+            return SimVerify(result, link.vehicle.t_s)
         finally:
             await link.close()
     return asyncio.run(go())

@@ -9,6 +9,7 @@ interval.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,12 @@ from tests.app.test_verify import verify_on_sim
 from tests.helpers import SimTrim, carried, sim_trim
 from trimd.ballast.changes import change_loads
 from trimd.ballast.check import SlotLoad
-from trimd.ballast.correct import Correction, needs_correction, propose_correction
+from trimd.ballast.correct import (
+    Correction,
+    measured_vehicle,
+    needs_correction,
+    propose_correction,
+)
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
 from trimd.cli.main import main
@@ -76,6 +82,42 @@ def test_correction_levels_the_true_vehicle_after_a_piece_left_out(sabertooth: P
     assert_levels_as_said(sabertooth, after, c)
 
 
+def test_the_vehicle_as_measured_combines_the_hold_with_the_prediction(sabertooth: Profile
+                                                                     ) -> None:
+    """Sabertooth, 10 kg at AftSB, one foam-2kg left out: the verify hold finds it as
+    predicted, so the prediction (trim + pieces) and the hold are two measurements of the
+    same vehicle, and the vehicle the correction starts from is their combination — its ±
+    of each level row no wider than either's and narrower than the hold's. With ballast that is
+    not what was recorded (mirrored port for starboard: NOT as predicted) the prediction is
+    left out and the hold stands alone."""
+    payload, seed = "10@AftSB", 0
+    trim = sim_trim(sabertooth, payload, seed)
+    proposal, estimate = trim.result.proposal, trim.result.estimate
+    assert isinstance(proposal, Proposal) and estimate is not None
+    fitted = one_less(proposal.installed_after, "foam-2kg")
+    loads = change_loads(sabertooth, proposal.installed, fitted)
+    v = verify_on_sim(trim, payload, seed, "", loads)
+    assert v.as_predicted, v.message
+    vehicle = measured_vehicle(v, estimate, sabertooth)
+    held, held_std = v.measured.q[:3], np.sqrt(np.diag(v.measured.q_cov))[:3]
+    predicted = np.r_[-v.predicted.net_buoyancy_N, v.predicted.net_moment_Nm[:2]]
+    std = np.sqrt(np.diag(vehicle.q_cov))[:3]
+    assert np.all(std <= np.minimum(held_std, np.sqrt(np.diag(estimate.q_cov))[:3])), std
+    assert np.all(std < held_std), (std, held_std)
+    # within the narrower of the two ± of each (the rows are correlated through the
+    # trim's covariance, so not necessarily between them)
+    sigma = np.minimum(held_std, np.sqrt(np.diag(estimate.q_cov))[:3])
+    assert np.all(np.abs(vehicle.q[:3] - held) <= sigma + np.abs(predicted - held)), (
+        vehicle.q, held, predicted)
+    mirrored = tuple(replace(ld, position_m=(ld.position_m[0], -ld.position_m[1],
+                                             ld.position_m[2])) for ld in proposal.slots)
+    wrong = verify_on_sim(trim, payload, seed, "", proposal.slots, on_vehicle=mirrored)
+    assert not wrong.as_predicted, wrong.message
+    alone = measured_vehicle(wrong, estimate, sabertooth)
+    assert np.array_equal(alone.q[:3], wrong.measured.q[:3])
+    assert np.array_equal(alone.q_cov[:3, :3], wrong.measured.q_cov[:3, :3])
+
+
 @pytest.mark.slow
 def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
     """BlueROV2 Heavy that its profile does not describe exactly (thrust curves off, dead
@@ -103,7 +145,8 @@ def test_correction_on_the_perturbed_heavy(bluerov: Profile) -> None:
 def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                       sabertooth: Profile) -> None:
     """trim → ``ballast apply`` (one foam-2kg fewer than proposed, recorded with --set) →
-    ``run --verify``: NOT level, and a ``correction`` line; ``ballast apply --estimate`` of
+    ``run --verify``: NOT level, predicted for the ballast recorded, and a ``correction``
+    line; ``ballast apply --estimate`` of
     that output records the correction; ``run --verify`` again (no file: the correction
     applied since the trim) finds the vehicle level and as predicted, "no correction
     needed", and the true vehicle floats level. The history holds the chain."""
@@ -129,7 +172,8 @@ def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main(["ballast", "apply", "--profile", "sabertooth-dh2", "--estimate", str(trim),
                  "--set", f"{foam['slot']}:foam-2kg={foam['count'] - 1}", "--json",
                  *history]) == 0
-    first = out()[-1]["installed"]
+    applied = out()[-1]
+    first = applied["installed"]
 
     assert main(["run", "--link", fitted(first), "--verify", *common]) == 0
     verify = tmp_path / "verify.jsonl"
@@ -137,6 +181,10 @@ def test_the_loop_on_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixt
     lines = [json.loads(x) for x in verify.read_text().splitlines()]
     v, c = lines[-2], lines[-1]
     assert v["type"] == "verification" and not v["level"], v["message"]
+    # the prediction is for the ballast recorded (one foam-2kg fewer), as ``ballast
+    # apply``'s physics check said, not the trim's proposal
+    assert [v["predicted_roll_deg"], v["predicted_pitch_deg"]] == pytest.approx(
+        [applied["predicted"]["roll_deg"], applied["predicted"]["pitch_deg"]], abs=1e-6)
     assert c["type"] == "correction" and c["needed"] and c["proposal"]["feasible"], c
     assert [x["text"] for x in c["proposal"]["changes"]] == [
         f"add 1 × foam-2kg to {foam['slot']}"]

@@ -9,7 +9,6 @@ installed ballast must be told apart from the right one.
 
 from __future__ import annotations
 
-import asyncio
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -17,17 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import SimTrim, carried, equilibrium_holds, sim_trim
-from trimd.app.connect import open_link
-from trimd.app.session import Session
+from tests.helpers import SimTrim, carried, equilibrium_holds, sim_trim, sim_verify
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict
-from trimd.ballast.verify import Verification, verify_hold
+from trimd.ballast.verify import Verification
 from trimd.cli.main import main
 from trimd.core.estimate import estimate_static
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Phase
-from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.payload import mass_properties
@@ -40,25 +36,12 @@ def verify_on_sim(trim: SimTrim, payload: str, seed: int, options: str,
                   ) -> Verification:
     """The verify hold of ``installed`` (the ballast the operator says is on) on the
     simulated vehicle carrying ``payload`` and ``on_vehicle`` (default: ``installed``)."""
-    profile = trim.vehicle.profile
-    estimate = trim.result.estimate
-    assert estimate is not None
-    extra = carried(installed if on_vehicle is None else on_vehicle, profile.gravity_m_s2)
-
-    async def go() -> Verification:
-        url = f"sim:payload={payload}+{extra},seed={seed}" + (f",{options}" if options else "")
-        link = await open_link(url, profile)
-        procedure = Procedure(profile, confirmed=True,
-                              verify=lambda hold: verify_hold(hold, profile, estimate, installed))
-        try:
-            result = await Session(link, profile, recorder=None, presenters=[],
-                                   procedure=procedure, wall_clock=False).run()
-        finally:
-            await link.close()
-        assert result.phase is Phase.DONE, result.reason
-        assert isinstance(result.verification, Verification)
-        return result.verification
-    return asyncio.run(go())
+    assert trim.result.estimate is not None
+    result = sim_verify(trim.vehicle.profile, payload, seed, options, trim.result.estimate,
+                        installed, on_vehicle).result
+    assert result.phase is Phase.DONE, result.reason
+    assert isinstance(result.verification, Verification)
+    return result.verification
 
 
 @pytest.mark.slow

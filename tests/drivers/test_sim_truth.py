@@ -57,6 +57,23 @@ def test_truth_differs_from_the_profile_by_the_stated_amounts(
     assert np.linalg.norm(np.mean(directions, axis=0)) < 0.6      # not one direction
 
 
+def test_thrust_err_max_draws_each_error_between_the_bounds(bluerov: Profile) -> None:
+    """``thrust_err_max=0.1`` on ``truth=perturbed``: every thruster's error, forward and
+    reverse, lies in [5 %, 10 %] and they differ; its sign, the buoyancy, the centre of
+    buoyancy and the ESC bands are those of the same seed without it (a stream of its own)."""
+    sizes = []
+    for seed in range(6):
+        plain, wide = (SimVehicle(bluerov, perturbed(seed, thrust_err_max=m)).offset
+                       for m in (0.0, 0.1))
+        assert (wide.buoyancy_factor, wide.r_b_offset_m, wide.band_offsets_us) == (
+            plain.buoyancy_factor, plain.r_b_offset_m, plain.band_offsets_us)
+        f_plain, f_wide = np.array(plain.thrust_factors) - 1, np.array(wide.thrust_factors) - 1
+        assert np.all(np.sign(f_wide) == np.sign(f_plain))
+        assert np.allclose(np.abs(f_plain), 0.05)
+        sizes += list(np.abs(f_wide).ravel())
+    assert min(sizes) >= 0.05 and max(sizes) <= 0.1 and np.std(sizes) > 0.01, sizes
+
+
 @pytest.mark.parametrize("name", ["bluerov", "sabertooth"])
 def test_esc_bands_are_offset_and_an_output_inside_hunts_at_the_edge(
         name: str, request: pytest.FixtureRequest) -> None:

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from trimd.app.files import installed_from_json
+from trimd.ballast.changes import change_loads
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.proposal import slot_to_dict
 from trimd.ballast.verify import verify_hold
@@ -22,9 +23,9 @@ from trimd.core.errors import DataError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
 from trimd.core.procedure import Procedure
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 
-__all__ = ["read_target", "verify_procedure", "verify_target"]
+__all__ = ["read_target", "recorded_target", "verify_procedure", "verify_target"]
 
 
 def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[str, Any]:
@@ -32,6 +33,44 @@ def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[s
     what changed: :attr:`trimd.app.apply.Applied.loads` or a proposal's slots)."""
     return {"estimate": estimate_to_dict(estimate),
             "proposal": {"slots": [slot_to_dict(ld) for ld in loads]}}
+
+
+def _pieces(items: object) -> list[InstalledPiece] | None:
+    """A proposal's ``installed_before``/``installed_after`` list as pieces (None when
+    absent or malformed: an older record)."""
+    if not isinstance(items, list):
+        return None
+    try:
+        return [InstalledPiece(str(x["slot"]), str(x["piece"]), int(x["count"]))
+                for x in items]
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def _counts(pieces: Sequence[InstalledPiece]) -> dict[tuple[str, str], int]:
+    return {(x.slot, x.piece): x.count for x in pieces if x.count > 0}
+
+
+def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
+                    installed: Sequence[InstalledPiece] | None, profile: Profile,
+                    source: str) -> dict[str, Any]:
+    """The verify target of a recorded trim or correction (its ``estimate`` and
+    ``proposal`` JSON) with ``installed`` on the vehicle now (what ``trimd ballast apply``
+    recorded since; None: nothing recorded, the proposal taken as fitted as proposed):
+    the proposal's slots when ``installed`` is None or what it proposed; else what
+    takes the configuration it started from (``installed_before``) to ``installed`` (the
+    operator recorded other counts, ``--set``), so that the prediction, and the correction
+    that builds on it, are for the ballast recorded as on the vehicle. DataError naming
+    ``source`` for a malformed record, ProfileError for pieces ``profile`` lacks."""
+    est = estimate_from_dict(estimate, source)
+    before = _pieces(proposal.get("installed_before"))
+    after = _pieces(proposal.get("installed_after"))
+    if (installed is None or before is None or after is None
+            or _counts(after) == _counts(installed)):
+        loads = installed_from_json(json.dumps({"estimate": estimate, "proposal": proposal}),
+                                    source, profile)
+        return verify_target(est, loads)
+    return verify_target(est, change_loads(profile, before, installed))
 
 
 def read_target(target: object, source: str, profile: Profile

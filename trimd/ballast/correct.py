@@ -64,20 +64,42 @@ def needs_correction(v: Verification) -> bool:
 
 def measured_vehicle(v: Verification, estimate: StaticEstimate, profile: Profile
                      ) -> StaticEstimate:
-    """The vehicle as the verify hold ``v`` measured it (module docstring): q = [W − B,
-    W·x_g − B·x_b, W·y_g − B·y_b] measured [N, N·m] with their covariance, W·z_g − B·z_b
-    predicted (``v.predicted``, from ``estimate``, the trim the hold verified, and the
-    pieces installed since) with ``estimate``'s variance, uncorrelated with the rest."""
-    q = np.r_[v.measured.q[:3], v.predicted.net_moment_Nm[2]]
-    q_cov = np.zeros((4, 4))
-    q_cov[:3, :3] = v.measured.q_cov[:3, :3]
-    q_cov[3, 3] = estimate.q_cov[3, 3]
+    """The vehicle as it is now, ballast on, from the verify hold ``v`` of the trim
+    ``estimate`` (module docstring): q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b,
+    W·z_g − B·z_b] [N, N·m] with its covariance.
+
+    When the hold found the vehicle as predicted, the prediction (``v.predicted``: the
+    trim's estimate plus the pieces installed since, exactly known, so with
+    ``estimate``'s covariance) and the hold's measurement of the rows it observes are two
+    independent measurements of the same vehicle, and q is their minimum-variance
+    combination (a Kalman update of the prediction by the hold; W·z_g − B·z_b, not seen at
+    level, moves with its covariance to the rest). When it did not, the prediction is not
+    trusted: the three rows are the hold's alone and W·z_g − B·z_b the prediction's, with
+    ``estimate``'s variance, uncorrelated with the rest."""
     m = v.measured
+    predicted = np.r_[-v.predicted.net_buoyancy_N, v.predicted.net_moment_Nm]
+    if v.as_predicted:
+        seen = np.flatnonzero(m.observable[:3])
+        H = np.eye(4)[seen]
+        S = H @ estimate.q_cov @ H.T + m.q_cov[np.ix_(seen, seen)]
+        K = np.linalg.solve(S, H @ estimate.q_cov).T
+        q = predicted + K @ (m.q[seen] - predicted[seen])
+        q_cov = estimate.q_cov - K @ S @ K.T
+        q_cov = (q_cov + q_cov.T) / 2
+        how = ("W − B and the x/y net moments measured at level combined with the "
+               "prediction (the trim and the pieces installed since), as predicted")
+    else:
+        q = np.r_[m.q[:3], predicted[3]]
+        q_cov = np.zeros((4, 4))
+        q_cov[:3, :3] = m.q_cov[:3, :3]
+        q_cov[3, 3] = estimate.q_cov[3, 3]
+        how = ("W − B and the x/y net moments measured at level (NOT as predicted: the "
+               "prediction left out)")
     hold = HoldSummary("verify", m.roll_deg, m.pitch_deg, m.samples, m.t_start_s,
                        m.t_end_s, resolved=m.resolved)
-    note = ("the vehicle as a verify hold measured it, its ballast on: W − B and the x/y "
-            "net moments measured at level, W·z_g − B·z_b (not observable at level) "
-            "predicted from the trim and the pieces installed since")
+    note = (f"the vehicle as a verify hold measured it, its ballast on: {how}; "
+            "W·z_g − B·z_b (not observable at level) from the trim and the pieces "
+            "installed since")
     return net_estimate(q, q_cov, profile, holds=(hold,),
                         dofs_used=tuple(r for r, o in zip(_LEVEL_ROWS, m.observable[:3],
                                                           strict=True) if o),

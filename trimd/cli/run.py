@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import dataclasses
-import json
 import sys
 import time
 from pathlib import Path
@@ -21,26 +20,24 @@ from trimd.app import connect
 from trimd.app.after_trim import AfterTrim
 from trimd.app.files import (
     default_record_path,
-    installed_from_json,
     read_estimate,
     read_installed,
 )
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
-from trimd.app.history.chain import proposal_on_vehicle
+from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction, format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.trim import TrimRequest, trim_session
-from trimd.app.verify import verify_target
+from trimd.app.verify import recorded_target, verify_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
 from trimd.cli.argtypes import Subcommands, integer, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
-from trimd.core.estimate_json import estimate_from_dict
 from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
 from trimd.core.profile import Profile
@@ -124,21 +121,23 @@ def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any
     """The verify target (:mod:`trimd.app.verify`): the estimate and proposed ballast of
     ``--verify FILE`` (a trim's, or a verify hold's correction), or (``--verify`` alone)
     of the vehicle's last trim in the history, or of the correction since that was
-    applied (:func:`trimd.app.history.chain.proposal_on_vehicle`)."""
+    applied (:func:`trimd.app.history.chain.proposal_on_vehicle`), predicting for the
+    ballast recorded as installed since the trim, if any
+    (:func:`trimd.app.verify.recorded_target`)."""
     if args.verify != LAST_TRIM:
         loads = read_installed(args.verify, profile)
         return verify_target(read_estimate(args.verify), loads)
     vehicle = vehicle_of(args, profile.name)
     with History(db_path(args)) as history:
         found = proposal_on_vehicle(history, vehicle, profile.installed)
+        recorded = installed_since_trim(history, vehicle)
         where = history.path
     if found is None:
         raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
                         "the trim to verify (--verify TRIM.json)")
     estimate, proposal, what = found
-    loads = installed_from_json(json.dumps({"estimate": estimate, "proposal": proposal}),
-                                what, profile)
-    return verify_target(estimate_from_dict(estimate, what), loads)
+    return recorded_target(estimate, proposal, profile.installed if recorded else None,
+                           profile, what)
 
 
 def _truth(link: Link, wanted: bool) -> str | None:

@@ -18,7 +18,7 @@ from trimd.app.history.report import utc_text
 from trimd.app.history.store import History
 from trimd.core.profile import InstalledPiece
 
-__all__ = ["proposal_on_vehicle"]
+__all__ = ["installed_since_trim", "proposal_on_vehicle"]
 
 
 def _counts(pieces: Sequence[dict[str, Any]]) -> dict[tuple[str, str], int]:
@@ -43,3 +43,12 @@ def proposal_on_vehicle(history: History, vehicle: str, installed: Sequence[Inst
         c = applied[-1]
         return c.estimate, c.proposal, f"the correction of {vehicle} at {utc_text(c.t_unix)}"
     return trim.estimate, trim.proposal, f"the trim of {vehicle}"
+
+
+def installed_since_trim(history: History, vehicle: str) -> bool:
+    """Has ballast been recorded as installed on ``vehicle`` (``trimd ballast apply``)
+    since its latest trim with a proposal? Without such a record a verify hold takes the
+    proposal as fitted as proposed."""
+    trims = [t for t in history.trims(vehicle) if t.proposal is not None]
+    record = history.installed(vehicle)
+    return bool(trims) and record is not None and record.t_unix >= trims[-1].t_unix

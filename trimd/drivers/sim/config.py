@@ -103,6 +103,11 @@ class SimConfig:
         direction [mm].
     thrust_err : each thruster's true thrust = (1 ± thrust_err)·profile curve, the sign
         drawn separately per thruster and per direction (forward, reverse) [fraction].
+    thrust_err_max : when above ``thrust_err``, the size of each of those errors is drawn
+        uniform in [thrust_err, thrust_err_max] (per thruster and direction, from a
+        random stream of its own, so the signs and every other draw stay those of
+        ``thrust_err`` alone) instead of being exactly ``thrust_err`` [fraction]; not
+        part of ``truth=perturbed`` (``thrust_err_max=0.1``: thrust curves 5–10 % off).
     esc_band_us : each edge of each thruster's true dead band (its ESC's) lies up to this
         far from the profile's, uniform in ±esc_band_us per thruster and edge [µs]; the
         curve beyond the band keeps its table points.
@@ -170,6 +175,7 @@ class SimConfig:
     buoyancy_err: float = 0.0
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0
+    thrust_err_max: float = 0.0
     esc_band_us: float = 0.0
     esc_hunt: bool = False
     leak_N_min: float = 0.0

@@ -2,7 +2,8 @@
 
 The simulator flies a *true* profile: the nominal one with its buoyancy, centre of
 buoyancy and thrust curves off by the amounts of ``SimConfig.buoyancy_err``,
-``cob_err_mm`` and ``thrust_err``, in directions drawn from the seed. Everything that
+``cob_err_mm`` and ``thrust_err`` (each thrust error's size drawn in [thrust_err,
+thrust_err_max] when that is larger), in directions drawn from the seed. Everything that
 reads the profile — trimd, and the simulated autopilot's mixer and controller — sees the
 nominal one, as on a real vehicle whose profile was measured or computed imperfectly.
 """
@@ -23,6 +24,9 @@ __all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "pe
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
+#: Random stream of the thrust errors' sizes (``SimConfig.thrust_err_max``), apart from
+#: :data:`_STREAM` so that setting it leaves every other draw of a seed as it was.
+_THRUST_SIZE_STREAM = 101
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,8 +54,9 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
 
     Signs (buoyancy, each thruster direction) are ±1 with equal chance and the centre of
     buoyancy moves in a direction uniform on the sphere, all drawn from ``config.seed``;
-    the sizes are exactly those of ``config``. With no error configured the true profile
-    is ``profile`` itself.
+    the sizes are exactly those of ``config`` (a thrust error's size uniform in
+    [thrust_err, thrust_err_max] when ``thrust_err_max`` is larger). With no error
+    configured the true profile is ``profile`` itself.
 
     Examples
     --------
@@ -63,7 +68,7 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     (0.01, 5.0)
     """
     if not (config.buoyancy_err or config.cob_err_mm or config.thrust_err
-            or config.esc_band_us):
+            or config.thrust_err_max or config.esc_band_us):
         n = len(profile.thrusters)
         return profile, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.0, 1.0),) * n)
     rng = np.random.default_rng([config.seed, _STREAM])
@@ -72,12 +77,13 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     direction /= np.linalg.norm(direction)
     signs = rng.choice((-1.0, 1.0), size=(len(profile.thrusters), 2))
     dx, dy, dz = (float(v) for v in 1e-3 * config.cob_err_mm * direction)
-    k = config.thrust_err
+    k = _thrust_err_sizes(config, len(profile.thrusters))
     band = config.esc_band_us * rng.uniform(-1.0, 1.0, size=(len(profile.thrusters), 2))
     error = TruthOffset(buoyancy_factor=1.0 + sign_b * config.buoyancy_err,
                         r_b_offset_m=(dx, dy, dz),
-                        thrust_factors=tuple((1.0 + k * float(f), 1.0 + k * float(r))
-                                             for f, r in signs),
+                        thrust_factors=tuple((1.0 + float(kf * f), 1.0 + float(kr * r))
+                                             for (f, r), (kf, kr) in zip(signs, k,
+                                                                         strict=True)),
                         band_offsets_us=tuple((float(lo), float(hi)) for lo, hi in band)
                         if config.esc_band_us else ())
     offsets = error.band_offsets_us or ((0.0, 0.0),) * len(profile.thrusters)
@@ -89,6 +95,17 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     true = dataclasses.replace(profile, buoyancy_N=profile.buoyancy_N * error.buoyancy_factor,
                                r_b_m=r_b, thrusters=thrusters)
     return true, error
+
+
+def _thrust_err_sizes(config: SimConfig, n: int) -> NDArray[np.float64]:
+    """Size [fraction] of the thrust error of each of ``n`` thrusters (rows) forward and
+    reverse (columns): ``thrust_err``, or uniform in [thrust_err, thrust_err_max] from a
+    stream of its own when ``thrust_err_max`` is larger."""
+    k = config.thrust_err
+    if config.thrust_err_max <= k:
+        return np.full((n, 2), k)
+    rng = np.random.default_rng([config.seed, _THRUST_SIZE_STREAM])
+    return rng.uniform(k, config.thrust_err_max, size=(n, 2))
 
 
 def _scaled(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:

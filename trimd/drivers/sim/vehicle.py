@@ -285,8 +285,11 @@ class SimVehicle:
         if self.true_profile is self.profile:
             return text
         o = self.offset
+        c = self.config
+        thrust = f"{100 * c.thrust_err:g}" + (f"–{100 * c.thrust_err_max:g}"
+                                             if c.thrust_err_max > c.thrust_err else "")
         m_ext, r_g_seen = implied_mass(self.profile, net)
         return (f"{text}; the vehicle is off its profile (B ×{o.buoyancy_factor:.3f}, r_b "
                 f"{', '.join(f'{1000 * v:+.1f}' for v in o.r_b_offset_m)} mm, thrust "
-                f"±{100 * self.config.thrust_err:g} %): an exact estimate reads m_ext "
+                f"±{thrust} %): an exact estimate reads m_ext "
                 f"{m_ext:.3f} kg, r_g ({', '.join(f'{1000 * v:+.1f}' for v in r_g_seen)}) mm")
