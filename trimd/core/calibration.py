@@ -58,7 +58,8 @@ from trimd.core.types import FloatArray, JsonObject
 __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "Outcome",
            "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
            "calibration_hold", "experiment_from_dict", "experiment_rows",
-           "experiment_to_dict", "gains", "prior"]
+           "experiment_to_dict", "gain_to_dict", "gains", "hold_from_dict", "hold_to_dict",
+           "prior", "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
@@ -331,7 +332,15 @@ def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
     return out
 
 
-def _hold_to_dict(h: CalibrationHold) -> JsonObject:
+def gain_to_dict(g: Gain) -> JsonObject:
+    """JSON-ready dict of a gain (units in the key names)."""
+    return {"thruster": g.thruster, "direction": g.direction, "mean_pct": g.mean_pct,
+            "std_pct": g.std_pct, "prior_std_pct": g.prior_std_pct,
+            "determined": g.determined}
+
+
+def hold_to_dict(h: CalibrationHold) -> JsonObject:
+    """JSON-ready dict of a calibration hold (what the trim history stores)."""
     return {"label": h.label, "roll_rad": h.phi_rad, "pitch_rad": h.theta_rad,
             "tau_N_Nm": h.tau.tolist(), "tau_cov": h.tau_cov.tolist(),
             "exposure_N": h.exposure.tolist()}
@@ -347,7 +356,8 @@ def _array(d: JsonObject, key: str, shape: tuple[int, ...], source: str) -> Floa
     return a
 
 
-def _hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
+def hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
+    """The hold of :func:`hold_to_dict`'s dict; DataError naming ``source``."""
     exposure = _array(d, "exposure_N", (), source)
     return CalibrationHold(str(d.get("label", "")), float(_array(d, "roll_rad", (), source)),
                            float(_array(d, "pitch_rad", (), source)),
@@ -357,8 +367,8 @@ def _hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
 
 def experiment_to_dict(exp: Experiment) -> JsonObject:
     """JSON-ready dict of ``exp`` (what the trim history stores)."""
-    return {"label": exp.label, "before": _hold_to_dict(exp.before),
-            "after": _hold_to_dict(exp.after),
+    return {"label": exp.label, "before": hold_to_dict(exp.before),
+            "after": hold_to_dict(exp.after),
             "change": [{"slot": c.slot, "piece": c.piece, "count": c.count}
                        for c in exp.change],
             "q_before_N_Nm": exp.q_before.tolist(), "q_before_cov": exp.q_before_cov.tolist()}
@@ -369,8 +379,8 @@ def experiment_from_dict(d: JsonObject, source: str) -> Experiment:
     try:
         change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]))
                        for c in d["change"])
-        return Experiment(str(d["label"]), _hold_from_dict(d["before"], source),
-                          _hold_from_dict(d["after"], source), change,
+        return Experiment(str(d["label"]), hold_from_dict(d["before"], source),
+                          hold_from_dict(d["after"], source), change,
                           _array(d, "q_before_N_Nm", (4,), source),
                           _array(d, "q_before_cov", (4, 4), source))
     except (KeyError, TypeError, ValueError) as exc:
