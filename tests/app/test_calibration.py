@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,13 +26,17 @@ from trimd.core.calibration import (
     calibration_hold,
     gains,
 )
-from trimd.core.estimate import HoldSamples
+from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.link import Link
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
+from trimd.core.profile_yaml import read_profile_text
 from trimd.core.segment import estimate_segment
 from trimd.drivers.sim.config import SimConfig, with_presets
 from trimd.drivers.sim.truth import perturb_profile
+from trimd.logs.recorder import TlogRecorder
+from trimd.logs.replay import ReplayLink, with_recorded_thrust_map
 
 OPTIONS = "disturb=real,truth=perturbed"
 PAYLOAD = "0.4@W-aft-stbd"
@@ -171,3 +176,39 @@ def test_a_piece_heavier_than_its_inventory_entry_is_rejected(bluerov: Profile,
     before = learnt[seed].posterior
     assert np.array_equal(cal.posterior.mean, before.mean)
     assert cal.posterior.experiments == 2
+
+
+def test_a_calibrated_trim_replays_to_its_result(tmp_path: Path, bluerov: Profile,
+                                                  learnt: dict[int, Calibration]) -> None:
+    """The recording of a trim with a calibration carries it: replayed with the profile
+    alone and the recorded calibration it gives bit for bit what the calibrated profile
+    gives on the same recording (a recording quantises the samples, so not the in-process
+    session's own numbers), and without the calibration it would not."""
+    calibrated = replace(bluerov, thrust_map=learnt[0].posterior)
+    log = tmp_path / "calibrated.tlog"
+
+    async def session(link: Link, profile: Profile, recorder: TlogRecorder | None
+                      ) -> StaticEstimate:
+        # live: confirmed up front; a replay: where the recording says it was
+        try:
+            result = await Session(link, profile, recorder=recorder, presenters=[],
+                                   confirmed=recorder is not None, wall_clock=False).run()
+        finally:
+            await link.close()
+        assert result.estimate is not None, result.reason
+        return result.estimate
+
+    async def live() -> None:
+        link = await open_link(f"sim:payload={PAYLOAD},seed=0,{OPTIONS}", calibrated)
+        await session(link, calibrated,
+                      TlogRecorder(log, calibrated, read_profile_text("bluerov2-heavy")[0]))
+
+    asyncio.run(live())
+    recorded = asyncio.run(session(ReplayLink(log, calibrated), calibrated, None))
+    profile = with_recorded_thrust_map(log, bluerov)
+    assert profile.thrust_map is not None
+    replayed = asyncio.run(session(ReplayLink(log, profile), profile, None))
+    assert np.array_equal(replayed.q, recorded.q) and np.array_equal(replayed.q_cov,
+                                                                    recorded.q_cov)
+    plain = asyncio.run(session(ReplayLink(log, bluerov), bluerov, None))
+    assert not np.array_equal(plain.q_cov, recorded.q_cov)

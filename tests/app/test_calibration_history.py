@@ -25,7 +25,8 @@ from trimd.app.history.schema import connect
 from trimd.app.session import Session, SessionResult
 from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import Proposal
-from trimd.core.calibration import calibrate, experiment_from_dict, gain_to_dict, gains
+from trimd.core.calibration import calibrate, gains
+from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 

@@ -45,6 +45,7 @@ from trimd.logs.replay import (
     recorded_profile_yaml,
     recorded_trimd_texts,
     recorded_verify_target,
+    with_recorded_thrust_map,
 )
 from trimd.tui.run import run_in_tui
 
@@ -146,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if not Path(path).is_file():
         raise DataError(f"{path}: no such file")
     profile, recording = _profile(path, args.profile)
+    profile = with_recorded_thrust_map(path, profile) if recording else profile
     if not recording:
         return _analyse_foreign(path, profile, args)
     if wants_tui(args):

@@ -47,19 +47,17 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2, norm
 
-from trimd.core.errors import DataError, EstimationError
+from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, measurable_dofs
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
 from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
-from trimd.core.types import FloatArray, JsonObject
+from trimd.core.types import FloatArray
 
 __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "Outcome",
            "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
-           "calibration_hold", "experiment_from_dict", "experiment_rows",
-           "experiment_to_dict", "gain_to_dict", "gains", "hold_from_dict", "hold_to_dict",
-           "prior", "update"]
+           "calibration_hold", "experiment_rows", "gains", "posterior", "prior", "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
@@ -95,7 +93,9 @@ class ThrustMapPosterior:
     experiments: int
 
 
-def _posterior(mean: FloatArray, cov: FloatArray, experiments: int) -> ThrustMapPosterior:
+def posterior(mean: FloatArray, cov: FloatArray, experiments: int) -> ThrustMapPosterior:
+    """The posterior of mean μ and covariance P (symmetrised; L by Cholesky, with the
+    least diagonal jitter that makes P positive definite)."""
     cov = (cov + cov.T) / 2
     jitter = 0.0
     while True:
@@ -276,7 +276,7 @@ def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
     K = post.cov @ H.T @ S_inv
     A = np.eye(len(post.mean)) - K @ H
     cov = A @ post.cov @ A.T + K @ R @ K.T  # Joseph form: stays symmetric, positive
-    new = _posterior(post.mean + K @ v, cov, post.experiments + 1)
+    new = posterior(post.mean + K @ v, cov, post.experiments + 1)
     return new, Outcome(exp.label, True, d2, len(v), sigma,
                         f"calibration experiment {exp.label!r} learnt ({off}; ≈ {sigma:.1f}σ)")
 
@@ -330,58 +330,3 @@ def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
             out.append(Gain(t.name, direction, float(post.mean[k]) * s,
                             math.sqrt(float(post.cov[k, k])) * s, s))
     return out
-
-
-def gain_to_dict(g: Gain) -> JsonObject:
-    """JSON-ready dict of a gain (units in the key names)."""
-    return {"thruster": g.thruster, "direction": g.direction, "mean_pct": g.mean_pct,
-            "std_pct": g.std_pct, "prior_std_pct": g.prior_std_pct,
-            "determined": g.determined}
-
-
-def hold_to_dict(h: CalibrationHold) -> JsonObject:
-    """JSON-ready dict of a calibration hold (what the trim history stores)."""
-    return {"label": h.label, "roll_rad": h.phi_rad, "pitch_rad": h.theta_rad,
-            "tau_N_Nm": h.tau.tolist(), "tau_cov": h.tau_cov.tolist(),
-            "exposure_N": h.exposure.tolist()}
-
-
-def _array(d: JsonObject, key: str, shape: tuple[int, ...], source: str) -> FloatArray:
-    try:
-        a = np.asarray(d[key], float)
-    except (KeyError, TypeError, ValueError):
-        raise DataError(f"{source}: {key}: missing or not numbers") from None
-    if (shape and a.shape != shape) or not np.all(np.isfinite(a)):
-        raise DataError(f"{source}: {key}: shape {a.shape}, {shape} of finite numbers expected")
-    return a
-
-
-def hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
-    """The hold of :func:`hold_to_dict`'s dict; DataError naming ``source``."""
-    exposure = _array(d, "exposure_N", (), source)
-    return CalibrationHold(str(d.get("label", "")), float(_array(d, "roll_rad", (), source)),
-                           float(_array(d, "pitch_rad", (), source)),
-                           _array(d, "tau_N_Nm", (6,), source),
-                           _array(d, "tau_cov", (6, 6), source), exposure.reshape(-1))
-
-
-def experiment_to_dict(exp: Experiment) -> JsonObject:
-    """JSON-ready dict of ``exp`` (what the trim history stores)."""
-    return {"label": exp.label, "before": hold_to_dict(exp.before),
-            "after": hold_to_dict(exp.after),
-            "change": [{"slot": c.slot, "piece": c.piece, "count": c.count}
-                       for c in exp.change],
-            "q_before_N_Nm": exp.q_before.tolist(), "q_before_cov": exp.q_before_cov.tolist()}
-
-
-def experiment_from_dict(d: JsonObject, source: str) -> Experiment:
-    """The experiment of :func:`experiment_to_dict`'s dict; DataError naming ``source``."""
-    try:
-        change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]))
-                       for c in d["change"])
-        return Experiment(str(d["label"]), hold_from_dict(d["before"], source),
-                          hold_from_dict(d["after"], source), change,
-                          _array(d, "q_before_N_Nm", (4,), source),
-                          _array(d, "q_before_cov", (4, 4), source))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise DataError(f"{source}: not a calibration experiment ({exc})") from None

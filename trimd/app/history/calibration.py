@@ -34,13 +34,15 @@ from trimd.core.calibration import (
     PieceChange,
     calibrate,
     calibration_hold,
+    gains,
+    update,
+)
+from trimd.core.calibration_json import (
     experiment_from_dict,
     experiment_to_dict,
     gain_to_dict,
-    gains,
     hold_from_dict,
     hold_to_dict,
-    update,
 )
 from trimd.core.profile import InstalledPiece, Profile
 
