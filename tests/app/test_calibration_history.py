@@ -9,14 +9,16 @@ from __future__ import annotations
 import asyncio
 import json
 import sqlite3
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import numpy as np
 
-from tests.app.test_calibration import OPTIONS, PAYLOAD
+from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
 from tests.helpers import carried, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
+from trimd.app.calibrate import KnownWeight, calibrate_with_weight
 from trimd.app.connect import open_link
 from trimd.app.history import SCHEMA_VERSION, History
 from trimd.app.history.calibration import calibrated_profile, stored_calibration
@@ -28,6 +30,7 @@ from trimd.ballast.propose import Proposal
 from trimd.core.calibration import calibrate, gains
 from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
 from trimd.core.events import Phase
+from trimd.core.link import Link
 from trimd.core.profile import Profile
 
 SEED = 0
@@ -119,3 +122,41 @@ def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
     assert after.store(verify()) is not None  # no ballast change since: no experiment
     with History(db) as h:
         assert len(h.experiments("rov")) == 1 and len(h.level_holds("rov")) == 3
+
+
+def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: Profile
+                                                      ) -> None:
+    """``trimd calibrate``'s use case on the perturbed Heavy: a level hold, 0.5 kg (in
+    water) hung at W-front-stbd, a second level hold. The experiment is learnt and
+    stored, its gains cover the TRUE curves' errors; the same holds with the weight
+    never hung are rejected, not learnt."""
+    db = tmp_path / "trimd.db"
+    opened: list[str] = []
+    weight = KnownWeight(0.5, "W-front-stbd")
+    x, y, z = bluerov.slot(weight.slot).position_m
+
+    def link(hung: bool) -> Callable[[], Awaitable[Link]]:
+        async def open_() -> Link:
+            extra = f"+0.5@{x},{y},{z}" if hung and opened else ""
+            opened.append(extra)
+            return await open_link(f"sim:payload={PAYLOAD}{extra},seed={SEED},{OPTIONS}",
+                                   bluerov)
+        return open_
+
+    asked: list[str] = []
+    done = asyncio.run(calibrate_with_weight(link(True), bluerov, weight,
+                                             lambda text: asked.append(text) or True,
+                                             db=db, vehicle="rov", wall_clock=False))
+    assert opened == ["", f"+0.5@{x},{y},{z}"] and "W-front-stbd" in asked[0]
+    assert done.outcome.accepted, done.outcome.message
+    n = len(bluerov.thrusters)
+    sd = np.sqrt(np.diag(done.posterior.cov))[:2 * n]
+    truth = true_gain_errors(bluerov, SEED)
+    assert np.any(sd < 0.9) and np.all(np.abs(done.posterior.mean[:2 * n] - truth) <= 1.96 * sd)
+    with History(db) as h:
+        assert [r.values["accepted"] for r in h.experiments("rov")] == [True]
+    opened.clear()
+    never = asyncio.run(calibrate_with_weight(link(False), bluerov, weight, lambda text: True,
+                                              db=None, vehicle="rov", wall_clock=False))
+    assert not never.outcome.accepted
+    assert "the known weight 0.5 kg" in never.outcome.message

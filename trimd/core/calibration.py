@@ -147,11 +147,17 @@ def calibration_hold(hold: HoldSamples, profile: Profile, q: FloatArray) -> Cali
 
 @dataclass(frozen=True)
 class PieceChange:
-    """``count`` pieces of inventory kind ``piece`` added to ``slot`` (negative: removed)."""
+    """``count`` pieces of inventory kind ``piece`` added to ``slot`` (negative: removed).
+
+    A known weight that is no inventory piece (``trimd calibrate --mass``) gives its own
+    ``net_down_N``, its net downward force in water [N] (``piece`` then only names it), and
+    ``uncertainty_pct``, its 1σ [%]."""
 
     slot: str
     piece: str
     count: int
+    net_down_N: float | None = None
+    uncertainty_pct: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,15 +184,24 @@ class Experiment:
 def ballast_change(profile: Profile, change: Sequence[PieceChange]
                    ) -> tuple[FloatArray, FloatArray]:
     """Δq of ``change`` [N, N·m] and its covariance from each inventory kind's
-    ``uncertainty_pct`` (one error per kind, shared by its pieces)."""
+    ``uncertainty_pct`` (one error per kind, shared by its pieces; one per known weight)."""
     dq, cov = np.zeros(4), np.zeros((4, 4))
-    for kind in {profile.piece(c.piece).name for c in change}:
-        piece = profile.piece(kind)
-        w = piece.net_down_N(profile.water_density_kg_m3, profile.gravity_m_s2)
-        J = sum((c.count * np.r_[1.0, profile.slot(c.slot).position_m] for c in change
-                 if profile.piece(c.piece).name == kind), np.zeros(4))
+    kinds: dict[str, list[PieceChange]] = {}
+    for c in change:
+        key = f"known {c.piece}" if c.net_down_N is not None else profile.piece(c.piece).name
+        kinds.setdefault(key, []).append(c)
+    for group in kinds.values():
+        first = group[0]
+        if first.net_down_N is None:
+            piece = profile.piece(first.piece)
+            w = piece.net_down_N(profile.water_density_kg_m3, profile.gravity_m_s2)
+            pct = piece.net_uncertainty_pct
+        else:
+            w, pct = first.net_down_N, first.uncertainty_pct
+        J = sum((c.count * np.r_[1.0, profile.slot(c.slot).position_m] for c in group),
+                np.zeros(4))
         dq += w * J
-        cov += np.outer(J, J) * (w * piece.net_uncertainty_pct / 100) ** 2
+        cov += np.outer(J, J) * (w * pct / 100) ** 2
     return dq, cov
 
 
@@ -242,11 +257,14 @@ class Outcome:
 
 
 def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
-    pieces = sorted({profile.piece(c.piece).name for c in change})
+    pieces = sorted({profile.piece(c.piece).name for c in change if c.net_down_N is None})
+    known = sorted({c.piece for c in change if c.net_down_N is not None})
     slots = sorted({profile.slot(c.slot).name for c in change})
-    return (f"check the inventory entr{'ies' if len(pieces) > 1 else 'y'} of "
-            f"{', '.join(pieces)} (mass_kg, volume_m3), the slot{'s' if len(slots) > 1 else ''}"
-            f" {', '.join(slots)} (position_m) and that the pieces went where recorded")
+    what = ([f"the inventory entr{'ies' if len(pieces) > 1 else 'y'} of {', '.join(pieces)} "
+             "(mass_kg, volume_m3)"] if pieces else []) + [
+        f"the known weight {k} (its weight in water)" for k in known]
+    return (f"check {', '.join(what)}, the slot{'s' if len(slots) > 1 else ''} "
+            f"{', '.join(slots)} (position_m) and that the pieces went where recorded")
 
 
 def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
@@ -260,6 +278,7 @@ def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
     d2 = float(v @ S_inv @ v)
     p = float(chi2.sf(d2, len(v)))
     sigma = float(norm.isf(p / 2)) if p > 0 else math.inf
+    about = f"≈ {sigma:.1f}σ" if math.isfinite(sigma) else "beyond 37σ"  # p below 1e-300
     z = v / np.sqrt(np.diag(S))
     worst = int(np.argmax(np.abs(z)))
     row = _ROW_NAMES[int(np.flatnonzero(rows)[worst])]
@@ -271,14 +290,14 @@ def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
                    else "the profile's thrust map")
         return post, Outcome(exp.label, False, d2, len(v), sigma, (
             f"calibration experiment {exp.label!r} disagrees with {earlier}: {off} "
-            f"(χ² {d2:.1f} on {len(v)} rows, ≈ {sigma:.1f}σ); rejected, not learnt: "
+            f"(χ² {d2:.1f} on {len(v)} rows, {about}); rejected, not learnt: "
             f"{_what_to_check(profile, exp.change)}"))
     K = post.cov @ H.T @ S_inv
     A = np.eye(len(post.mean)) - K @ H
     cov = A @ post.cov @ A.T + K @ R @ K.T  # Joseph form: stays symmetric, positive
     new = posterior(post.mean + K @ v, cov, post.experiments + 1)
     return new, Outcome(exp.label, True, d2, len(v), sigma,
-                        f"calibration experiment {exp.label!r} learnt ({off}; ≈ {sigma:.1f}σ)")
+                        f"calibration experiment {exp.label!r} learnt ({off}; {about})")
 
 
 @dataclass(frozen=True, eq=False)

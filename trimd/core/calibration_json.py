@@ -59,6 +59,8 @@ def experiment_to_dict(exp: Experiment) -> JsonObject:
     return {"label": exp.label, "before": hold_to_dict(exp.before),
             "after": hold_to_dict(exp.after),
             "change": [{"slot": c.slot, "piece": c.piece, "count": c.count}
+                       | ({} if c.net_down_N is None else {
+                           "net_down_N": c.net_down_N, "uncertainty_pct": c.uncertainty_pct})
                        for c in exp.change],
             "q_before_N_Nm": exp.q_before.tolist(), "q_before_cov": exp.q_before_cov.tolist()}
 
@@ -66,7 +68,10 @@ def experiment_to_dict(exp: Experiment) -> JsonObject:
 def experiment_from_dict(d: JsonObject, source: str) -> Experiment:
     """The experiment of :func:`experiment_to_dict`'s dict; DataError naming ``source``."""
     try:
-        change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]))
+        change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]),
+                                   None if c.get("net_down_N") is None
+                                   else float(c["net_down_N"]),
+                                   float(c.get("uncertainty_pct", 1.0)))
                        for c in d["change"])
         return Experiment(str(d["label"]), hold_from_dict(d["before"], source),
                           hold_from_dict(d["after"], source), change,

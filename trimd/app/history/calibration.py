@@ -32,6 +32,7 @@ from trimd.core.calibration import (
     Experiment,
     Outcome,
     PieceChange,
+    ThrustMapPosterior,
     calibrate,
     calibration_hold,
     gains,
@@ -46,7 +47,8 @@ from trimd.core.calibration_json import (
 )
 from trimd.core.profile import InstalledPiece, Profile
 
-__all__ = ["calibrated_profile", "record_level_hold", "stored_calibration"]
+__all__ = ["calibrated_profile", "record_level_hold", "store_experiment",
+           "stored_calibration"]
 
 
 def stored_calibration(history: History, vehicle: str, profile: Profile) -> Calibration:
@@ -82,6 +84,21 @@ def _change(before: Sequence[dict[str, Any]], now: Sequence[InstalledPiece]
     return tuple(PieceChange(s, p, n) for (s, p), n in sorted(counts.items()) if n)
 
 
+def store_experiment(history: History, vehicle: str, profile: Profile, exp: Experiment,
+                     t_unix: float | None = None) -> tuple[ThrustMapPosterior, Outcome]:
+    """Check ``exp`` against the vehicle's calibration so far, store it with what became of
+    it (and the gains after it), and return the calibration after it and the outcome."""
+    before = stored_calibration(history, vehicle, profile).posterior
+    after, outcome = update(before, exp, profile)
+    history.record_experiment(vehicle, time.time() if t_unix is None else t_unix, {
+        "profile": profile.name, "experiment": experiment_to_dict(exp),
+        "accepted": outcome.accepted, "message": outcome.message,
+        "chi2": outcome.chi2, "sigma": outcome.sigma,
+        "calibration": {"experiments": after.experiments,
+                        "gains": [gain_to_dict(g) for g in gains(after, profile)]}})
+    return after, outcome
+
+
 def record_level_hold(history: History, vehicle: str, profile: Profile,
                       result: SessionResult, record_id: int,
                       installed: Sequence[InstalledPiece], t_unix: float | None = None
@@ -111,14 +128,7 @@ def record_level_hold(history: History, vehicle: str, profile: Profile,
             exp = Experiment(f"{last['source']} {last['record_id']} → {source} {record_id}",
                              hold_from_dict(last["hold"], where), summary, change,
                              np.asarray(last["q_N_Nm"], float), np.asarray(last["q_cov"], float))
-            before = stored_calibration(history, vehicle, profile).posterior
-            after, outcome = update(before, exp, profile)
-            history.record_experiment(vehicle, t, {
-                "profile": profile.name, "experiment": experiment_to_dict(exp),
-                "accepted": outcome.accepted, "message": outcome.message,
-                "chi2": outcome.chi2, "sigma": outcome.sigma,
-                "calibration": {"experiments": after.experiments,
-                                "gains": [gain_to_dict(g) for g in gains(after, profile)]}})
+            outcome = store_experiment(history, vehicle, profile, exp, t)[1]
     history.record_level_hold(vehicle, t, {
         "profile": profile.name, "source": source, "record_id": record_id,
         "hold": hold_to_dict(summary), "q_N_Nm": q.tolist(), "q_cov": q_cov.tolist(),
