@@ -8,6 +8,7 @@ vehicle, and a piece heavier than its inventory entry must be caught, not learnt
 from __future__ import annotations
 
 import asyncio
+import functools
 from dataclasses import replace
 from pathlib import Path
 
@@ -48,8 +49,11 @@ THIRD = (PieceChange("W-aft-ctr", "lead-200g", 3), PieceChange("W-front-port", "
 Z95 = 1.96
 
 
+@functools.cache
 def level_hold(profile: Profile, payload: str, seed: int) -> HoldSamples:
-    """One level hold of the simulated vehicle (a verify hold's procedure, its samples)."""
+    """One level hold of the simulated vehicle (a verify hold's procedure, its samples);
+    the same hold for the same vehicle, payload and seed (the simulator is deterministic),
+    so it is held once per test run."""
     async def go() -> HoldSamples:
         link = await open_link(f"sim:payload={payload},seed={seed},{OPTIONS}", profile)
         procedure = Procedure(profile, confirmed=True, verify=lambda hold: hold)
