@@ -22,8 +22,11 @@ DT = 0.01
 
 def run(proc: Procedure, vehicle: FakeVehicle, t_end: float, *, t_start: float = 0.0,
         silent_after: float = math.inf,
-        at: dict[float, Callable[[], object]] | None = None) -> list[tuple[float, object]]:
-    """Feed the vehicle's samples and Ticks to ``proc``; apply its commands; log outputs."""
+        at: dict[float, Callable[[], object]] | None = None,
+        tick_lead: Callable[[], float] = lambda: 0.0) -> list[tuple[float, object]]:
+    """Feed the vehicle's samples and Ticks to ``proc``; apply its commands; log outputs.
+    Each Tick runs ``tick_lead()`` seconds ahead of the samples (a live shell whose event
+    loop is late: its Tick is the last sample's time plus the wall time since)."""
     log: list[tuple[float, object]] = []
     pending = dict(at or {})
     t = t_start
@@ -32,7 +35,7 @@ def run(proc: Procedure, vehicle: FakeVehicle, t_end: float, *, t_start: float =
         events: list[object] = [] if t > silent_after else vehicle.samples(t, DT)
         for when in [w for w in pending if w <= t]:
             events.append(pending.pop(when)())
-        events.append(Tick(t))
+        events.append(Tick(t + tick_lead()))
         for e in events:
             for out in proc.step(e):  # type: ignore[arg-type]
                 log.append((t, out))
@@ -63,6 +66,24 @@ def test_full_procedure_estimates_the_payload(sabertooth: Profile,
     assert isinstance(thesis_vehicle.commands[-1][1], Release)
     assert [n.kind for _, n in log if isinstance(n, Notice)][-1] == "result"
     assert len(est.holds) == 2 and all(h.samples > 100 for h in est.holds)
+
+
+def test_late_ticks_change_nothing_the_samples_decide(sabertooth: Profile) -> None:
+    """A replay has no Ticks; a live shell under load sends Ticks that run ahead of the
+    samples by a varying amount. Phases begin, holds collect and end on the samples' own
+    time, so both see the same holds, sample for sample."""
+    W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
+    rng = np.random.default_rng(5)
+    estimates = []
+    for lead in (lambda: 0.0, lambda: float(rng.uniform(0.0, 0.3))):
+        proc = Procedure(sabertooth, confirmed=True, propose=lambda est: None)
+        run(proc, FakeVehicle(sabertooth, W, r_g), 1000.0, tick_lead=lead)
+        assert proc.phase is Phase.DONE, proc.reason
+        estimates.append(proc.estimate)
+    on_time, late = estimates
+    assert on_time is not None and late is not None
+    assert [h.samples for h in late.holds] == [h.samples for h in on_time.holds]
+    assert late.m_ext_kg == on_time.m_ext_kg
 
 
 def test_holds_carry_each_thrusters_thrust(sabertooth: Profile,

@@ -617,7 +617,7 @@ def test_trimd_run_exits_3_with_an_intact_log_when_the_vehicle_dies(tmp_path: Pa
 def test_sysid_option_goes_into_the_mavlink_url(
         link: str, url: str | None, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    import trimd.cli.run
+    import trimd.app.connect
     from trimd.cli.main import main
 
     opened: list[str] = []
@@ -626,7 +626,7 @@ def test_sysid_option_goes_into_the_mavlink_url(
         opened.append(u)
         raise LinkError("stop here")
 
-    monkeypatch.setattr(trimd.cli.run, "open_link", fake_open)
+    monkeypatch.setattr(trimd.app.connect, "open_link", fake_open)
     code = main(["run", "--link", link, "--profile", "sabertooth-dh2", "--sysid", "7",
                  "--headless", "--yes", "--no-record"])
     if url is None:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import trimd.cli.run
+import trimd.app.connect
 from tests.helpers import REPO, assert_proposal_levels
 from trimd.app.connect import open_link
 from trimd.cli.main import main
@@ -585,7 +585,7 @@ def test_trimd_run_over_serial_against_trimd_sim(
             link = await open_link(url, profile)
             links.append(link)  # type: ignore[arg-type]
             return link
-        monkeypatch.setattr(trimd.cli.run, "open_link", capture)
+        monkeypatch.setattr(trimd.app.connect, "open_link", capture)
         code = main(["run", "--link", f"serial:{relay.path}", "--profile", "sabertooth-dh2",
                      "--headless", "--yes", "--no-record", "--json"])
     finally:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
@@ -23,10 +24,10 @@ from tests.tui.tui_helpers import RecordingSimLink, app_for, recording_sim_link,
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import Applied
 from trimd.app.history import History
+from trimd.app.replay import replay_session
 from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification, verification_to_dict
-from trimd.cli.replay import replay_session
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
@@ -290,7 +291,6 @@ def test_trimd_run_in_the_terminal_ui_apply_and_verify(
     simulated vehicle: nobody fitted the ballast, so NOT as predicted), quit. The history
     holds each once, in order; both sessions are printed and recorded, the verify
     recording beside the trim's, and it replays to the same verdict."""
-    import trimd.cli.run
     import trimd.tui.run
     from trimd.cli.main import main
     from trimd.core.profile_yaml import load_profile
@@ -309,7 +309,8 @@ def test_trimd_run_in_the_terminal_ui_apply_and_verify(
             await pilot.press("q")
         return app.result
 
-    monkeypatch.setattr(trimd.cli.run, "wants_tui", lambda args: True)
+    for stream in (sys.stdin, sys.stdout):   # a terminal is attached: the TUI
+        monkeypatch.setattr(stream, "isatty", lambda: True)
     monkeypatch.setattr(trimd.tui.run, "run_in_tui", drive)
     db, log = tmp_path / "h.db", tmp_path / "trim.tlog"
     assert main(["run", "--link", "sim:payload=10@AftSB", "--profile", "sabertooth-dh2",
@@ -369,7 +370,7 @@ async def test_abort_while_the_link_opens_starts_no_verify_hold(sabertooth: Prof
 async def test_a_replayed_verify_hold_shows_its_verdict(sabertooth: Profile,
                                                         tmp_path: Path) -> None:
     """``trimd replay`` of a verify hold in the terminal UI: the verdict panel, no offer."""
-    from trimd.cli.replay import replay_app
+    from trimd.tui.replay_app import replay_app
 
     vehicle = Vehicle(sabertooth)
     app = await trim_app(sabertooth, tmp_path, confirmed=True, vehicle=vehicle)

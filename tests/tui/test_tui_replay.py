@@ -15,11 +15,11 @@ import pytest
 from tests.tui.tui_helpers import until
 from trimd.ballast.propose import proposal_to_dict
 from trimd.cli.main import main
-from trimd.cli.replay import replay_app
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Phase
 from trimd.core.profile import Profile
 from trimd.tui.link_panel import LinkPanel
+from trimd.tui.replay_app import replay_app
 from trimd.tui.replay_pace import SPEEDS
 from trimd.tui.result_panel import ResultPanel
 

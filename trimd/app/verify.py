@@ -34,7 +34,7 @@ def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[s
             "proposal": {"slots": [slot_to_dict(ld) for ld in loads]}}
 
 
-def read_target(target: Any, source: str, profile: Profile
+def read_target(target: object, source: str, profile: Profile
                 ) -> tuple[StaticEstimate, list[SlotLoad]]:
     """The estimate and installed loads of a verify target (DataError naming ``source``
     when it is malformed or its slots are not ``profile``'s)."""

@@ -1,6 +1,7 @@
 """Shared argument reading of the commands: argparse ``type`` functions for numbers with a
 range (a value outside is a one-line usage error naming the range, exit code 2, never a
-traceback further on), and whether the options and the terminal ask for the TUI."""
+traceback further on), whether the options and the terminal ask for the TUI, and the type
+of the subcommand table each command's ``register`` adds its parser to."""
 
 from __future__ import annotations
 
@@ -8,8 +9,13 @@ import argparse
 import math
 import sys
 from collections.abc import Callable
+from typing import TypeAlias
 
-__all__ = ["bounded", "integer", "wants_tui"]
+__all__ = ["Subcommands", "bounded", "integer", "wants_tui"]
+
+#: What ``ArgumentParser.add_subparsers`` returns: each command module's ``register`` adds
+#: its parser to it.
+Subcommands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 
 def bounded(low: float, high: float = math.inf) -> Callable[[str], float]:

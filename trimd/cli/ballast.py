@@ -5,7 +5,6 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from trimd.app.files import read_estimate
 from trimd.app.history.installed import current_installed
@@ -14,14 +13,14 @@ from trimd.app.report import format_proposal
 from trimd.ballast.lp import STAGE_NODES
 from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
 from trimd.cli import ballast_apply
-from trimd.cli.argtypes import integer
+from trimd.cli.argtypes import Subcommands, integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.profile_yaml import load_profile
 
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "ballast", help="propose ballast from an estimate (trimd solve --json); "
         "'ballast apply' records what was installed",

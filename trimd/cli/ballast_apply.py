@@ -15,12 +15,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import re
-from typing import Any
 
 from trimd.app.apply import apply_ballast
 from trimd.app.files import read_estimate
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_applied
+from trimd.cli.argtypes import Subcommands
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import ProfileError
 from trimd.core.profile import InstalledPiece, Profile
@@ -31,7 +31,7 @@ __all__ = ["parse_set", "register", "run"]
 _SET = re.compile(r"^(?P<slot>[^:=]+):(?P<piece>[^:=]+)=(?P<count>\d+)$")
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "apply", help="record the ballast installed on the vehicle",
         description="Record in the trim history what was actually installed: the milp "

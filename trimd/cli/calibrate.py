@@ -11,12 +11,12 @@ import asyncio
 import re
 import sys
 from pathlib import Path
-from typing import Any
 
 from trimd.app.calibrate import KnownWeight, calibrate_with_weight
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
 from trimd.app.jsonlines import print_result
+from trimd.cli.argtypes import Subcommands
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.calibration import gains
 from trimd.core.calibration_json import gain_to_dict
@@ -28,7 +28,7 @@ __all__ = ["register", "run"]
 _MASS = re.compile(r"^(?P<kg>[-+]?\d+(\.\d*)?|[-+]?\.\d+)@(?P<slot>.+)$")
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "calibrate", help="calibrate the thrust map with a known weight",
         description="A level hold, then you hang a known weight at a ballast slot, then a "

@@ -5,19 +5,19 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
 from trimd.app.history import History
 from trimd.app.history.plot import write_history_plot
 from trimd.app.history.report import format_history, history_to_dict
 from trimd.app.jsonlines import print_result
+from trimd.cli.argtypes import Subcommands
 from trimd.cli.history_args import add_db_arg, db_path
 from trimd.core.errors import DataError
 
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "history", help="list a vehicle's trims, installed ballast and watch alerts",
         description="List what the trim history holds: every trim's estimate and proposal, "

@@ -29,14 +29,13 @@ import json
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 from trimd.app.excite_logs import experiments_by_stage, stopped_early
 from trimd.app.experiment import run_experiment
 from trimd.app.files import read_statics
 from trimd.app.jsonlines import print_result
 from trimd.app.session import SessionResult
-from trimd.cli.argtypes import bounded, integer
+from trimd.cli.argtypes import Subcommands, bounded, integer
 from trimd.core.errors import DataError
 from trimd.core.events import Phase
 from trimd.core.profile_yaml import load_profile, read_profile_text
@@ -56,7 +55,7 @@ __all__ = ["register", "run_excite", "run_identify"]
 MAX_DURATION_S = 3600.0
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     e: argparse.ArgumentParser = sub.add_parser(
         "excite", help="run an open-loop excitation experiment for identification",
         description="Drive the axes of one identification stage open loop with a designed "

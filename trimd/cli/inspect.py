@@ -6,15 +6,15 @@ empty log is a DataError (exit 2).
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from trimd.app.log_report import inspect_log, print_report
+from trimd.cli.argtypes import Subcommands
 from trimd.core.profile_yaml import load_profile
 
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "inspect", help="report what a vehicle log (.tlog or DataFlash .BIN) holds",
         description="Report a log's format, duration, vehicle, frame, streams and rates, "

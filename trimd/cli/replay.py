@@ -21,41 +21,25 @@ import asyncio
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import yaml
 
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.log_report import log_report, print_report
+from trimd.app.replay import replay_profile, replay_session
 from trimd.app.report import format_result
-from trimd.app.session import Presenter, Session, SessionResult
-from trimd.app.verify import verify_procedure
-from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import METHODS, propose_ballast
-from trimd.cli.argtypes import bounded, wants_tui
+from trimd.cli.argtypes import Subcommands, bounded, wants_tui
 from trimd.core.errors import DataError, EstimationError, NoResultError
-from trimd.core.estimate import StaticEstimate, estimate_static
+from trimd.core.estimate import estimate_static
 from trimd.core.events import Phase
-from trimd.core.link import Link
 from trimd.core.procedure import VERIFY_DONE
 from trimd.core.profile import Profile
-from trimd.core.profile_yaml import load_profile, parse_profile
-from trimd.logs.replay import (
-    ReplayLink,
-    recorded_profile_yaml,
-    recorded_trimd_texts,
-    recorded_verify_target,
-    with_recorded_thrust_map,
-)
+from trimd.logs.replay import recorded_trimd_texts, recorded_verify_target
 from trimd.tui.run import run_in_tui
 
-if TYPE_CHECKING:
-    from trimd.tui import TrimApp
-
-__all__ = ["register", "replay_app", "replay_session", "run"]
+__all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "replay", help="replay a recorded session or analyse a vehicle log",
         description="Replay a trimd recording through the procedure (same result as live), "
@@ -70,60 +54,6 @@ def register(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="headless, one JSON object per line")
     p.add_argument("--ballast", choices=METHODS, default="milp", help="ballast method")
     p.set_defaults(func=run)
-
-
-def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
-    """The profile to use and whether the log is a trimd recording."""
-    try:
-        text = recorded_profile_yaml(path)
-    except DataError as exc:  # a trimd recording whose profile block is damaged
-        if not name:
-            raise DataError(f"{exc}: pass --profile to replay it with that profile") from None
-        print(f"trimd: warning: {exc}; replaying with --profile {name}", file=sys.stderr)
-        return load_profile(name), True
-    if name:
-        return load_profile(name), text is not None
-    if text is None:
-        raise DataError(f"{path}: not a trimd recording, so it carries no profile: "
-                        "pass --profile")
-    return parse_profile(yaml.safe_load(text), f"{path} (recorded profile)"), True
-
-
-def _session(link: Link, path: str, profile: Profile, *,
-             presenters: list[Presenter], method: str) -> Session:
-    """The replay's session over ``link`` (the recording ``path``): a verify hold when
-    the recording carries a verify target, else the trim, proposing by ``method``;
-    confirmed where the live session was (the recording's :class:`Confirmed`)."""
-    target = recorded_verify_target(path)
-    procedure = None if target is None else verify_procedure(
-        profile, target, confirmed=False, source=f"{path} (recorded verify target)")
-
-    def propose(estimate: StaticEstimate) -> Proposal:
-        return propose_ballast(estimate, profile, method=method)
-
-    return Session(link, profile, recorder=None, presenters=presenters, confirmed=False,
-                   propose=propose, procedure=procedure, wall_clock=False)
-
-
-async def replay_session(path: str, profile: Profile, *, speed: float | None,
-                         presenters: list[Presenter], method: str
-                         ) -> tuple[SessionResult, ReplayLink]:
-    """Run the recorded procedure (trim or verify hold) over a recording; return its result
-    and the link."""
-    link = ReplayLink(path, profile, speed=speed)
-    session = _session(link, path, profile, presenters=presenters, method=method)
-    return await session.run(), link
-
-
-def replay_app(path: str, profile: Profile, *, speed: float, method: str) -> TrimApp:
-    """The TUI over a replay of ``path`` starting at ``speed`` × real time (inf: as fast
-    as possible); its heartbeat age is on the recording's clock."""
-    from trimd.tui import make_app
-    from trimd.tui.replay_pace import PacedReplay
-
-    link = PacedReplay(ReplayLink(path, profile), speed=speed)
-    return make_app(_session(link, path, profile, presenters=[], method=method), profile,
-                    link_description=link.description, replay=link, clock=lambda: link.t_s)
 
 
 def _analyse_foreign(path: str, profile: Profile, args: argparse.Namespace) -> int:
@@ -146,11 +76,12 @@ def run(args: argparse.Namespace) -> int:
     path = str(args.path)
     if not Path(path).is_file():
         raise DataError(f"{path}: no such file")
-    profile, recording = _profile(path, args.profile)
-    profile = with_recorded_thrust_map(path, profile) if recording else profile
+    profile, recording = replay_profile(path, args.profile)
     if not recording:
         return _analyse_foreign(path, profile, args)
     if wants_tui(args):
+        from trimd.tui.replay_app import replay_app  # Textual only for the TUI
+
         app = replay_app(path, profile, speed=math.inf if args.fast else args.speed or 1.0,
                          method=args.ballast)
         result = asyncio.run(run_in_tui(app))

@@ -17,8 +17,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from trimd.app import connect
 from trimd.app.after_trim import AfterTrim
-from trimd.app.connect import open_link
 from trimd.app.files import (
     default_record_path,
     installed_from_json,
@@ -38,7 +38,7 @@ from trimd.app.verify import verify_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
-from trimd.cli.argtypes import integer, wants_tui
+from trimd.cli.argtypes import Subcommands, integer, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import DataError, ProfileError, TrimdError, UsageError
 from trimd.core.estimate_json import estimate_from_dict
@@ -58,7 +58,7 @@ DEMO_PROFILE = "sabertooth-dh2"
 DEMO_LINK = "sim:payload=10@AftSB"
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "run", help="run the trim procedure on a vehicle",
         description="Hold the vehicle level, then tilted; estimate its centre of gravity and "
@@ -148,7 +148,7 @@ def _truth(link: Link, wanted: bool) -> str | None:
 
 async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
                     ) -> tuple[SessionResult, str | None]:
-    link = await open_link(args.link, profile)
+    link = await connect.open_link(args.link, profile)
     presenters: list[Presenter] = [HeadlessPresenter(json_lines=args.json)]
     session = _make_session(args, profile, link, presenters)
     if not args.yes:
@@ -163,7 +163,7 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
     from trimd.tui import make_app
     from trimd.tui.run import run_in_tui
 
-    link = await open_link(args.link, profile)
+    link = await connect.open_link(args.link, profile)
     truth_text = _truth(link, truth)
     app = make_app(_make_session(args, profile, link, []), profile,
                    link_description=link.description, truth=truth_text,
@@ -188,7 +188,7 @@ def _after_trim(args: argparse.Namespace, profile: Profile) -> AfterTrim:
 
     return AfterTrim(None if args.no_history else Path(db_path(args)),
                      vehicle_of(args, profile.name), profile, args.yes,
-                     lambda: open_link(args.link, profile), recorder)
+                     lambda: connect.open_link(args.link, profile), recorder)
 
 
 def _start(args: argparse.Namespace, *, truth: bool) -> int:

@@ -17,7 +17,6 @@ import asyncio
 import os
 import sys
 from pathlib import Path
-from typing import Any
 
 from aiohttp import web
 
@@ -27,7 +26,7 @@ from trimd.app.history import History
 from trimd.app.history.calibration import calibrated_profile
 from trimd.app.serve import DEFAULT_PORT, Clock, Service
 from trimd.app.web import make_app
-from trimd.cli.argtypes import bounded, integer
+from trimd.cli.argtypes import Subcommands, bounded, integer
 from trimd.cli.history_args import vehicle_of
 from trimd.cli.watch_args import add_watch_args, new_watch
 from trimd.core.errors import UsageError
@@ -37,7 +36,7 @@ from trimd.core.watch import TrimWatch
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "serve", help="the watch as a service: every dive, a web page and a JSON API",
         description="Keep the passive trim watch running on the vehicle across dives "

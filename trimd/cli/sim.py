@@ -14,9 +14,9 @@ from __future__ import annotations
 import argparse
 import math
 import threading
-from typing import Any
 
 from trimd.app.connect import parse_link_url
+from trimd.cli.argtypes import Subcommands
 from trimd.core.errors import LinkError, ProfileError
 from trimd.core.profile_yaml import load_profile
 
@@ -25,7 +25,7 @@ __all__ = ["DEFAULT_SERVE", "register", "run"]
 DEFAULT_SERVE = "mavlink:udpout:127.0.0.1:14550"
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "sim", help="serve the simulated vehicle (ArduSub over MAVLink)",
         description="Run the built-in simulated vehicle with a hidden payload and serve it "

@@ -5,12 +5,12 @@ proposal, when asked for)."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from trimd.app.holdfile import read_hold_csv
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_estimate, format_proposal
 from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
+from trimd.cli.argtypes import Subcommands
 from trimd.core.estimate import estimate_static
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.profile_yaml import load_profile
@@ -18,7 +18,7 @@ from trimd.core.profile_yaml import load_profile
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "solve", help="estimate the centre of gravity and extra mass from a hold CSV",
         description="Estimate weight, extra mass and centre of gravity from steady holds "

@@ -19,9 +19,9 @@ import argparse
 import asyncio
 import sys
 import time
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
 
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
@@ -36,7 +36,7 @@ from trimd.app.watch import (
     watch_log,
     write_watch_plot,
 )
-from trimd.cli.argtypes import bounded, wants_tui
+from trimd.cli.argtypes import Subcommands, bounded, wants_tui
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.cli.watch_args import add_watch_args, new_watch
 from trimd.core.errors import DataError, LinkError, UsageError
@@ -47,7 +47,7 @@ from trimd.core.watch import TrimWatch, WatchAlert
 __all__ = ["register", "run"]
 
 
-def register(sub: Any) -> None:
+def register(sub: Subcommands) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
         "watch", help="watch the trim passively during ordinary operation",
         description="Find the steady segments of ordinary operation (depth held, attitude "
@@ -96,7 +96,7 @@ class _Store:
             self.history = None
 
 
-def _emitter(as_json: bool, store: _Store) -> Any:
+def _emitter(as_json: bool, store: _Store) -> Callable[[Record], None]:
     def emit(r: Record) -> None:
         if as_json:
             print_json(r.to_dict())
@@ -121,7 +121,7 @@ def _finish(watch: TrimWatch, args: argparse.Namespace, source: str,
     return 0 if watch.segments else 1
 
 
-def _wall_clock() -> Any:
+def _wall_clock() -> Callable[[float], str]:
     """Times of a MAVLink link (``time.monotonic()``) as UTC wall-clock time."""
     offset = time.time() - time.monotonic()
     return lambda t_s: datetime.fromtimestamp(offset + t_s, UTC).strftime("%H:%M:%S UTC")

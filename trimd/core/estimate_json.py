@@ -80,7 +80,7 @@ def _covariance(d: dict[str, Any], key: str, size: int, source: str) -> np.ndarr
     return cov
 
 
-def estimate_from_dict(d: Any, source: str = "<estimate>") -> StaticEstimate:
+def estimate_from_dict(d: object, source: str = "<estimate>") -> StaticEstimate:
     """Rebuild a :class:`StaticEstimate` from :func:`estimate_to_dict` output."""
     if not isinstance(d, dict):
         raise DataError(f"{source}: expected a JSON object from trimd solve --json")

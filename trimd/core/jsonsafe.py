@@ -8,7 +8,6 @@ JavaScript, sqlite's json functions) refuse; trimd's reports, fragments and hist
 from __future__ import annotations
 
 import math
-from typing import Any
 
 __all__ = ["json_finite", "json_number"]
 
@@ -18,7 +17,7 @@ def json_number(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def json_finite(value: Any) -> Any:
+def json_finite(value: object) -> object:
     """``value`` (numbers, dicts, lists, tuples, nested) with every NaN or infinite float
     replaced by None."""
     if isinstance(value, float):

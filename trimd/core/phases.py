@@ -8,23 +8,28 @@ from __future__ import annotations
 
 import math
 
-from trimd.core.events import Cause, Event, Notice, Output, Phase
+from trimd.core.events import Cause, Event, Notice, Output, Phase, Tick
 from trimd.core.guards import Guard
-from trimd.core.samples import Release
+from trimd.core.samples import Release, Sample
 
 __all__ = ["Phases"]
 
 
 class Phases:
-    """A phase with its reason, entered at the events' own time ``_t`` [s]; a subclass
-    sets every attribute in its ``__init__`` (``_t`` and ``_t_phase`` NaN until the first
-    event)."""
+    """A phase with its reason. Two clocks [s]: ``_t``, the latest event's time, Ticks
+    included (timeouts run on it, so a silent link still ends the machine), and
+    ``_t_data``, the latest sample's time: a phase begins, and everything the samples
+    decide is timed, on ``_t_data`` alone, so a replay, which has no Ticks, decides as the
+    live run did however late the live shell's event loop ran. A subclass sets every
+    attribute in its ``__init__`` (the times NaN until the first event) and calls
+    :meth:`_clock` on each timed event."""
 
     phase: Phase
     reason: str
     cause: Cause
     guard: Guard
     _t: float
+    _t_data: float
     _t_phase: float
 
     def step(self, event: Event) -> list[Output]:
@@ -42,10 +47,24 @@ class Phases:
         """One event, the machine's own way."""
         raise NotImplementedError
 
+    def _clock(self, event: Sample | Tick) -> None:
+        """Advance the clocks to a timed ``event`` (a sample or a Tick); the first one
+        begins the first phase."""
+        if math.isnan(self._t_phase):
+            self._t_phase = event.t_s
+        self._t = event.t_s if math.isnan(self._t) else max(self._t, event.t_s)
+        if not isinstance(event, Tick):
+            self._t_data = (event.t_s if math.isnan(self._t_data)
+                            else max(self._t_data, event.t_s))
+
+    def _now_data(self) -> float:
+        """The latest sample's time, or the latest event's before any sample [s]."""
+        return self._t if math.isnan(self._t_data) else self._t_data
+
     def _enter(self, phase: Phase, text: str) -> list[Output]:
-        """Enter ``phase`` now, saying ``text``."""
+        """Enter ``phase`` at the latest sample's time, saying ``text``."""
         self.phase = phase
-        self._t_phase = self._t
+        self._t_phase = self._now_data()
         self.reason = text
         return [Notice(self._t, "state", text, phase)]
 

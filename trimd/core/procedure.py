@@ -96,8 +96,7 @@ class Procedure(Phases):
         self.guard = Guard(profile.procedure, min_rates_hz=MIN_RATES_HZ)
         self.rule = StopRule.for_profile(profile)
         self._confirmed = confirmed
-        self._t = math.nan
-        self._t_phase = math.nan
+        self._t = self._t_data = self._t_phase = math.nan
         self._health: Health | None = None
         self._held = HeldThrust(profile)
         self._depth: Depth | None = None
@@ -124,7 +123,7 @@ class Procedure(Phases):
             t_s=self._t, phase=self.phase, hold=max(k, 0), holds=len(self.holds),
             setpoint_deg=(math.degrees(hold.phi), math.degrees(hold.theta)) if hold else None,
             settled_fraction=settled, samples=len(hold.t) if hold else 0,
-            time_left_s=self._time_left(), message=self.reason)
+            time_left_s=self._time_left(self._t), message=self.reason)
 
     # ---------------------------------------------------------------- event handling
     def _step(self, event: Event) -> list[Output]:
@@ -132,9 +131,7 @@ class Procedure(Phases):
             return self._finish(Phase.ABORTED, event.reason, cause=Cause.OPERATOR)
         if isinstance(event, Confirm):
             return self._on_confirm()
-        if math.isnan(self._t):
-            self._t_phase = event.t_s
-        self._t = max(event.t_s, self._t) if not math.isnan(self._t) else event.t_s
+        self._clock(event)
         if not isinstance(event, Tick):
             out = self._on_sample(event)
             if self.phase.final:
@@ -170,7 +167,7 @@ class Procedure(Phases):
             return self._precheck()
         if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
             return []
-        if self.phase is Phase.COLLECT and self._time_left() < 0:
+        if self.phase is Phase.COLLECT and self._time_left(self._t_data) < 0:
             return self._end_hold(self._decided())
         return self._heading_leash(a) + self._hold_sample(a, self._settling)
 
@@ -209,7 +206,7 @@ class Procedure(Phases):
             return []
         if self.phase is Phase.CONNECT:
             return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t - self._t_phase < PRECHECK_WINDOW_S:
+        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
             return []
         missing = self._precheck_problems()
         if missing:
@@ -223,7 +220,7 @@ class Procedure(Phases):
 
     def _precheck_problems(self) -> list[str]:
         """What keeps trimd from commanding now (:class:`trimd.core.precheck.Precheck`)."""
-        return self.precheck.problems(self._t)
+        return self.precheck.problems(self._t_data)
 
     def _on_confirm(self) -> list[Output]:
         """The operator's go. Given in the confirm phase, the precheck is run again (the
@@ -250,7 +247,7 @@ class Procedure(Phases):
         self._settling = HoldSettling(self.proc, phi, theta, self.rule.effort_floor(
             math.radians(self.proc.attitude_tol_deg), phi, theta))
         self._look = 0
-        self.guard.start(self._t, self._depth.depth_m if self._depth else math.nan,
+        self.guard.start(self._now_data(), self._depth.depth_m if self._depth else math.nan,
                          "the hold's start depth")
         out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
         return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.holds)}: roll "
@@ -260,7 +257,7 @@ class Procedure(Phases):
         """After a collected sample: at each look of the stop rule, move on once the
         decision is known; at the last look (``collect_max_s``), move on anyway."""
         looks = self.rule.looks_s
-        if self._look >= len(looks) or self._t - self._t_phase < looks[self._look]:
+        if self._look >= len(looks) or self._t_data - self._t_phase < looks[self._look]:
             return []
         self._look += 1
         decided = self._decided()
@@ -357,7 +354,7 @@ class Procedure(Phases):
             return self._finish(Phase.FAILED, stop.reason, cause=stop.cause)
         # collecting ends on attitude samples, never on a Tick: a replay without the live
         # shell's Ticks then reproduces the live result exactly
-        if self._time_left() >= 0 or self.phase is Phase.COLLECT:
+        if self._time_left(self._t) >= 0 or self.phase is Phase.COLLECT:
             return []
         if self.phase is Phase.SETTLE:
             what = f"hold {len(self._holds)} never settled ({self._why_unsteady()})"
@@ -375,12 +372,14 @@ class Procedure(Phases):
                 f"set-point of {math.degrees(hold.phi):.1f}° / {math.degrees(hold.theta):.1f}°"
                 f", tolerance {self.proc.attitude_tol_deg}°")
 
-    def _time_left(self) -> float:
+    def _time_left(self, now: float) -> float:
+        """What is left of the phase's time limit at ``now`` [s]: ``_t`` for the timeouts,
+        ``_t_data`` for the collect limit (the samples end a hold, never a Tick)."""
         limit = {Phase.CONNECT: self.proc.connect_timeout_s,
                  Phase.PRECHECK: self.proc.connect_timeout_s,
                  Phase.SETTLE: self.proc.settle_timeout_s,
                  Phase.COLLECT: self.proc.collect_max_s}.get(self.phase)
-        if limit is None or math.isnan(self._t):
+        if limit is None or math.isnan(now):
             return math.inf
-        return limit - (self._t - self._t_phase)
+        return limit - (now - self._t_phase)
 

@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import yaml
 
@@ -38,11 +38,11 @@ __all__ = ["load_profile", "parse_profile", "read_profile_text", "shipped_profil
 class _Node:
     """A YAML mapping with its key path, so every error names file and key."""
 
-    def __init__(self, data: Any, path: str, source: str) -> None:
+    def __init__(self, data: object, path: str, source: str) -> None:
         if not isinstance(data, dict):
             raise ProfileError(f"{source}: {path or '<top>'}: expected a mapping, got "
                                f"{type(data).__name__}")
-        self.data: dict[str, Any] = data
+        self.data: dict[str, object] = data
         self.path = path
         self.source = source
         self.used: set[str] = set()
@@ -56,7 +56,7 @@ class _Node:
     def has(self, key: str) -> bool:
         return key in self.data
 
-    def raw(self, key: str, default: Any = ...) -> Any:
+    def raw(self, key: str, default: object = ...) -> object:
         if key not in self.data:
             if default is ...:
                 near = difflib.get_close_matches(key, [str(k) for k in self.data], n=1)
@@ -66,7 +66,7 @@ class _Node:
         self.used.add(key)
         return self.data[key]
 
-    def number(self, key: str, default: Any = ..., *, minimum: float | None = None,
+    def number(self, key: str, default: object = ..., *, minimum: float | None = None,
                positive: bool = False) -> float:
         value = self.raw(key, default)
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(
@@ -78,7 +78,7 @@ class _Node:
             raise self.fail(key, f"expected a number >= {minimum}, got {value!r}")
         return float(value)
 
-    def vector(self, key: str, n: int, default: Any = ...) -> tuple[float, ...]:
+    def vector(self, key: str, n: int, default: object = ...) -> tuple[float, ...]:
         value = self.raw(key, default)
         if not isinstance(value, list | tuple) or len(value) != n or not all(
                 isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
@@ -86,16 +86,16 @@ class _Node:
             raise self.fail(key, f"expected a list of {n} finite numbers, got {value!r}")
         return tuple(float(v) for v in value)
 
-    def text(self, key: str, default: Any = ...) -> str:
+    def text(self, key: str, default: object = ...) -> str:
         value = self.raw(key, default)
         if not isinstance(value, str) or not value:
             raise self.fail(key, f"expected a non-empty string, got {value!r}")
         return value
 
-    def child(self, key: str, default: Any = ...) -> _Node:
+    def child(self, key: str, default: object = ...) -> _Node:
         return _Node(self.raw(key, default), self._key(key), self.source)
 
-    def items(self, key: str, default: Any = ...) -> list[_Node]:
+    def items(self, key: str, default: object = ...) -> list[_Node]:
         value = self.raw(key, default)
         if not isinstance(value, list):
             raise self.fail(key, f"expected a list, got {type(value).__name__}")
@@ -199,7 +199,7 @@ def _thruster(node: _Node, curves: dict[str, ThrustCurve]) -> Thruster:
     return t
 
 
-def _vec3(node: _Node, key: str, default: Any = ...) -> Vec3:
+def _vec3(node: _Node, key: str, default: object = ...) -> Vec3:
     v = node.vector(key, 3, default)
     return (v[0], v[1], v[2])
 
@@ -253,7 +253,7 @@ def _named(node: _Node, key: str, keys: tuple[str, ...], read: Callable[[_Node, 
     return values
 
 
-def parse_profile(data: Any, source: str = "<profile>") -> Profile:
+def parse_profile(data: object, source: str = "<profile>") -> Profile:
     """Validate a profile already parsed from YAML; raise ProfileError on any problem."""
     top = _Node(data, "", source)
     g = top.number("gravity_m_s2", 9.81, positive=True)

@@ -117,8 +117,7 @@ class Excite(Phases):
         self.precheck = Precheck({k: v for k, v in MIN_RATES_HZ.items() if k != "thrusters"},
                                  profile.procedure.max_depth_excursion_m)
         self._confirmed = confirmed
-        self._t = math.nan
-        self._t_phase = math.nan
+        self._t = self._t_data = self._t_phase = math.nan
         self._t_start = math.nan
         self._health: Health | None = None
         self._depth: float = math.nan
@@ -155,9 +154,7 @@ class Excite(Phases):
         if isinstance(event, Confirm):
             self._confirmed = True
             return self._start() if self.phase is Phase.CONFIRM else []
-        self._t = event.t_s if math.isnan(self._t) else max(self._t, event.t_s)
-        if math.isnan(self._t_phase):
-            self._t_phase = self._t
+        self._clock(event)
         if isinstance(event, Tick):
             return self._check_time()
         return self._on_sample(event) + self._check_time()
@@ -196,9 +193,9 @@ class Excite(Phases):
             return []
         if self.phase is Phase.CONNECT:
             return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t - self._t_phase < PRECHECK_WINDOW_S:
+        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
             return []
-        problems = self.precheck.problems(self._t)
+        problems = self.precheck.problems(self._t_data)
         if problems:
             self.reason = "waiting: " + "; ".join(problems)
             return []
@@ -209,8 +206,8 @@ class Excite(Phases):
 
     def _start(self) -> list[Output]:
         self._depth_ref = self._depth
-        self._t_start = self._t
-        self.guard.start(self._t, self._depth, "the start depth")
+        self._t_start = self._now_data()
+        self.guard.start(self._now_data(), self._depth, "the start depth")
         named = f" {STAGE_NOTICE}{self.stage}" if self.stage else ""
         out = self._enter(Phase.COLLECT, f"exciting{named}: open-loop inputs on axes "
                           + ", ".join("XYZKMN"[d.axis] for d in self.signal.axes))
@@ -226,7 +223,7 @@ class Excite(Phases):
         early stop (done, every sample up to here recorded)."""
         if step is None:
             return []
-        elapsed = self._t - self._t_start
+        elapsed = self._now_data() - self._t_start
         if step.stop:
             return self._finish(Phase.DONE, f"{STOP_EARLY} at {elapsed:.1f} s of "
                                 f"{self.signal.duration_s:g} s: {step.text}; the data up to "
@@ -236,7 +233,7 @@ class Excite(Phases):
     def _play(self, attitude: Attitude | None) -> list[Output]:
         """The inputs at the present time: the signal, plus the attitude hold's output on
         the held axes when ``attitude`` is a new measurement."""
-        elapsed = self._t - self._t_start
+        elapsed = self._now_data() - self._t_start
         if elapsed >= self.signal.duration_s:
             return self._finish(Phase.DONE, f"excitation complete ({elapsed:.1f} s): "
                                 + self.envelope.summary())

@@ -43,7 +43,7 @@ import sys
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 from pymavlink import DFReader
 
@@ -57,6 +57,7 @@ from trimd.drivers.mavlink.decode import (
     checked_depth,
     checked_thrusters,
 )
+from trimd.drivers.mavlink.message import MavLogReader, MavMessage
 
 __all__ = ["DataflashReader"]
 
@@ -116,13 +117,13 @@ class DataflashReader:
         self._rates: tuple[float, float, float] | None = None
         try:
             with _quiet_stderr():  # its indexer's "bad header" lines, one per byte
-                self._log: Any = DFReader.DFReader_binary(self.path, zero_time_base=False)
+                self._log: MavLogReader = DFReader.DFReader_binary(self.path, zero_time_base=False)
         except OSError as exc:
             raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
         except Exception as exc:  # DFReader raises anything on a file that is not a log
             raise DataError(f"{path}: not a DataFlash log ({exc})") from None
 
-    def records(self) -> Iterator[Any]:
+    def records(self) -> Iterator[MavMessage]:
         """Every DFReader record in file order; counts them, notes the time span and the
         damage (module docstring)."""
         while True:
@@ -161,7 +162,7 @@ class DataflashReader:
             elif not isinstance(sample, bool):
                 yield sample
 
-    def _convert(self, kind: str, msg: Any, t_s: float) -> Sample | bool | None:
+    def _convert(self, kind: str, msg: MavMessage, t_s: float) -> Sample | bool | None:
         """A sample, None for a rejected record, or True when the record carries none."""
         if kind == "ATT":
             if self._rates is None:

@@ -61,6 +61,7 @@ from trimd.core.samples import (
     Velocity,
 )
 from trimd.drivers.mavlink.ardusub import mode_class, mode_name, mode_number
+from trimd.drivers.mavlink.message import MavEncoder, MavMessage
 from trimd.drivers.mavlink.statustext import text_chunks
 
 __all__ = ["CALIBRATION_BLOCK", "PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT",
@@ -132,7 +133,7 @@ class TlogRecorder:
             self._write_block(VERIFY_BLOCK, json.dumps(verify_target), "JSON")
 
     # ---------------------------------------------------------------- writing
-    def _write(self, t_s: float, mav: Any, msg: Any) -> None:
+    def _write(self, t_s: float, mav: MavEncoder, msg: MavMessage) -> None:
         self.raw(t_s, bytes(msg.pack(mav)))
         mav.seq = (mav.seq + 1) % 256  # pack() does not advance it; send() would
 
@@ -150,7 +151,8 @@ class TlogRecorder:
             self.flush()
             self._last_flush = now
 
-    def _write_text(self, t_s: float, text: str, severity: int, mav: Any = None) -> None:
+    def _write_text(self, t_s: float, text: str, severity: int,
+                    mav: MavEncoder | None = None) -> None:
         """STATUSTEXT from trimd (or from ``mav``, e.g. the vehicle), in chunks."""
         mav = mav or self._trimd
         chunks = text_chunks(text)

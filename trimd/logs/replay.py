@@ -22,6 +22,7 @@ from trimd.core.calibration_json import posterior_from_dict
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Sample
+from trimd.drivers.mavlink.message import MavMessage
 from trimd.logs.log import is_dataflash, open_log
 from trimd.logs.recorder import (
     CALIBRATION_BLOCK,
@@ -149,7 +150,7 @@ def recorded_notices(path: str | Path) -> Iterator[str]:
         yield b"".join(parts).decode("utf-8", "replace")
 
 
-def _statustext_bytes(msg: Any) -> bytes:
+def _statustext_bytes(msg: MavMessage) -> bytes:
     """The text bytes of a MAVLink 2 STATUSTEXT as sent (pymavlink decodes each chunk on
     its own): after the 10-byte header and the severity byte, up to 50 bytes, the
     packet's zero-truncated tail restored."""

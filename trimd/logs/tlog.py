@@ -40,16 +40,19 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.errors import DataError
 from trimd.core.samples import Confirmed, Sample
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.drivers.mavlink.message import MavMessage
 from trimd.logs.recorder import SESSION_START, TRIMD_COMPONENT, TRIMD_SYSTEM, session_s
 
 __all__ = ["MAX_TIME_JUMP_US", "TlogReader", "TlogStats"]
+
+#: The bytes of a log: read into memory or mapped.
+Buffer = bytes | bytearray | memoryview | mmap.mmap
 
 #: A record's timestamp more than this away from the previous good one is corrupt.
 MAX_TIME_JUMP_US = 24 * 3600 * 1_000_000
@@ -101,7 +104,7 @@ class TlogStats:
                 + self.skipped_bytes + tail)
 
 
-def _packet_len(buf: Any, i: int, n: int) -> int:
+def _packet_len(buf: Buffer, i: int, n: int) -> int:
     """Length of the packet whose magic byte is at ``i``; −1: no magic; 0: header cut."""
     magic = buf[i]
     if magic == _V2:
@@ -119,8 +122,7 @@ class TlogReader:
     first good record.
     """
 
-    def __init__(self, data: bytes | bytearray | memoryview | mmap.mmap, name: str = "<tlog>"
-                 ) -> None:
+    def __init__(self, data: Buffer, name: str = "<tlog>") -> None:
         self._buf = data
         self.name = name
         self.stats = TlogStats(size_bytes=len(data))
@@ -138,9 +140,10 @@ class TlogReader:
             raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
         return cls(data, str(path))
 
-    def _decode(self, start: int, end: int) -> Any:
+    def _decode(self, start: int, end: int) -> MavMessage | None:
         try:
-            return self._mav.decode(bytearray(self._buf[start:end]))
+            msg: MavMessage = self._mav.decode(bytearray(self._buf[start:end]))
+            return msg
         except (mavlink2.MAVError, struct.error):
             return None
 
@@ -151,7 +154,7 @@ class TlogReader:
         return last_us is None or abs(_STAMP.unpack_from(self._buf, pos)[0] - last_us) <= (
             MAX_TIME_JUMP_US)
 
-    def messages(self) -> Iterator[tuple[int, Any]]:
+    def messages(self) -> Iterator[tuple[int, MavMessage]]:
         """``(timestamp_us, pymavlink message)`` for every good record, in file order."""
         buf, n, st = self._buf, len(self._buf), self.stats
         pos, last_us = 0, None
@@ -202,7 +205,8 @@ class TlogReader:
         if self.stats.first_bad_at is None:
             self.stats.first_bad_at = pos
 
-    def _count(self, msg: Any, buf: Any, i: int, seqs: dict[tuple[int, int], int]) -> None:
+    def _count(self, msg: MavMessage, buf: Buffer, i: int, seqs: dict[tuple[int, int], int]
+               ) -> None:
         st = self.stats
         st.messages += 1
         st.counts[msg.get_type()] += 1

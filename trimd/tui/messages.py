@@ -7,11 +7,11 @@ slow terminal coalesces them instead of falling behind (toolong's ``messages.py`
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from textual.message import Message
 
 from trimd.app.session import SessionResult
+from trimd.ballast.proposal import Proposal
 from trimd.core.events import Notice, Progress
 from trimd.core.samples import Command
 
@@ -68,5 +68,5 @@ class ProposalReady(Message):
     the error that stopped it."""
 
     method: str
-    proposal: Any
+    proposal: Proposal | None
     error: str = ""

@@ -43,7 +43,6 @@ import math
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
-from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -52,6 +51,7 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Arm, Command, HoldAttitude, OpenLoop, Release
 from trimd.drivers.mavlink.ardusub import mode_number
 from trimd.drivers.mavlink.decode import MavlinkDecoder
+from trimd.drivers.mavlink.message import MavEncoder, MavMessage
 from trimd.drivers.mavlink.rates import RateWatch
 from trimd.drivers.mavlink.requests import (
     ACCEPTED,
@@ -105,7 +105,7 @@ class Commander:
     ground stations the link has seen.
     """
 
-    def __init__(self, mav: Any, profile: Profile, decoder: MavlinkDecoder,
+    def __init__(self, mav: MavEncoder, profile: Profile, decoder: MavlinkDecoder,
                  options: MavlinkOptions, warn: Callable[[str], None],
                  stations: Stations) -> None:
         self.mav = mav
@@ -157,7 +157,7 @@ class Commander:
         self._mode_wanted = None
         self._params_due = math.inf
 
-    def on_message(self, msg: Any, now: float) -> str | None:
+    def on_message(self, msg: MavMessage, now: float) -> str | None:
         """A message from the vehicle (after the decoder has seen it); words for a
         :class:`~trimd.core.samples.PilotInput` when it shows that someone else changed
         the mode while trimd commanded (trimd has stopped commanding then)."""

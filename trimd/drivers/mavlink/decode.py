@@ -49,7 +49,7 @@ import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -66,18 +66,10 @@ from trimd.core.samples import (
     Velocity,
 )
 from trimd.drivers.mavlink.ardusub import mode_class, mode_name
+from trimd.drivers.mavlink.message import MavMessage
 
-__all__ = [
-    "LIMITS",
-    "DepthSource",
-    "MavlinkDecoder",
-    "VehicleParams",
-    "checked_attitude",
-    "checked_battery",
-    "checked_depth",
-    "checked_thrusters",
-    "motor_function",
-]
+__all__ = ["LIMITS", "DepthSource", "MavlinkDecoder", "VehicleParams", "checked_attitude",
+           "checked_battery", "checked_depth", "checked_thrusters", "motor_function"]
 
 DepthSource = Literal["vfr_hud", "global_position", "pressure"]
 
@@ -277,13 +269,14 @@ class MavlinkDecoder:
         }
 
     @classmethod
-    def for_profile(cls, profile: Profile, **options: Any) -> MavlinkDecoder:
+    def for_profile(cls, profile: Profile, *, sysid: int | None = None,
+                    depth_source: DepthSource = "vfr_hud") -> MavlinkDecoder:
         """A decoder for ``profile``'s thruster channels, water density and gravity."""
-        return cls([t.channel for t in profile.thrusters],
+        return cls([t.channel for t in profile.thrusters], sysid=sysid,
                    rho_kg_m3=profile.water_density_kg_m3, g_m_s2=profile.gravity_m_s2,
-                   **options)
+                   depth_source=depth_source)
 
-    def decode(self, msg: Any, t_s: float) -> list[Sample]:
+    def decode(self, msg: MavMessage, t_s: float) -> list[Sample]:
         """Samples carried by one pymavlink message received at ``t_s`` [s] (often none)."""
         kind = msg.get_type()
         if kind == "HEARTBEAT":
@@ -316,7 +309,7 @@ class MavlinkDecoder:
         return [] if isinstance(sample, _Skip) else [sample]
 
     # ------------------------------------------------------------------ handlers
-    def _heartbeat(self, msg: Any, t_s: float) -> list[Sample]:
+    def _heartbeat(self, msg: MavMessage, t_s: float) -> list[Sample]:
         source = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.vehicle is None:
             if (msg.autopilot == _AUTOPILOT_INVALID or msg.type == _TYPE_GCS
@@ -337,7 +330,7 @@ class MavlinkDecoder:
         return [Health(t_s, True, self.mode, self.armed, self.bad_frames,
                        vehicle=self._vehicle_name, mode_class=self.mode_class), *early]
 
-    def _statustext(self, msg: Any, t_s: float) -> list[VehicleText]:
+    def _statustext(self, msg: MavMessage, t_s: float) -> list[VehicleText]:
         # pymavlink decodes the text as ASCII; the raw bytes keep UTF-8 (e.g. "°") whole
         raw = getattr(msg, "_text_raw", None)
         chunk = raw.split(b"\0", 1)[0] if isinstance(raw, bytes) else str(msg.text).encode()
@@ -357,11 +350,11 @@ class MavlinkDecoder:
             return []
         return [VehicleText(t_s, int(msg.severity), chunk.decode("utf-8", errors="replace"))]
 
-    def _attitude(self, msg: Any, t_s: float) -> Attitude | None:
+    def _attitude(self, msg: MavMessage, t_s: float) -> Attitude | None:
         return checked_attitude(t_s, msg.roll, msg.pitch, msg.yaw, msg.rollspeed,
                                 msg.pitchspeed, msg.yawspeed)
 
-    def _servo(self, msg: Any, t_s: float) -> Thrusters | _Skip | None:
+    def _servo(self, msg: MavMessage, t_s: float) -> Thrusters | _Skip | None:
         base = 16 * int(msg.port)
         for k in range(1, 17):
             self._outputs[base + k] = int(getattr(msg, f"servo{k}_raw"))
@@ -370,30 +363,30 @@ class MavlinkDecoder:
             return _SKIP
         return checked_thrusters(t_s, (self._outputs.get(o, 0) for o in outputs))
 
-    def _vfr_hud(self, msg: Any, t_s: float) -> Depth | None:
+    def _vfr_hud(self, msg: MavMessage, t_s: float) -> Depth | None:
         return checked_depth(t_s, -float(msg.alt))
 
-    def _global_position(self, msg: Any, t_s: float) -> Depth | None:
+    def _global_position(self, msg: MavMessage, t_s: float) -> Depth | None:
         return checked_depth(t_s, -msg.relative_alt / 1000.0)
 
-    def _pressure(self, msg: Any, t_s: float) -> Depth | None:
+    def _pressure(self, msg: MavMessage, t_s: float) -> Depth | None:
         p_surface = self.surface_pressure_Pa or self.params.surface_pressure_Pa
         p = float(msg.press_abs) * 100.0  # hPa → Pa
         if p_surface is None or not _ok(p, "pressure_Pa"):
             return None
         return checked_depth(t_s, (p - p_surface) / self.rho_g)
 
-    def _odometry(self, msg: Any, t_s: float) -> Velocity | _Skip | None:
+    def _odometry(self, msg: MavMessage, t_s: float) -> Velocity | _Skip | None:
         if int(msg.child_frame_id) != _FRAME_BODY_FRD:
             return _SKIP
         u, v, w = float(msg.vx), float(msg.vy), float(msg.vz)
         return Velocity(t_s, u, v, w) if all(_ok(x, "speed_m_s") for x in (u, v, w)) else None
 
-    def _sys_status(self, msg: Any, t_s: float) -> Battery | None:
+    def _sys_status(self, msg: MavMessage, t_s: float) -> Battery | None:
         mv = int(msg.voltage_battery)
         return None if mv == _UINT16_MAX else checked_battery(t_s, mv / 1000.0)
 
-    def _battery_status(self, msg: Any, t_s: float) -> Battery | _Skip | None:
+    def _battery_status(self, msg: MavMessage, t_s: float) -> Battery | _Skip | None:
         if int(msg.id) != 0:
             return _SKIP
         cells = [v for v in msg.voltages if v != _UINT16_MAX]

@@ -64,6 +64,7 @@ from trimd.core.samples import Command, Health, PilotInput, Release, Sample
 from trimd.drivers.limits import check_command
 from trimd.drivers.mavlink.commands import Commander
 from trimd.drivers.mavlink.decode import MavlinkDecoder, VehicleParams
+from trimd.drivers.mavlink.message import MavConnection, MavMessage, speak_mavlink2
 from trimd.drivers.mavlink.outbox import Outbox
 from trimd.drivers.mavlink.stations import STATION_TIMEOUT_S, Stations
 from trimd.drivers.mavlink.url import MavlinkOptions, load_signing_key, parse_mavlink_url
@@ -112,7 +113,7 @@ def _closed_by_peer() -> None:
     raise ConnectionError("the other end closed the TCP connection")
 
 
-def _open(options: MavlinkOptions) -> Any:
+def _open(options: MavlinkOptions) -> MavConnection:
     """A pymavlink connection speaking MAVLink 2 / ardupilotmega from the first byte."""
     device = options.device
     sysid, compid = options.source
@@ -126,14 +127,10 @@ def _open(options: MavlinkOptions) -> Any:
         host, port = device[6:].rsplit(":", 1)
         _probe_udp(host, int(port))
     try:
-        conn = mavutil.mavlink_connection(device, **kwargs)
+        conn = speak_mavlink2(mavutil.mavlink_connection(device, **kwargs), sysid, compid)
     except (OSError, ValueError) as exc:
         text = getattr(exc, "strerror", None) or str(exc)
         raise LinkError(f"cannot open mavlink:{device}: {text}") from None
-    conn.mav = mavlink2.MAVLink(conn, srcSystem=sysid, srcComponent=compid)
-    conn.mav.robust_parsing = True
-    conn.WIRE_PROTOCOL_VERSION = "2.0"
-    conn.first_byte = False
     if device.startswith("tcp:"):  # pymavlink would print and spin on a closed socket
         conn.handle_eof = conn.handle_disconnect = _closed_by_peer
     if options.key_path is not None:
@@ -288,7 +285,7 @@ class MavlinkLink:
                 return
             self._handle(msg, time.monotonic())
 
-    def _handle(self, msg: Any, now: float) -> None:
+    def _handle(self, msg: MavMessage, now: float) -> None:
         kind = msg.get_type()
         if kind == "BAD_DATA":
             if "signature" in str(msg.reason):
@@ -323,7 +320,7 @@ class MavlinkLink:
         if samples or self.on_raw is not None:
             self._push((now, bytes(msg.get_msgbuf()), samples))
 
-    def _from_other(self, msg: Any, kind: str, now: float) -> str | None:
+    def _from_other(self, msg: MavMessage, kind: str, now: float) -> str | None:
         """Another system's message: a ground station's heartbeat or stick input; words
         for a PilotInput when it takes the vehicle from trimd."""
         commander, vehicle = self._commander, self._decoder.vehicle

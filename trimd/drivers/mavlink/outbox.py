@@ -25,11 +25,11 @@ from __future__ import annotations
 import math
 import queue
 from collections import deque
-from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.announce import Announcement, Severity, Text, Values
+from trimd.drivers.mavlink.message import MavEncoder
 from trimd.drivers.mavlink.statustext import ascii_text, text_chunks
 
 __all__ = ["HEARTBEAT_PERIOD_S", "MAX_WAITING", "TEXT_PERIOD_S", "VALUE_PERIOD_S", "Outbox"]
@@ -54,7 +54,7 @@ class Outbox:
     enabled : False: texts and values are dropped, only the heartbeat goes out.
     """
 
-    def __init__(self, mav: Any, *, mav_type: int, t0: float, enabled: bool = True) -> None:
+    def __init__(self, mav: MavEncoder, *, mav_type: int, t0: float, enabled: bool = True) -> None:
         self.mav = mav
         self.mav_type = mav_type
         self.t0 = t0

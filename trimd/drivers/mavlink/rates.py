@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Any
+
+from trimd.drivers.mavlink.message import MavMessage
 
 __all__ = ["GAP_MIN_S", "GAP_PERIODS", "LOW_FRACTION", "WINDOW_S", "RateWatch"]
 
@@ -49,7 +50,7 @@ class RateWatch:
         """Stop judging ``name`` (asked again: judged once that is accepted)."""
         self.asked.pop(name, None)
 
-    def note(self, msg: Any) -> None:
+    def note(self, msg: MavMessage) -> None:
         """One message from the vehicle."""
         t_boot = getattr(msg, "time_boot_ms", None)
         if t_boot is not None:

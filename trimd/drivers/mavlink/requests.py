@@ -9,11 +9,11 @@ import math
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from trimd.core.errors import LinkError
+from trimd.drivers.mavlink.message import MavEncoder, MavMessage
 
 __all__ = ["ACCEPTED", "ANSWER_S", "RETRY_S", "CommandRequests", "fail", "result_name",
            "succeed"]
@@ -59,7 +59,7 @@ class CommandRequests:
     """The outstanding COMMAND_LONGs of one pymavlink ``MAVLink`` object (``mav``), by
     command id; answers addressed to system ``own_sysid`` (or to none) count."""
 
-    def __init__(self, mav: Any, own_sysid: int) -> None:
+    def __init__(self, mav: MavEncoder, own_sysid: int) -> None:
         self.mav = mav
         self.own_sysid = own_sysid
         self._pending: dict[int, _Request] = {}
@@ -77,7 +77,7 @@ class CommandRequests:
         self._pending[command] = _Request((*params, 0, 0, 0, 0, 0, 0, 0)[:7], answered,
                                           now + ANSWER_S, done)
 
-    def ack(self, msg: Any) -> None:
+    def ack(self, msg: MavMessage) -> None:
         """A COMMAND_ACK from the vehicle: the answer of the command it names."""
         request = self._pending.get(int(msg.command))
         target = int(getattr(msg, "target_system", 0) or 0)  # MAVLink 2 extension

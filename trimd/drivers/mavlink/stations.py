@@ -15,7 +15,8 @@ configured with the same ids (QGroundControl and trimd both default to 255/190).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+
+from trimd.drivers.mavlink.message import MavMessage
 
 __all__ = ["STATION_TIMEOUT_S", "STICK_THRESHOLD", "Stations", "stick_deflection"]
 
@@ -29,7 +30,7 @@ _UNUSED = 0x7FFF            # INT16_MAX: "this axis is not used" in MANUAL_CONTR
 _Z_NEUTRAL = 500            # ArduSub: throttle z in 0..1000, 500 is neutral
 
 
-def stick_deflection(msg: Any) -> float:
+def stick_deflection(msg: MavMessage) -> float:
     """The largest deflection from neutral, as a fraction of full travel, of one
     MANUAL_CONTROL message: x, y, r in ±1000 around 0, z in 0..1000 around 500, and the
     extension axes s (pitch) and t (roll) when ``enabled_extensions`` says they are used.
@@ -66,7 +67,7 @@ class Stations:
     own: tuple[int, int]
     seen: dict[tuple[int, int], float] = field(default_factory=dict)  # → last beat [s]
 
-    def heartbeat(self, msg: Any, now: float) -> tuple[int, int] | None:
+    def heartbeat(self, msg: MavMessage, now: float) -> tuple[int, int] | None:
         """Note a HEARTBEAT received at ``now`` [s]; the sender when it is a ground station
         not seen before (or back after :data:`STATION_TIMEOUT_S`), else None."""
         if int(msg.type) != _TYPE_GCS:
@@ -93,7 +94,7 @@ class Stations:
             del self.seen[s]
         return out
 
-    def stick_input(self, msg: Any, vehicle_sysid: int) -> str | None:
+    def stick_input(self, msg: MavMessage, vehicle_sysid: int) -> str | None:
         """Words for the operator when a MANUAL_CONTROL to the vehicle deflects a stick
         beyond :data:`STICK_THRESHOLD` (someone is flying), else None."""
         if int(msg.target) not in (0, vehicle_sysid):

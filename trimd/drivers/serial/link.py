@@ -37,7 +37,6 @@ import threading
 import time
 from collections import deque
 from collections.abc import AsyncIterator
-from typing import Any
 
 import numpy as np
 import serial
@@ -138,7 +137,7 @@ class SerialLink:
     unmapped : THR sentences that did not drive every thruster of the profile (dropped).
     """
 
-    def __init__(self, port: Any, profile: Profile, *, description: str,
+    def __init__(self, port: serial.Serial, profile: Profile, *, description: str,
                  timeout_s: float = TIMEOUT_S,
                  control_period_s: float = CONTROL_PERIOD_S) -> None:
         self.channels = tuple(t.channel for t in profile.thrusters)

@@ -284,7 +284,7 @@ def with_presets(base: SimConfig | None = None, **presets: str) -> SimConfig:
     return dataclasses.replace(base or SimConfig(), **values)
 
 
-def _convert(key: str, value: str) -> Any:
+def _convert(key: str, value: str) -> bool | int | float | str:
     kind = _FIELDS[key].type
     try:
         if kind == "bool":

@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Sequence
-from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -44,6 +43,7 @@ from trimd.core.errors import LinkError
 from trimd.core.samples import Attitude, Depth
 from trimd.drivers.mavlink.ardusub import mode_name, mode_number
 from trimd.drivers.mavlink.decode import motor_function
+from trimd.drivers.mavlink.message import MavConnection, MavMessage, speak_mavlink2
 from trimd.drivers.sim.controller import MODES
 from trimd.drivers.sim.dynamics import euler_from_quaternion
 from trimd.drivers.sim.pacing import run_paced
@@ -68,7 +68,7 @@ _THROTTLE_IGNORE = 64
 _TRANSPORTS = ("udpin:", "udpout:", "tcpin:", "tcp:")
 
 
-def open_mavlink2(device: str, sysid: int, compid: int) -> Any:
+def open_mavlink2(device: str, sysid: int, compid: int) -> MavConnection:
     """A pymavlink connection that speaks MAVLink 2 with the ardupilotmega dialect from
     the first byte (pinned here, not through the MAVLINK20 environment variable).
 
@@ -78,19 +78,15 @@ def open_mavlink2(device: str, sysid: int, compid: int) -> Any:
     if not device.startswith(_TRANSPORTS):
         raise LinkError(f"cannot serve MAVLink on '{device}': use udpout:HOST:PORT, "
                         "udpin:HOST:PORT, tcpin:HOST:PORT or tcp:HOST:PORT")
-    conn = mavutil.mavlink_connection(device, source_system=sysid, source_component=compid,
-                                      dialect="ardupilotmega")
-    conn.mav = mavlink2.MAVLink(conn, srcSystem=sysid, srcComponent=compid)
-    conn.mav.robust_parsing = True
-    conn.WIRE_PROTOCOL_VERSION = "2.0"
-    conn.first_byte = False
-    return conn
+    return speak_mavlink2(mavutil.mavlink_connection(
+        device, source_system=sysid, source_component=compid, dialect="ardupilotmega"),
+        sysid, compid)
 
 
 class _Fanout:
     """The vehicle's output: every packet to every endpoint (pymavlink's ``file``)."""
 
-    def __init__(self, conns: list[Any]) -> None:
+    def __init__(self, conns: list[MavConnection]) -> None:
         self.conns = conns
 
     def write(self, buf: bytes) -> None:
@@ -115,7 +111,7 @@ class MavlinkServer:
             raise ValueError(f"rate must be positive, got {rate}")
         self.vehicle = vehicle
         self.rate = rate
-        self.conns: list[Any] = []
+        self.conns: list[MavConnection] = []
         try:
             for device in [devices] if isinstance(devices, str) else devices:
                 self.conns.append(open_mavlink2(device, 1, 1))
@@ -189,7 +185,7 @@ class MavlinkServer:
                 self._due[name] = due + interval if due + interval > t else t + interval
 
     # ------------------------------------------------------------------ incoming
-    def handle(self, msg: Any) -> None:
+    def handle(self, msg: MavMessage) -> None:
         """Act on one received message (ArduSub's behaviour, module docstring)."""
         kind = msg.get_type()
         if kind == "COMMAND_LONG":
@@ -223,7 +219,7 @@ class MavlinkServer:
             for name in self._params:
                 self._param_value(name)
 
-    def _command(self, msg: Any) -> None:
+    def _command(self, msg: MavMessage) -> None:
         c = mavlink2
         result = c.MAV_RESULT_ACCEPTED
         if msg.command == c.MAV_CMD_COMPONENT_ARM_DISARM:
