@@ -67,7 +67,7 @@ def test_a_new_file_has_the_schema_in_wal_mode(tmp_path: Path) -> None:
     path = tmp_path / "sub" / "trimd.db"
     History(path).close()
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
     assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"trims", "watch_segments", "alerts", "installs", "installed_pieces",
@@ -158,7 +158,7 @@ def test_a_version_2_file_migrates_and_takes_corrections(tmp_path: Path) -> None
         (verify, ESTIMATE, {"method": "milp"})]
     assert verify == 2  # the file's second verify hold
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
     assert conn.execute("PRAGMA foreign_key_check").fetchall() == []
 
 

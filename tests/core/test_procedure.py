@@ -92,7 +92,7 @@ def test_holds_carry_each_thrusters_thrust(sabertooth: Profile,
     uncertainty); it is the thrust that makes the hold's τ."""
     proc = Procedure(sabertooth, confirmed=True)
     run(proc, thesis_vehicle, 1000.0)
-    holds = proc._hold_samples()
+    holds = proc.hold_samples()
     T = thrust_configuration(sabertooth.thrusters)
     assert len(holds) == 2
     for h in holds:

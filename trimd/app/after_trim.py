@@ -23,6 +23,7 @@ from typing import Any
 from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
 from trimd.app.history import History
+from trimd.app.history.calibration import record_level_hold
 from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
 from trimd.app.session import Presenter, Recorder, Session, SessionResult
@@ -63,15 +64,21 @@ class AfterTrim:
     def store(self, result: SessionResult, correction: Correction | None = None
               ) -> str | None:
         """Store a session's estimate and proposal, or its verification (with its
-        ``correction``), in the history; a line for people, None when nothing was stored
+        ``correction``), in the history, with its level hold and, after a recorded ballast
+        change, the calibration experiment it makes (:mod:`trimd.app.history.calibration`);
+        a line for people (with the experiment's outcome), None when nothing was stored
         (no history, or a session that produced neither). DataError when the file cannot
-        take it."""
+        take it, ProfileError when its installed ballast is not the profile's."""
         if self.db is None or (result.estimate is None and result.verification is None):
             return None
+        installed, _ = current_installed(self.db, self.vehicle, self.profile)
         with History(self.db) as history:
-            record_result(history, self.vehicle, self.profile.name, result,
-                          correction=correction)
-        return f"trim history: stored for vehicle {self.vehicle} in {history.path}"
+            record = record_result(history, self.vehicle, self.profile.name, result,
+                                   correction=correction)
+            outcome = None if record is None else record_level_hold(
+                history, self.vehicle, self.profile, result, record, installed)
+        stored = f"trim history: stored for vehicle {self.vehicle} in {history.path}"
+        return stored if outcome is None else f"{stored}; {outcome.message}"
 
     def correct(self, v: Verification, target: dict[str, Any]) -> Correction | None:
         """The correction after the verify hold ``v`` of ``target``, from the ballast

@@ -19,13 +19,25 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
-from trimd.logs.replay import ReplayLink, recorded_profile_yaml, recorded_verify_target
+from trimd.logs.replay import (
+    ReplayLink,
+    recorded_profile_yaml,
+    recorded_verify_target,
+    with_recorded_thrust_map,
+)
 
 __all__ = ["replay_profile", "replay_session", "replay_session_of"]
 
 
 def replay_profile(path: str, name: str | None) -> tuple[Profile, bool]:
-    """The profile to use and whether the log is a trimd recording."""
+    """The profile to use and whether the log is a trimd recording; a recording's thrust
+    map calibration with it (what the live session used, docs/method.md §7)."""
+    profile, recording = _profile(path, name)
+    return (with_recorded_thrust_map(path, profile) if recording else profile), recording
+
+
+def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
+    """The profile (recorded, or ``name``) and whether the log is a trimd recording."""
     try:
         text = recorded_profile_yaml(path)
     except DataError as exc:  # a trimd recording whose profile block is damaged

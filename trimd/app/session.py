@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from trimd.core.errors import LinkError
-from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate import HoldSamples, StaticEstimate, is_level
 from trimd.core.events import (
     Abort,
     Cause,
@@ -117,7 +117,9 @@ class Machine(Protocol):
 @dataclass(frozen=True)
 class SessionResult:
     """How the session ended (``cause`` as :attr:`Procedure.cause`), its estimate and
-    proposal (when done), the log path, and a verify hold's verification."""
+    proposal (when done), the log path, a verify hold's verification, and the samples of
+    its first hold when that was level (a calibration experiment's half:
+    :mod:`trimd.app.history.calibration`)."""
 
     phase: Phase
     reason: str
@@ -126,6 +128,7 @@ class SessionResult:
     proposal: object | None
     log_path: str | None
     verification: object | None = None
+    level_hold: HoldSamples | None = None
 
 
 class Session:
@@ -185,9 +188,11 @@ class Session:
             if self.recorder is not None:
                 self.recorder.close()
         p = self.procedure
+        holds = p.hold_samples()[:1] if isinstance(p, Procedure) else []
         return SessionResult(p.phase, p.reason, p.cause, p.estimate, p.proposal,
                              self.recorder.path if self.recorder else None,
-                             p.verification)
+                             p.verification,
+                             holds[0] if holds and is_level(holds[0]) else None)
 
     async def _loop(self) -> None:
         samples: AsyncIterator[Sample] = self.link.samples()

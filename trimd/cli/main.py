@@ -21,6 +21,7 @@ from trimd import __version__
 from trimd.app.jsonlines import error_line, print_json
 from trimd.cli import (
     ballast,
+    calibrate,
     history,
     identify,
     inspect,
@@ -36,7 +37,8 @@ from trimd.core.errors import LinkError, NoResultError, TrimdError, UsageError
 __all__ = ["main"]
 
 #: Modules that provide sub-commands, in the order ``trimd --help`` lists them.
-COMMANDS = (run, watch, serve, replay, solve, ballast, history, sim, inspect, identify)
+COMMANDS = (run, watch, serve, replay, solve, ballast, calibrate, history, sim, inspect,
+            identify)
 
 
 class _Parser(argparse.ArgumentParser):

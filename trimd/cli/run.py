@@ -25,6 +25,7 @@ from trimd.app.files import (
 )
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.calibration import calibrated_profile
 from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
@@ -192,8 +193,10 @@ def _after_trim(args: argparse.Namespace, profile: Profile) -> AfterTrim:
 def _start(args: argparse.Namespace, *, truth: bool) -> int:
     profile = load_profile(args.profile)
     if not args.no_history:  # proposals (here and in the TUI) start from what is installed
-        installed, _ = current_installed(db_path(args), vehicle_of(args, profile.name), profile)
-        profile = dataclasses.replace(profile, installed=installed)
+        vehicle = vehicle_of(args, profile.name)
+        installed, _ = current_installed(db_path(args), vehicle, profile)
+        profile = calibrated_profile(db_path(args), vehicle,
+                                     dataclasses.replace(profile, installed=installed))
     tui = wants_tui(args)
     if not tui and not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "

@@ -23,6 +23,7 @@ from aiohttp import web
 from trimd.app.files import data_dir
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.calibration import calibrated_profile
 from trimd.app.serve import DEFAULT_PORT, Clock, Service
 from trimd.app.web import make_app
 from trimd.cli.argtypes import Subcommands, bounded, integer
@@ -89,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     data = Path(args.data) if args.data else data_dir()
     args.db = str(data / "trimd.db")  # where --baseline last reads
     vehicle = vehicle_of(args, profile.name)
+    profile = calibrated_profile(args.db, vehicle, profile)  # docs/method.md §7
 
     def watch(clock: Clock) -> TrimWatch:
         return new_watch(args, profile, clock)

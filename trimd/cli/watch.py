@@ -26,6 +26,7 @@ from pathlib import Path
 from trimd.app.connect import open_link, parse_link_url
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.calibration import calibrated_profile
 from trimd.app.jsonlines import print_json
 from trimd.app.watch import (
     Record,
@@ -169,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("give either --link URL (live) or LOG files (post-dive)",
                          "trimd watch")
     profile = load_profile(args.profile)
+    if not args.no_history:  # the vehicle's thrust-map calibration (docs/method.md §7)
+        profile = calibrated_profile(db_path(args), vehicle_of(args, profile.name), profile)
     store = _Store(args, profile)
     try:
         if args.link:

@@ -67,6 +67,7 @@ from trimd.core.systematics import (
     attitude_error_factors,
     band_notes,
     drift_moments,
+    thrust_map_bias,
     thrust_map_factors,
 )
 from trimd.core.types import FloatArray
@@ -274,6 +275,8 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
     # whose noise is nil but whose thrust is uncertain is not exact
     gains = thrust_map_factors(holds, used, profile)
+    if profile.thrust_map is not None:  # the calibration's mean correction of the map
+        tau = [t + b for t, b in zip(tau, thrust_map_bias(holds, used, profile), strict=True)]
     scale = _group_scales(holds, used)
     q = _weighted_fit(A, tau, scale)
     for _ in range(2):

@@ -291,7 +291,7 @@ class Procedure(Phases):
         """After the planned holds: when the dead band keeps the trim undecided, weigh a
         mirrored hold (:func:`trimd.core.design.plan_extra_hold`), add it when it is
         predicted to decide, and say what was chosen and why."""
-        holds = self._hold_samples()
+        holds = self.hold_samples()
         last = self._holds[-1]
         try:
             plan = plan_extra_hold(holds, estimate_static(holds, self.profile), self.profile,
@@ -313,7 +313,7 @@ class Procedure(Phases):
             hold = self._holds[-1]
             return self.rule.hold_decided(hold.samples(""), hold.phi, hold.theta)
         try:
-            est = estimate_static(self._hold_samples(), self.profile)
+            est = estimate_static(self.hold_samples(), self.profile)
         except EstimationError:
             return False
         return self.rule.estimate_decided(est)
@@ -322,7 +322,7 @@ class Procedure(Phases):
         if self.verify:
             return self._verify(self.verify)
         try:
-            self.estimate = estimate_static(self._hold_samples(), self.profile)
+            self.estimate = estimate_static(self.hold_samples(), self.profile)
         except EstimationError as exc:
             return self._finish(Phase.FAILED, f"cannot solve: {exc}", cause=Cause.ESTIMATION)
         self.proposal = self.propose(self.estimate) if self.propose else None
@@ -333,7 +333,7 @@ class Procedure(Phases):
 
     def _verify(self, verify: Callable[[HoldSamples], object]) -> list[Output]:
         try:
-            self.verification = verify(self._hold_samples()[0])
+            self.verification = verify(self.hold_samples()[0])
         except EstimationError as exc:
             return self._finish(Phase.FAILED, f"cannot verify: {exc}", cause=Cause.ESTIMATION)
         out = self._finish(Phase.DONE, VERIFY_DONE)
@@ -341,7 +341,9 @@ class Procedure(Phases):
         return out
 
     # ---------------------------------------------------------------- helpers
-    def _hold_samples(self) -> list[HoldSamples]:
+    def hold_samples(self) -> list[HoldSamples]:
+        """The steady samples of each hold so far ("hold 1", …; a calibration experiment
+        takes the level one, :mod:`trimd.core.calibration`)."""
         return [h.samples(f"hold {k + 1}") for k, h in enumerate(self._holds) if h.t]
 
     def _check_time(self) -> list[Output]:

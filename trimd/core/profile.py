@@ -12,12 +12,16 @@ from __future__ import annotations
 import difflib
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from trimd.core.errors import ProfileError
 from trimd.core.types import Vec3
 
+if TYPE_CHECKING:
+    from trimd.core.calibration import ThrustMapPosterior
+
 __all__ = [
+    "PIECE_UNCERTAINTY_PCT",
     "BallastPiece",
     "BallastSlot",
     "HoldSetpoint",
@@ -30,6 +34,8 @@ __all__ = [
 ]
 
 Vec6 = tuple[float, float, float, float, float, float]
+#: Default 1σ [%] of a ballast piece's net force in water, by kind.
+PIECE_UNCERTAINTY_PCT = {"weight": 1.0, "float": 5.0}
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,6 +101,10 @@ class BallastPiece:
     """A kind of ballast piece in the inventory (a lead block, a foam block).
 
     Its net downward force in water is ``mass_kg·g − rho·g·volume_m3`` (negative: lift).
+    ``uncertainty_pct`` is the relative standard deviation [%] of that net force, shared
+    by every piece of the kind (a calibration experiment rests on it): by default
+    :data:`PIECE_UNCERTAINTY_PCT` of its kind (lead is weighed to ≈ 1 %, foam's lift
+    depends on its volume and water uptake).
     """
 
     name: str
@@ -102,6 +112,17 @@ class BallastPiece:
     mass_kg: float
     volume_m3: float
     count: int
+    uncertainty_pct: float | None = None
+
+    def net_down_N(self, water_density_kg_m3: float, gravity_m_s2: float) -> float:
+        """Net downward force of one piece in water [N] (negative: lift)."""
+        return (self.mass_kg - water_density_kg_m3 * self.volume_m3) * gravity_m_s2
+
+    @property
+    def net_uncertainty_pct(self) -> float:
+        """``uncertainty_pct``, or the default of the piece's kind [%]."""
+        return (PIECE_UNCERTAINTY_PCT[self.kind] if self.uncertainty_pct is None
+                else self.uncertainty_pct)
 
     def capacity_kg(self, water_density_kg_m3: float) -> float:
         """What one piece uses of a slot: its mass [kg] for a weight, its lift [kgf] for a
@@ -153,7 +174,10 @@ class Profile:
     profile declares already mounted (``ballast.installed``).
     ``attitude_error_deg``: 1σ of the attitude reference's slow error in roll and pitch
     [deg] (an AHRS at rest wanders by ≈ 0.1° over tens of seconds): constant over one hold,
-    so collecting does not average it out."""
+    so collecting does not average it out.
+    ``thrust_map``: what the vehicle's calibration experiments taught about its thrust map
+    (:mod:`trimd.core.calibration`, from the trim history, never from the YAML); None: the
+    profile's curves with their stated uncertainty."""
 
     name: str
     source: str
@@ -178,6 +202,7 @@ class Profile:
     holds_station: bool = False
     attitude_error_deg: float = 0.1
     installed: tuple[InstalledPiece, ...] = ()
+    thrust_map: ThrustMapPosterior | None = None
 
     @property
     def weight_N(self) -> float:

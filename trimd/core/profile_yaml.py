@@ -214,7 +214,9 @@ def _piece(node: _Node, rho: float, g: float) -> BallastPiece:
     if count != int(count):
         raise node.fail("count", f"expected a whole number, got {count}")
     piece = BallastPiece(node.text("name"), kind, node.number("mass_kg", minimum=0.0),
-                         node.number("volume_m3", minimum=0.0), int(count))
+                         node.number("volume_m3", minimum=0.0), int(count),
+                         node.number("uncertainty_pct", minimum=0.0)
+                         if node.has("uncertainty_pct") else None)
     net = piece.mass_kg * g - rho * g * piece.volume_m3
     if (kind == "weight") != (net > 0):
         raise node.fail("volume_m3", f"a {kind} must {'sink' if kind == 'weight' else 'float'}"

@@ -43,7 +43,12 @@ from trimd.core.estimate import (
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
-from trimd.core.systematics import attitude_error_factors, drift_moments, thrust_map_factors
+from trimd.core.systematics import (
+    attitude_error_factors,
+    drift_moments,
+    thrust_map_bias,
+    thrust_map_factors,
+)
 from trimd.core.types import FloatArray
 
 __all__ = ["Q_NAMES", "SegmentEstimate", "estimate_segment", "nominal_q"]
@@ -141,6 +146,8 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     B_o = A @ V_o
     tau = h.tau[:, used].mean(axis=0)
     factors = thrust_map_factors([h], [used], profile)[0]
+    if profile.thrust_map is not None:  # the calibration's mean correction of the map
+        tau = tau + thrust_map_bias([h], [used], profile)[0]
     q = prior.copy()
     weights = np.ones(int(used.sum()))
     for _ in range(3):

@@ -32,12 +32,49 @@ if TYPE_CHECKING:
     from trimd.core.estimate import HoldSamples
 
 __all__ = ["BAND_SIGMA_SHARE", "attitude_error_factors", "band_notes", "drift_moments",
-           "thrust_map_factors", "thrust_map_std"]
+           "exposure_factors", "thrust_exposure", "thrust_map_bias", "thrust_map_factors",
+           "thrust_map_std"]
 
 _TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")
 #: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
 #: offset anywhere within ± the margin (uniform: 1/√3).
 BAND_SIGMA_SHARE = 1 / math.sqrt(3)
+
+
+def thrust_exposure(hold: HoldSamples, profile: Profile) -> FloatArray:
+    """What of the thrust map's systematic errors a hold is exposed to, shape (4·n,): each
+    thruster's mean forward thrust f̄⁺ [N], its mean reverse thrust f̄⁻ [N], then the mean
+    sensitivity of its thrust to its dead band's negative and positive edge offset, per 1σ
+    of the offset (:func:`trimd.core.model.band_offset_sensitivity` ×
+    :data:`BAND_SIGMA_SHARE`) [N]. Zero for a hold without per-thruster thrust."""
+    n = len(profile.thrusters)
+    if hold.thrust is None:
+        return np.zeros(4 * n)
+    f = np.asarray(hold.thrust, float)
+    if f.shape != (len(hold.phi), n) or not np.all(np.isfinite(f)):
+        raise EstimationError(
+            f"hold {hold.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
+            f"one row per sample and one column per thruster: ({len(hold.phi)}, "
+            f"{n}) expected)")
+    forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
+    negative, positive = band_offset_sensitivity(profile, f).mean(axis=1) * BAND_SIGMA_SHARE
+    exposure: FloatArray = np.concatenate([forward, reverse, negative, positive])
+    return exposure
+
+
+def exposure_factors(exposure: FloatArray, rows: NDArray[np.bool_], profile: Profile
+                     ) -> FloatArray:
+    """How a hold's mean τ on ``rows`` moves with 1σ of each systematic error of the
+    *profile's* thrust map (its prior: the curves' ``uncertainty_pct``, the dead-band
+    margins), shape (rows, 4·n) [N, N·m]: T_rows·diag(exposure·[σ_gain, σ_gain, 1, 1]),
+    ``exposure`` from :func:`thrust_exposure`."""
+    T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
+    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    forward, reverse, negative, positive = np.split(exposure, 4)
+    factors: FloatArray = np.concatenate([T[rows] * (forward * sigma),
+                                          T[rows] * (reverse * sigma),
+                                          T[rows] * negative, T[rows] * positive], axis=1)
+    return factors
 
 
 def thrust_map_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
@@ -48,26 +85,29 @@ def thrust_map_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.b
     offset of its dead band's (its ESC's) negative edge, then its positive edge
     (T_rows·diag(s̄±)·:data:`BAND_SIGMA_SHARE`, s̄ the hold's mean
     :func:`trimd.core.model.band_offset_sensitivity`). The same column is the same error
-    in every hold. Zero for a hold without per-thruster thrust."""
+    in every hold. Zero for a hold without per-thruster thrust.
+
+    With a calibration (the profile's ``thrust_map``, :mod:`trimd.core.calibration`) the
+    errors left are the posterior's: the factors are the prior's times the posterior
+    covariance's lower Cholesky factor L (in units of the prior σ), F·L, so that F·L·Lᵀ·Fᵀ
+    is the covariance the calibration supports; its mean is :func:`thrust_map_bias`."""
     n = len(profile.thrusters)
-    T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
-    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
-    out = []
-    for h, r in zip(holds, used, strict=True):
-        if h.thrust is None:
-            out.append(np.zeros((int(r.sum()), 4 * n)))
-            continue
-        f = np.asarray(h.thrust, float)
-        if f.shape != (len(h.phi), n) or not np.all(np.isfinite(f)):
-            raise EstimationError(
-                f"hold {h.label!r}: per-thruster thrust of shape {f.shape} (finite values, "
-                f"one row per sample and one column per thruster: ({len(h.phi)}, "
-                f"{n}) expected)")
-        forward, reverse = np.maximum(f, 0).mean(axis=0), np.minimum(f, 0).mean(axis=0)
-        negative, positive = band_offset_sensitivity(profile, f).mean(axis=1) * BAND_SIGMA_SHARE
-        out.append(np.concatenate([T[r] * (forward * sigma), T[r] * (reverse * sigma),
-                                   T[r] * negative, T[r] * positive], axis=1))
-    return out
+    raw = [exposure_factors(thrust_exposure(h, profile), r, profile) if h.thrust is not None
+           else np.zeros((int(r.sum()), 4 * n)) for h, r in zip(holds, used, strict=True)]
+    if profile.thrust_map is None:
+        return raw
+    return [F @ profile.thrust_map.sqrt_cov for F in raw]
+
+
+def thrust_map_bias(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
+                    profile: Profile) -> list[FloatArray]:
+    """Per hold, what the calibration (the profile's ``thrust_map``) adds to its mean τ on
+    the rows used [N, N·m]: F·μ, F the prior factors and μ the posterior mean of the
+    errors in prior σ (the true thrust is the profile map's plus this). Zero without one."""
+    if profile.thrust_map is None:
+        return [np.zeros(int(r.sum())) for r in used]
+    return [exposure_factors(thrust_exposure(h, profile), r, profile) @ profile.thrust_map.mean
+            for h, r in zip(holds, used, strict=True)]
 
 
 def thrust_map_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile

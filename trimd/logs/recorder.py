@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from trimd.core.calibration_json import posterior_to_dict
 from trimd.core.events import Notice
 from trimd.core.model import quaternion_from_euler
 from trimd.core.profile import Profile
@@ -63,14 +64,16 @@ from trimd.drivers.mavlink.ardusub import mode_class, mode_name, mode_number
 from trimd.drivers.mavlink.message import MavEncoder, MavMessage
 from trimd.drivers.mavlink.statustext import text_chunks
 
-__all__ = ["PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK",
-           "TlogRecorder", "session_s", "session_us"]
+__all__ = ["CALIBRATION_BLOCK", "PILOT_TEXT", "PROFILE_BLOCK", "TRIMD_COMPONENT",
+           "TRIMD_SYSTEM", "VERIFY_BLOCK", "TlogRecorder", "session_s", "session_us"]
 
 TRIMD_SYSTEM, TRIMD_COMPONENT = 255, 190
 VEHICLE_SYSTEM, VEHICLE_COMPONENT = 1, 1
 SESSION_START = "trimd session start"
-#: How the STATUSTEXT before each block of ENCAPSULATED_DATA begins.
+#: How the STATUSTEXT before each block of ENCAPSULATED_DATA begins (the thrust map's
+#: calibration: the profile's ``thrust_map``, :mod:`trimd.core.calibration`).
 PROFILE_BLOCK, VERIFY_BLOCK = "trimd profile ", "trimd verify target"
+CALIBRATION_BLOCK = "trimd thrust map calibration"
 #: A :class:`PilotInput` is recorded as the vehicle's STATUSTEXT (warning) with this
 #: prefix before its source; :class:`trimd.logs.log.TlogLog` reads it back as one.
 PILOT_TEXT = "pilot took over: "
@@ -108,7 +111,9 @@ def session_s(offset_us: int) -> float:
 
 class TlogRecorder:
     """Record one session to ``path`` (parent directories are created); ``verify_target``:
-    the session is a verify hold of that target (:mod:`trimd.app.verify`)."""
+    the session is a verify hold of that target (:mod:`trimd.app.verify`). A profile
+    with a calibrated thrust map has it recorded too, so that a replay estimates as the
+    live session did."""
 
     def __init__(self, path: str | Path, profile: Profile, profile_yaml: str, *,
                  verify_target: dict[str, Any] | None = None) -> None:
@@ -126,6 +131,9 @@ class TlogRecorder:
         self._text_id = 0
         self._write_text(0.0, SESSION_START, 6)
         self._write_block(f"{PROFILE_BLOCK}{profile.name}", profile_yaml, "YAML")
+        if profile.thrust_map is not None:
+            self._write_block(CALIBRATION_BLOCK,
+                              json.dumps(posterior_to_dict(profile.thrust_map)), "JSON")
         if verify_target is not None:
             self._write_block(VERIFY_BLOCK, json.dumps(verify_target), "JSON")
 

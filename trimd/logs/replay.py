@@ -14,15 +14,18 @@ import json
 import time
 import zlib
 from collections.abc import AsyncIterator, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from trimd.core.calibration_json import posterior_from_dict
 from trimd.core.errors import DataError
 from trimd.core.profile import Profile
 from trimd.core.samples import Command, Sample
 from trimd.drivers.mavlink.message import MavMessage
 from trimd.logs.log import is_dataflash, open_log
 from trimd.logs.recorder import (
+    CALIBRATION_BLOCK,
     PROFILE_BLOCK,
     SESSION_START,
     TRIMD_COMPONENT,
@@ -32,12 +35,16 @@ from trimd.logs.recorder import (
 from trimd.logs.tlog import TlogReader
 
 __all__ = ["ReplayLink", "recorded_notices", "recorded_profile_yaml", "recorded_trimd_texts",
-           "recorded_verify_target"]
+           "recorded_verify_target", "with_recorded_thrust_map"]
+
+
+_BLOCKS = (PROFILE_BLOCK, VERIFY_BLOCK, CALIBRATION_BLOCK)
 
 
 def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
     """The ENCAPSULATED_DATA blocks at the start of a trimd recording, by the start of the
-    STATUSTEXT naming each (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`); empty for other
+    STATUSTEXT naming each (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`,
+    :data:`CALIBRATION_BLOCK`); empty for other
     logs. Any other trimd message after a block ends them."""
     blocks: dict[str, list[bytes]] = {}
     current: str | None = None
@@ -49,8 +56,8 @@ def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
         if kind == "STATUSTEXT" and msg.text == SESSION_START:
             trimd = True
         elif kind == "STATUSTEXT" and trimd and getattr(msg, "chunk_seq", 0) == 0 and any(
-                msg.text.startswith(name) for name in (PROFILE_BLOCK, VERIFY_BLOCK)):
-            current = next(n for n in (PROFILE_BLOCK, VERIFY_BLOCK) if msg.text.startswith(n))
+                msg.text.startswith(name) for name in _BLOCKS):
+            current = next(n for n in _BLOCKS if msg.text.startswith(n))
             blocks[current] = []
         elif kind == "ENCAPSULATED_DATA" and current is not None:
             blocks[current].append(bytes(msg.data))
@@ -80,22 +87,38 @@ def recorded_profile_yaml(path: str | Path) -> str | None:
     return None if chunks is None else _gunzip(chunks, path, "profile")
 
 
+def _recorded_json(path: str | Path, block: str, what: str) -> dict[str, Any] | None:
+    """The JSON object of a recording's ``block`` (``what`` it is, for people); None when
+    the recording has no such block, and for other logs."""
+    if is_dataflash(path):
+        return None
+    chunks = _recorded_blocks(path).get(block)
+    if chunks is None:
+        return None
+    try:
+        value = json.loads(_gunzip(chunks, path, what))
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: the recorded {what} is damaged ({exc})") from None
+    if not isinstance(value, dict):
+        raise DataError(f"{path}: the recorded {what} is not a JSON object")
+    return value
+
+
 def recorded_verify_target(path: str | Path) -> dict[str, Any] | None:
     """The verify target a verify hold's recording carries (:mod:`trimd.app.verify`); None
     for a trim's recording (and for a verify hold recorded before trimd wrote it) and
     other logs."""
-    if is_dataflash(path):
-        return None
-    chunks = _recorded_blocks(path).get(VERIFY_BLOCK)
-    if chunks is None:
-        return None
-    try:
-        target = json.loads(_gunzip(chunks, path, "verify target"))
-    except json.JSONDecodeError as exc:
-        raise DataError(f"{path}: the recorded verify target is damaged ({exc})") from None
-    if not isinstance(target, dict):
-        raise DataError(f"{path}: the recorded verify target is not a JSON object")
-    return target
+    return _recorded_json(path, VERIFY_BLOCK, "verify target")
+
+
+def with_recorded_thrust_map(path: str | Path, profile: Profile) -> Profile:
+    """``profile`` with the thrust map's calibration the recording carries (the live
+    session's, :mod:`trimd.core.calibration`); ``profile`` itself when it carries none."""
+    d = _recorded_json(path, CALIBRATION_BLOCK, "thrust map calibration")
+    if d is None:
+        return profile
+    return replace(profile, thrust_map=posterior_from_dict(
+        d, f"{path} (recorded thrust map calibration)"))
 
 
 def recorded_trimd_texts(path: str | Path) -> Iterator[str]:

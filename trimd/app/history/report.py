@@ -1,6 +1,7 @@
-"""``trimd history``'s text and JSON: a vehicle's trims, installed ballast, watch alerts and
-verify holds with their corrections. Times are UTC; lengths in millimetres; ± is one
-standard deviation."""
+"""``trimd history``'s text and JSON: a vehicle's trims, installed ballast, watch alerts,
+verify holds with their corrections, and the thrust map's calibration (each experiment,
+and the gains as the latest one left them, :mod:`trimd.app.history.calibration`). Times
+are UTC; lengths in millimetres; ± is one standard deviation."""
 
 from __future__ import annotations
 
@@ -70,6 +71,34 @@ def _event_text(r: EventRecord) -> str:
     return f"  {utc_text(r.t_unix)}  {body}"
 
 
+def _calibration_dict(history: History, vehicle: str) -> dict[str, Any]:
+    """The vehicle's calibration experiments and the gains the latest one left, those the
+    data determine."""
+    records = history.experiments(vehicle)
+    latest = records[-1].values.get("calibration", {}) if records else {}
+    return {"learnt": int(latest.get("experiments", 0)),
+            "rejected": sum(1 for r in records if not r.values.get("accepted")),
+            "gains": [g for g in latest.get("gains", []) if g.get("determined")],
+            "experiments": [{"id": r.id, **{k: x for k, x in _event_dict(r).items()
+                                            if k not in ("experiment", "calibration")}}
+                            for r in records]}
+
+
+def _calibration_lines(history: History, vehicle: str) -> list[str]:
+    c = _calibration_dict(history, vehicle)
+    if not c["experiments"]:
+        return ["thrust map calibration: no experiment"]
+    lines = [f"thrust map calibration: {c['learnt']} experiment(s) learnt, {c['rejected']} "
+             "rejected; the gains the data determine (true thrust = (1 + gain)·curve):"]
+    lines += [f"  {g['thruster']} {g['direction']}: {g['mean_pct']:+.1f} ± "
+              f"{g['std_pct']:.1f} % (prior ± {g['prior_std_pct']:.1f} %)" for g in c["gains"]]
+    if not c["gains"]:
+        lines.append("  none yet narrowed below 90 % of its prior σ")
+    lines += [f"  {e['time_utc']}  {e['message']}" for e in c["experiments"]
+              if not e["accepted"]]
+    return lines
+
+
 def format_history(history: History, vehicles: list[str]) -> str:
     """The records of ``vehicles``, oldest first, each kind under its heading."""
     blocks = []
@@ -90,6 +119,7 @@ def format_history(history: History, vehicles: list[str]) -> str:
             lines.append(_event_text(r))
             if r.id in corrections:
                 lines.append(_correction_text(corrections[r.id]))
+        lines += _calibration_lines(history, v)
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
 
@@ -116,4 +146,5 @@ def history_to_dict(history: History, vehicles: list[str]) -> dict[str, Any]:
         "corrections": [{"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix),
                          "verify_id": r.verify_id, "estimate": r.estimate,
                          "proposal": r.proposal} for r in history.corrections(v)],
+        "calibration": _calibration_dict(history, v),
     } for v in vehicles]}

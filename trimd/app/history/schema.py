@@ -12,7 +12,14 @@ Times are seconds since the Unix epoch (UTC) [s]; JSON columns hold the shapes o
 :func:`trimd.core.estimate_json.estimate_to_dict` and
 :func:`trimd.ballast.propose.proposal_to_dict`, or a caller's dict of values. A
 correction (:mod:`trimd.ballast.correct`) is stored as the measured vehicle's estimate and
-its proposal, with the id of the verify hold it came from.
+its proposal, with the id of the verify hold it came from. A level hold of a trim or a
+verify hold is stored summarised for calibration (``level_holds``: the hold as
+:func:`trimd.core.calibration.calibration_hold` gives it, the vehicle's q and its
+covariance then, the ballast installed then and the trim's or verify hold's record id),
+and each known ballast change between two of them is a calibration experiment
+(``calibration_experiments``: the experiment as
+:func:`trimd.core.calibration.experiment_to_dict` gives it, accepted or rejected and
+why); the vehicle's calibration is recomputed from these (docs/method.md §7).
 """
 
 from __future__ import annotations
@@ -51,6 +58,13 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
      "t_unix REAL NOT NULL, verify_id INTEGER NOT NULL REFERENCES verifications(id), "
      "estimate_json TEXT NOT NULL, proposal_json TEXT NOT NULL)",
      "CREATE INDEX corrections_by_vehicle ON corrections (vehicle, t_unix)"),
+    # v4: level holds summarised for calibration, and the calibration experiments
+    ("CREATE TABLE level_holds (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     "CREATE TABLE calibration_experiments (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     *(f"CREATE INDEX {t}_by_vehicle ON {t} (vehicle, t_unix)"
+       for t in ("level_holds", "calibration_experiments"))),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 #: How long a writer waits for another's lock before it gives up [s].

@@ -29,7 +29,8 @@ __all__ = ["CorrectionRecord", "EventRecord", "History", "InstallRecord", "TrimR
            "vehicle_key"]
 
 Source = Literal["proposal", "edited", "profile"]
-_EVENT_TABLES = ("watch_segments", "alerts", "verifications")
+_EVENT_TABLES = ("watch_segments", "alerts", "verifications", "level_holds",
+                 "calibration_experiments")
 
 
 def vehicle_key(profile_name: str, vehicle_id: str | int | None = None,
@@ -183,6 +184,14 @@ class History:
                           (vehicle, t_unix, verify, *map(_json, correction)))
         return verify
 
+    def record_level_hold(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
+        """Store a level hold summarised for calibration (``trimd.app.history.calibration``)."""
+        return self._event("level_holds", vehicle, t_unix, values)
+
+    def record_experiment(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
+        """Store a calibration experiment and what became of it."""
+        return self._event("calibration_experiments", vehicle, t_unix, values)
+
     def record_installed(self, vehicle: str, profile: str, t_unix: float, source: Source,
                          pieces: Sequence[InstalledPiece]) -> int:
         """Store the whole ballast configuration now on the vehicle (pieces already checked
@@ -243,6 +252,14 @@ class History:
     def verifications(self, vehicle: str) -> list[EventRecord]:
         """The vehicle's verify outcomes, oldest first."""
         return self._events("verifications", vehicle)
+
+    def level_holds(self, vehicle: str) -> list[EventRecord]:
+        """The vehicle's level holds summarised for calibration, oldest first."""
+        return self._events("level_holds", vehicle)
+
+    def experiments(self, vehicle: str) -> list[EventRecord]:
+        """The vehicle's calibration experiments, oldest first."""
+        return self._events("calibration_experiments", vehicle)
 
     def corrections(self, vehicle: str) -> list[CorrectionRecord]:
         """The vehicle's verify holds' corrections, oldest first."""

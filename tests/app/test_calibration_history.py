@@ -1,0 +1,162 @@
+"""The calibration in the trim history (issue 24): the loop trim → ``ballast apply`` →
+verify hold stores one calibration experiment per vehicle, the calibration is recomputed
+from the stored experiments, every later session of the vehicle uses it, and a file of
+the previous schema version migrates.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import sqlite3
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+
+import numpy as np
+
+from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
+from tests.helpers import carried, sim_trim
+from trimd.app.after_trim import AfterTrim
+from trimd.app.apply import apply_ballast
+from trimd.app.calibrate import KnownWeight, calibrate_with_weight
+from trimd.app.connect import open_link
+from trimd.app.history import SCHEMA_VERSION, History
+from trimd.app.history.calibration import calibrated_profile, stored_calibration
+from trimd.app.history.report import format_history, history_to_dict
+from trimd.app.history.schema import connect
+from trimd.app.session import Session, SessionResult
+from trimd.app.verify import verify_procedure, verify_target
+from trimd.ballast.propose import Proposal
+from trimd.core.calibration import calibrate, gains
+from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
+from trimd.core.events import Phase
+from trimd.core.link import Link
+from trimd.core.profile import Profile
+
+SEED = 0
+
+
+def test_a_version_3_file_migrates_and_takes_experiments(tmp_path: Path) -> None:
+    """Version 4 adds the level holds and the calibration experiments: a file of version
+    3 keeps its records, and takes both after."""
+    path = tmp_path / "v3.db"
+    old = connect(path, upto=3)
+    old.execute("INSERT INTO verifications (vehicle, t_unix, values_json) "
+                "VALUES ('rov', 2.0, '{\"level\": true}')")
+    try:
+        old.execute("SELECT * FROM calibration_experiments")
+        raise AssertionError("version 3 has no calibration experiments")
+    except sqlite3.OperationalError:
+        pass
+    old.close()
+    with History(path) as h:
+        assert h.verifications("rov")[0].values == {"level": True}
+        assert h.experiments("rov") == [] and h.level_holds("rov") == []
+        h.record_level_hold("rov", 3.0, {"source": "verify"})
+        h.record_experiment("rov2", 4.0, {"accepted": False})
+        assert h.vehicles() == ["rov", "rov2"]
+        assert h.experiments("rov2")[0].values == {"accepted": False}
+    conn = sqlite3.connect(path)
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
+
+
+def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
+        tmp_path: Path, bluerov: Profile) -> None:
+    """The perturbed Heavy: its trim and the verify hold after its proposal is applied are
+    stored with their level holds; the verify hold makes one experiment, learnt, whose
+    calibration is the one recomputed from the stored experiment, and which a later
+    session's profile carries (its gains shown by ``trimd history``). A second verify
+    hold without a ballast change makes no experiment."""
+    db = tmp_path / "trimd.db"
+    trim = sim_trim(bluerov, PAYLOAD, SEED, OPTIONS)
+    estimate, proposal = trim.result.estimate, trim.result.proposal
+    assert estimate is not None and isinstance(proposal, Proposal)
+    assert trim.result.level_hold is not None
+    extra = carried(proposal.slots, bluerov.gravity_m_s2)
+
+    after = AfterTrim(db, "rov", bluerov, True, lambda: open_link("sim", bluerov),
+                      lambda target: None)
+    assert after.store(trim.result) is not None
+    apply_ballast(db, "rov", bluerov, estimate=estimate, proposal=proposal)
+    target = verify_target(estimate, proposal.slots)
+
+    def verify() -> SessionResult:
+        async def go() -> SessionResult:
+            lk = await open_link(f"sim:payload={PAYLOAD}+{extra},seed={SEED},{OPTIONS}",
+                                 bluerov)
+            try:
+                return await Session(lk, bluerov, recorder=None, presenters=[],
+                                     procedure=verify_procedure(bluerov, target, confirmed=True),
+                                     wall_clock=False).run()
+            finally:
+                await lk.close()
+        result = asyncio.run(go())
+        assert result.phase is Phase.DONE, result.reason
+        return result
+
+    line = after.store(verify())
+    assert line is not None and "calibration experiment 'trim 1 → verify 1' learnt" in line
+    with History(db) as h:
+        [record] = h.experiments("rov")
+        assert record.values["accepted"] and len(h.level_holds("rov")) == 2
+        recomputed = stored_calibration(h, "rov", bluerov)
+        exp = experiment_from_dict(json.loads(json.dumps(record.values["experiment"])), "x")
+        assert sum(c.count for c in exp.change) == sum(
+            p.count for p in proposal.installed_after)  # nothing was installed before
+        text = format_history(h, ["rov"])
+        listed = history_to_dict(h, ["rov"])["vehicles"][0]["calibration"]
+    direct = calibrate([exp], bluerov).posterior
+    assert recomputed.posterior.experiments == 1
+    assert np.allclose(recomputed.posterior.mean, direct.mean)
+    assert np.any(np.sqrt(np.diag(direct.cov)) < 0.9)  # the data determined something
+    later = calibrated_profile(db, "rov", bluerov)
+    assert later.thrust_map is not None and np.array_equal(later.thrust_map.mean, direct.mean)
+    assert calibrated_profile(db, "other", bluerov) is bluerov
+    determined = [gain_to_dict(g) for g in gains(direct, bluerov) if g.determined]
+    assert listed["learnt"] == 1 and listed["rejected"] == 0
+    assert listed["gains"] == determined
+    assert "thrust map calibration: 1 experiment(s) learnt, 0 rejected" in text
+    for g in determined:
+        assert f"{g['thruster']} {g['direction']}: {g['mean_pct']:+.1f} ± " in text
+    assert bool(determined) != ("none yet narrowed" in text)
+    assert after.store(verify()) is not None  # no ballast change since: no experiment
+    with History(db) as h:
+        assert len(h.experiments("rov")) == 1 and len(h.level_holds("rov")) == 3
+
+
+def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: Profile
+                                                      ) -> None:
+    """``trimd calibrate``'s use case on the perturbed Heavy: a level hold, 0.5 kg (in
+    water) hung at W-front-stbd, a second level hold. The experiment is learnt and
+    stored, its gains cover the TRUE curves' errors; the same holds with the weight
+    never hung are rejected, not learnt."""
+    db = tmp_path / "trimd.db"
+    opened: list[str] = []
+    weight = KnownWeight(0.5, "W-front-stbd")
+    x, y, z = bluerov.slot(weight.slot).position_m
+
+    def link(hung: bool) -> Callable[[], Awaitable[Link]]:
+        async def open_() -> Link:
+            extra = f"+0.5@{x},{y},{z}" if hung and opened else ""
+            opened.append(extra)
+            return await open_link(f"sim:payload={PAYLOAD}{extra},seed={SEED},{OPTIONS}",
+                                   bluerov)
+        return open_
+
+    asked: list[str] = []
+    done = asyncio.run(calibrate_with_weight(link(True), bluerov, weight,
+                                             lambda text: asked.append(text) or True,
+                                             db=db, vehicle="rov", wall_clock=False))
+    assert opened == ["", f"+0.5@{x},{y},{z}"] and "W-front-stbd" in asked[0]
+    assert done.outcome.accepted, done.outcome.message
+    n = len(bluerov.thrusters)
+    sd = np.sqrt(np.diag(done.posterior.cov))[:2 * n]
+    truth = true_gain_errors(bluerov, SEED)
+    assert np.any(sd < 0.9) and np.all(np.abs(done.posterior.mean[:2 * n] - truth) <= 1.96 * sd)
+    with History(db) as h:
+        assert [r.values["accepted"] for r in h.experiments("rov")] == [True]
+    opened.clear()
+    never = asyncio.run(calibrate_with_weight(link(False), bluerov, weight, lambda text: True,
+                                              db=None, vehicle="rov", wall_clock=False))
+    assert not never.outcome.accepted
+    assert "the known weight 0.5 kg" in never.outcome.message

@@ -1,0 +1,116 @@
+"""A deliberate calibration of the thrust map (``trimd calibrate``, docs/method.md §7): a
+level hold, the operator hangs a known weight at a known ballast slot, a second level
+hold. The two holds and the weight are one calibration experiment, checked against the
+vehicle's calibration so far and stored in its trim history like those of
+``ballast apply`` and a verify hold (:mod:`trimd.app.history.calibration`).
+
+Each hold is a session of its own on the link opened again (the verify hold's
+procedure: the profile's first hold, level, collected until its rows are known), so the
+vehicle is released while the weight is hung. Confirmation is the caller's: both holds
+command the vehicle without asking again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from trimd.app.history import History
+from trimd.app.history.calibration import store_experiment
+from trimd.app.session import Presenter, Session
+from trimd.core.calibration import (
+    Experiment,
+    Outcome,
+    PieceChange,
+    ThrustMapPosterior,
+    ballast_change,
+    calibration_hold,
+    prior,
+    update,
+)
+from trimd.core.errors import EstimationError, UsageError
+from trimd.core.estimate import HoldSamples
+from trimd.core.events import Phase
+from trimd.core.link import Link
+from trimd.core.procedure import Procedure
+from trimd.core.profile import Profile
+from trimd.core.segment import estimate_segment
+
+__all__ = ["CalibrationRun", "KnownWeight", "calibrate_with_weight"]
+
+#: 1σ of the height of the centre of gravity's net moment [N·m] assumed for the level
+#: fit's q, which enters only through the two holds' small difference in attitude.
+_M_Z_STD = 1.0
+
+
+@dataclass(frozen=True)
+class KnownWeight:
+    """A weight hung for a calibration: its net downward force in water as ``kg``
+    [kgf], at ballast slot ``slot``, known to ``uncertainty_pct`` [%, 1σ]."""
+
+    kg: float
+    slot: str
+    uncertainty_pct: float = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationRun:
+    """A deliberate calibration's experiment, what became of it, and the vehicle's
+    calibration after it."""
+
+    experiment: Experiment
+    outcome: Outcome
+    posterior: ThrustMapPosterior
+
+
+async def _level_hold(open_link: Callable[[], Awaitable[Link]], profile: Profile,
+                      presenters: list[Presenter], wall_clock: bool, what: str) -> HoldSamples:
+    """One level hold on the link opened again; EstimationError naming ``what`` when it
+    does not end with a steady hold."""
+    link = await open_link()
+    procedure = Procedure(profile, confirmed=True, verify=lambda hold: hold)
+    result = await Session(link, profile, recorder=None, presenters=presenters,
+                           procedure=procedure, wall_clock=wall_clock).run()
+    if result.phase is not Phase.DONE or not isinstance(result.verification, HoldSamples):
+        raise EstimationError(f"{what}: {result.reason}")
+    return result.verification
+
+
+async def calibrate_with_weight(open_link: Callable[[], Awaitable[Link]], profile: Profile,
+                                weight: KnownWeight, hung: Callable[[str], bool], *,
+                                db: Path | None, vehicle: str,
+                                presenters: list[Presenter] | None = None,
+                                wall_clock: bool = True) -> CalibrationRun:
+    """The level hold, ``hung(text)`` (the operator hangs the weight and says so: False
+    aborts with UsageError), the second level hold, and the experiment checked and stored
+    under ``vehicle`` in the history ``db`` (None: checked against the profile's own
+    thrust map, and not stored). ProfileError for a slot the
+    profile does not have; LinkError, EstimationError when a hold fails."""
+    slot = profile.slot(weight.slot)
+    if not (math.isfinite(weight.kg) and weight.kg != 0):
+        raise UsageError(f"--mass {weight.kg:g}@{slot.name}: a weight of 0 kg calibrates "
+                         "nothing", "trimd calibrate")
+    shown = list(presenters or [])
+    before = await _level_hold(open_link, profile, shown, wall_clock, "the first level hold")
+    if not hung(f"hang {weight.kg:g} kg (its weight in water) at slot {slot.name}, clear of "
+                "the thrusters, then confirm"):
+        raise UsageError("calibration aborted: the weight was not hung", "trimd calibrate")
+    after = await _level_hold(open_link, profile, shown, wall_clock, "the second level hold")
+    change = (PieceChange(slot.name, f"{weight.kg:g} kg", 1, weight.kg * profile.gravity_m_s2,
+                          weight.uncertainty_pct),)
+    fit = estimate_segment(before, profile)
+    q_cov = fit.q_cov.copy()
+    q_cov[3, 3] += _M_Z_STD**2
+    q_after = fit.q + ballast_change(profile, change)[0]
+    exp = Experiment(f"calibrate {weight.kg:g} kg at {slot.name}",
+                     calibration_hold(before, profile, fit.q),
+                     calibration_hold(after, profile, q_after), change, fit.q, q_cov)
+    if db is None:
+        post, outcome = update(prior(profile), exp, profile)
+        return CalibrationRun(exp, outcome, post)
+    with History(db) as history:  # a rejected experiment leaves the calibration as it was
+        post, outcome = store_experiment(history, vehicle, profile, exp)
+    return CalibrationRun(exp, outcome, post)
+

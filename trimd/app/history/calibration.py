@@ -1,0 +1,137 @@
+"""The vehicle's thrust-map calibration in the trim history (docs/method.md §7).
+
+Every trim's and verify hold's level hold is stored summarised
+(:func:`trimd.core.calibration.calibration_hold`) with the vehicle's net quantities and
+the ballast installed then. A verify hold after a ballast change recorded since the
+previous level hold (``trimd ballast apply``) makes the two a calibration experiment:
+checked against what the earlier experiments taught, then stored, accepted or rejected
+and why. A trim is never the second hold of an experiment: between two trims the vehicle
+may have changed in ways nobody recorded (new equipment), while a verify hold checks
+exactly the ballast installed since.
+
+The calibration is recomputed from the stored experiments of the vehicle's profile, in
+order (:func:`trimd.core.calibration.calibrate`), and every later trim, verify hold and
+correction of the vehicle uses it (:func:`calibrated_profile`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trimd.app.history.store import History
+from trimd.app.session import SessionResult
+from trimd.ballast.verify import Verification
+from trimd.core.calibration import (
+    Calibration,
+    Experiment,
+    Outcome,
+    PieceChange,
+    ThrustMapPosterior,
+    calibrate,
+    calibration_hold,
+    gains,
+    update,
+)
+from trimd.core.calibration_json import (
+    experiment_from_dict,
+    experiment_to_dict,
+    gain_to_dict,
+    hold_from_dict,
+    hold_to_dict,
+)
+from trimd.core.profile import InstalledPiece, Profile
+
+__all__ = ["calibrated_profile", "record_level_hold", "store_experiment",
+           "stored_calibration"]
+
+
+def stored_calibration(history: History, vehicle: str, profile: Profile) -> Calibration:
+    """The vehicle's calibration recomputed from its stored experiments with ``profile``
+    (those recorded with another profile left out). DataError for a malformed record."""
+    experiments = [experiment_from_dict(r.values["experiment"],
+                                        f"{history.path}: calibration experiment {r.id}")
+                   for r in history.experiments(vehicle)
+                   if r.values.get("profile") == profile.name]
+    return calibrate(experiments, profile)
+
+
+def calibrated_profile(db: str | Path | None, vehicle: str, profile: Profile) -> Profile:
+    """``profile`` with the vehicle's calibration as its ``thrust_map`` when the history
+    ``db`` holds an accepted experiment for it; else ``profile`` itself (bit for bit the
+    uncalibrated estimate). The file is not created for reading."""
+    if db is None or not Path(db).exists():
+        return profile
+    with History(db) as history:
+        cal = stored_calibration(history, vehicle, profile)
+    return profile if cal.posterior.experiments == 0 else replace(profile,
+                                                                   thrust_map=cal.posterior)
+
+
+def _change(before: Sequence[dict[str, Any]], now: Sequence[InstalledPiece]
+            ) -> tuple[PieceChange, ...]:
+    """What was fitted between the configuration ``before`` (stored dicts) and ``now``."""
+    counts: dict[tuple[str, str], int] = {}
+    for sign, pieces in ((-1, [InstalledPiece(str(p["slot"]), str(p["piece"]), int(p["count"]))
+                               for p in before]), (1, list(now))):
+        for p in pieces:
+            counts[(p.slot, p.piece)] = counts.get((p.slot, p.piece), 0) + sign * p.count
+    return tuple(PieceChange(s, p, n) for (s, p), n in sorted(counts.items()) if n)
+
+
+def store_experiment(history: History, vehicle: str, profile: Profile, exp: Experiment,
+                     t_unix: float | None = None) -> tuple[ThrustMapPosterior, Outcome]:
+    """Check ``exp`` against the vehicle's calibration so far, store it with what became of
+    it (and the gains after it), and return the calibration after it and the outcome."""
+    before = stored_calibration(history, vehicle, profile).posterior
+    after, outcome = update(before, exp, profile)
+    history.record_experiment(vehicle, time.time() if t_unix is None else t_unix, {
+        "profile": profile.name, "experiment": experiment_to_dict(exp),
+        "accepted": outcome.accepted, "message": outcome.message,
+        "chi2": outcome.chi2, "sigma": outcome.sigma,
+        "calibration": {"experiments": after.experiments,
+                        "gains": [gain_to_dict(g) for g in gains(after, profile)]}})
+    return after, outcome
+
+
+def record_level_hold(history: History, vehicle: str, profile: Profile,
+                      result: SessionResult, record_id: int,
+                      installed: Sequence[InstalledPiece], t_unix: float | None = None
+                      ) -> Outcome | None:
+    """Store ``result``'s level hold (its trim's or verify hold's record ``record_id``,
+    ``installed`` the ballast on the vehicle during it) and, for a verify hold after a
+    ballast change, the calibration experiment it makes with the previous level hold;
+    what became of the experiment, None when there was none."""
+    hold, v = result.level_hold, result.verification
+    if hold is None or hold.thrust is None:
+        return None
+    if isinstance(v, Verification):
+        source, q, q_cov = "verify", v.measured.q, v.measured.q_cov
+    elif result.estimate is not None:
+        source, q, q_cov = "trim", result.estimate.q, result.estimate.q_cov
+    else:
+        return None
+    t = time.time() if t_unix is None else t_unix
+    summary = calibration_hold(hold, profile, q)
+    previous = [r for r in history.level_holds(vehicle) if r.values["profile"] == profile.name]
+    outcome = None
+    if source == "verify" and previous:
+        last = previous[-1].values
+        change = _change(last["installed"], installed)
+        if change:
+            where = f"{history.path}: level hold {previous[-1].id}"
+            exp = Experiment(f"{last['source']} {last['record_id']} → {source} {record_id}",
+                             hold_from_dict(last["hold"], where), summary, change,
+                             np.asarray(last["q_N_Nm"], float), np.asarray(last["q_cov"], float))
+            outcome = store_experiment(history, vehicle, profile, exp, t)[1]
+    history.record_level_hold(vehicle, t, {
+        "profile": profile.name, "source": source, "record_id": record_id,
+        "hold": hold_to_dict(summary), "q_N_Nm": q.tolist(), "q_cov": q_cov.tolist(),
+        "installed": [{"slot": p.slot, "piece": p.piece, "count": p.count}
+                      for p in installed]})
+    return outcome

@@ -1,0 +1,351 @@
+"""The thrust map learns: known ballast changes as calibration experiments
+(docs/method.md §7).
+
+Two steady holds at the same (level) attitude with a known ballast change between them
+— a trim's level hold and the verify hold after ``ballast apply``, two verify holds
+around a correction, or a deliberate calibration (level hold, a known weight hung at a
+known slot, level hold) — are an experiment with a known answer. Between them the net
+quantities q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b, W·z_g − B·z_b] (body FRD, N and
+N·m) change by Δq, what the pieces add: Σ count·w·[1, r_slot], w a piece's net downward
+force in water (the profile's inventory) and r_slot its slot's position (body FRD, m).
+
+The thrust map's systematic errors are those :mod:`trimd.core.systematics` models: per
+thruster a relative gain error forward and reverse and the offsets of its ESC's dead-band
+edges, the vector ε; in units of its prior 1σ, z = ε/σ ~ N(0, I). A hold k's mean τ as
+the profile's map reads it (τ = T·f̄, Fossen's thrust configuration T) is off the truth
+by F_k·z, F_k the hold's factors (:func:`~trimd.core.systematics.exposure_factors`), and
+the truth balances g(η): τ̄_k + F_k·z = G(φ_k, θ_k)·q_k. The difference of the two holds
+is linear in z:
+
+    y = G₂·(q₁ + Δq) − G₁·q₁ − (τ̄₂ − τ̄₁) = (F₂ − F₁)·z + v,
+
+on the rows a level hold measures (Z, K, M). q₁ (the trim's estimate, or the profile's
+nominal vehicle) enters only through G₂ − G₁, nil when both holds are at the same
+attitude. v carries each hold's noise and wander (the long-run covariance of its mean),
+the attitude reference's slow error of each hold, Δq's uncertainty from the inventory's
+``uncertainty_pct`` and q₁'s through G₂ − G₁. The Gaussian posterior of z follows by the
+linear-Gaussian (Kalman) update; rows the data leave undetermined keep the prior.
+
+Before an experiment is learnt its innovation y − H·μ is compared with its predicted
+covariance H·P·Hᵀ + R (χ² with one degree of freedom per row): an experiment that
+disagrees with what the earlier ones taught (a piece heavier than its inventory entry, a
+wrong slot) is rejected and says which, by how much and what to check. Experiments are
+combined in order, sequentially, the rejected ones left out.
+
+A later estimate uses the posterior through the profile's ``thrust_map``
+(:class:`ThrustMapPosterior`): each hold's mean τ gains F·μ and its factors become F·L,
+L·Lᵀ = P (:func:`~trimd.core.systematics.thrust_map_factors`, ``thrust_map_bias``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2, norm
+
+from trimd.core.errors import EstimationError
+from trimd.core.estimate import HoldSamples, measurable_dofs
+from trimd.core.longrun import mean_covariance
+from trimd.core.model import restoring_matrix
+from trimd.core.profile import Profile
+from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
+from trimd.core.types import FloatArray
+
+__all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "Outcome",
+           "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
+           "calibration_hold", "experiment_rows", "gains", "posterior", "prior", "update"]
+
+#: The rows of τ a level hold measures: Z, K, M.
+ROWS = np.array([False, False, True, True, True, False])
+#: A hold within this of level in roll and pitch [rad] is level (as
+#: :func:`trimd.core.estimate.is_level`).
+LEVEL_RAD = math.radians(3.0)
+_ROW_NAMES = {2: "Z (W − B)", 3: "K (W·y_g − B·y_b)", 4: "M (W·x_g − B·x_b)"}
+#: An experiment whose innovation has a χ² tail probability below this is rejected.
+REJECT_P = 1e-3
+#: A gain counts as determined by the data when its posterior σ is below this share of
+#: its prior σ.
+DETERMINED = 0.9
+
+
+@dataclass(frozen=True, eq=False)
+class ThrustMapPosterior:
+    """The Gaussian posterior of the thrust map's errors z (units of the prior 1σ, the
+    order of :func:`~trimd.core.systematics.thrust_map_factors`' columns: gains forward,
+    gains reverse, band edges negative, positive), shape (4·n,).
+
+    Attributes
+    ----------
+    mean : μ, shape (4·n,).
+    cov : P, shape (4·n, 4·n).
+    sqrt_cov : L, lower triangular with L·Lᵀ = P (its columns from 2·n on are band
+        errors alone, as the prior's).
+    experiments : how many experiments it rests on.
+    """
+
+    mean: FloatArray
+    cov: FloatArray
+    sqrt_cov: FloatArray
+    experiments: int
+
+
+def posterior(mean: FloatArray, cov: FloatArray, experiments: int) -> ThrustMapPosterior:
+    """The posterior of mean μ and covariance P (symmetrised; L by Cholesky, with the
+    least diagonal jitter that makes P positive definite)."""
+    cov = (cov + cov.T) / 2
+    jitter = 0.0
+    while True:
+        try:
+            L = np.linalg.cholesky(cov + jitter * np.eye(len(cov))).astype(np.float64)
+            return ThrustMapPosterior(mean, cov, L, experiments)
+        except np.linalg.LinAlgError:
+            jitter = max(2 * jitter, 1e-12)
+
+
+def prior(profile: Profile) -> ThrustMapPosterior:
+    """The profile's own thrust map: z ~ N(0, I), no experiment."""
+    k = 4 * len(profile.thrusters)
+    return ThrustMapPosterior(np.zeros(k), np.eye(k), np.eye(k), 0)
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationHold:
+    """A steady hold as a calibration experiment needs it.
+
+    Attributes
+    ----------
+    label : for people ("trim 3, hold 1").
+    phi_rad, theta_rad : mean roll and pitch [rad].
+    tau : mean τ by the profile's thrust map, shape (6,) [N, N·m], body FRD.
+    tau_cov : covariance of that mean from noise and wander (long-run, of the residual
+        τ − G(φ, θ)·q), shape (6, 6) [N², N²·m², N²·m].
+    exposure : :func:`~trimd.core.systematics.thrust_exposure`, shape (4·n,) [N].
+    """
+
+    label: str
+    phi_rad: float
+    theta_rad: float
+    tau: FloatArray
+    tau_cov: FloatArray
+    exposure: FloatArray
+
+
+def calibration_hold(hold: HoldSamples, profile: Profile, q: FloatArray) -> CalibrationHold:
+    """Summarise ``hold`` (its per-thruster thrust needed); ``q`` [N, N·m] the vehicle's
+    net quantities then (an estimate), for the residual whose covariance is taken."""
+    if hold.thrust is None:
+        raise EstimationError(f"hold {hold.label!r}: no per-thruster thrust, no calibration")
+    e = hold.tau - np.einsum("nij,j->ni", restoring_matrix(hold.phi, hold.theta), q)
+    return CalibrationHold(hold.label, float(np.mean(hold.phi)), float(np.mean(hold.theta)),
+                           hold.tau.mean(axis=0), mean_covariance(e).interval_cov,
+                           thrust_exposure(hold, profile))
+
+
+@dataclass(frozen=True)
+class PieceChange:
+    """``count`` pieces of inventory kind ``piece`` added to ``slot`` (negative: removed).
+
+    A known weight that is no inventory piece (``trimd calibrate --mass``) gives its own
+    ``net_down_N``, its net downward force in water [N] (``piece`` then only names it), and
+    ``uncertainty_pct``, its 1σ [%]."""
+
+    slot: str
+    piece: str
+    count: int
+    net_down_N: float | None = None
+    uncertainty_pct: float = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """Two holds at one attitude around a known ballast change.
+
+    Attributes
+    ----------
+    label : for people ("trim 3 → verify 5").
+    before, after : the holds.
+    change : the ballast fitted between them.
+    q_before, q_before_cov : the vehicle's net quantities at ``before`` and their
+        covariance [N, N·m] (only their part through G₂ − G₁ counts).
+    """
+
+    label: str
+    before: CalibrationHold
+    after: CalibrationHold
+    change: tuple[PieceChange, ...]
+    q_before: FloatArray
+    q_before_cov: FloatArray
+
+
+def ballast_change(profile: Profile, change: Sequence[PieceChange]
+                   ) -> tuple[FloatArray, FloatArray]:
+    """Δq of ``change`` [N, N·m] and its covariance from each inventory kind's
+    ``uncertainty_pct`` (one error per kind, shared by its pieces; one per known weight)."""
+    dq, cov = np.zeros(4), np.zeros((4, 4))
+    kinds: dict[str, list[PieceChange]] = {}
+    for c in change:
+        key = f"known {c.piece}" if c.net_down_N is not None else profile.piece(c.piece).name
+        kinds.setdefault(key, []).append(c)
+    for group in kinds.values():
+        first = group[0]
+        if first.net_down_N is None:
+            piece = profile.piece(first.piece)
+            w = piece.net_down_N(profile.water_density_kg_m3, profile.gravity_m_s2)
+            pct = piece.net_uncertainty_pct
+        else:
+            w, pct = first.net_down_N, first.uncertainty_pct
+        J = sum((c.count * np.r_[1.0, profile.slot(c.slot).position_m] for c in group),
+                np.zeros(4))
+        dq += w * J
+        cov += np.outer(J, J) * (w * pct / 100) ** 2
+    return dq, cov
+
+
+def experiment_rows(exp: Experiment, profile: Profile
+                    ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """The linear model y = H·z + v of ``exp`` (module docstring): y [N, N·m], H (rows,
+    4·n), the covariance R of v, and which rows of τ they are. EstimationError when a
+    hold is not level or the thrusters in the profile do not match the holds'."""
+    b, a = exp.before, exp.after
+    n = len(profile.thrusters)
+    for h in (b, a):
+        if max(abs(h.phi_rad), abs(h.theta_rad)) >= LEVEL_RAD:
+            raise EstimationError(f"experiment {exp.label!r}: hold {h.label!r} is not level "
+                                  "(a calibration compares level holds)")
+        if h.exposure.shape != (4 * n,):
+            raise EstimationError(f"experiment {exp.label!r}: hold {h.label!r} has "
+                                  f"{len(h.exposure) // 4} thrusters, the profile {n}")
+    r = ROWS & np.array(measurable_dofs(profile), bool)
+    dq, dq_cov = ballast_change(profile, exp.change)
+    q1, q2 = exp.q_before, exp.q_before + dq
+    G1 = restoring_matrix(b.phi_rad, b.theta_rad)[r]
+    G2 = restoring_matrix(a.phi_rad, a.theta_rad)[r]
+    y = G2 @ q2 - G1 @ q1 - (a.tau - b.tau)[r]
+    H = exposure_factors(a.exposure, r, profile) - exposure_factors(b.exposure, r, profile)
+    D = G2 - G1
+    R = (b.tau_cov[np.ix_(r, r)] + a.tau_cov[np.ix_(r, r)] + G2 @ dq_cov @ G2.T
+         + D @ exp.q_before_cov @ D.T)
+    for h, q in ((b, q1), (a, q2)):
+        E = attitude_error_factors([(h.phi_rad, h.theta_rad)], [r], profile, q)[0]
+        R = R + E @ E.T
+    return y, H, R, r
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of one experiment.
+
+    Attributes
+    ----------
+    label : the experiment's.
+    accepted : learnt (True) or rejected as inconsistent (False).
+    chi2 : innovation χ² against its predicted covariance; dof its rows.
+    sigma : the same as a two-sided normal deviation [σ].
+    message : for people: learnt, or why not and what to check.
+    """
+
+    label: str
+    accepted: bool
+    chi2: float
+    dof: int
+    sigma: float
+    message: str
+
+
+def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
+    pieces = sorted({profile.piece(c.piece).name for c in change if c.net_down_N is None})
+    known = sorted({c.piece for c in change if c.net_down_N is not None})
+    slots = sorted({profile.slot(c.slot).name for c in change})
+    what = ([f"the inventory entr{'ies' if len(pieces) > 1 else 'y'} of {', '.join(pieces)} "
+             "(mass_kg, volume_m3)"] if pieces else []) + [
+        f"the known weight {k} (its weight in water)" for k in known]
+    return (f"check {', '.join(what)}, the slot{'s' if len(slots) > 1 else ''} "
+            f"{', '.join(slots)} (position_m) and that the pieces went where recorded")
+
+
+def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
+           ) -> tuple[ThrustMapPosterior, Outcome]:
+    """``post`` updated by ``exp``, or ``post`` unchanged when ``exp`` disagrees with it
+    (χ² tail probability below :data:`REJECT_P`), with the outcome."""
+    y, H, R, rows = experiment_rows(exp, profile)
+    v = y - H @ post.mean
+    S = H @ post.cov @ H.T + R
+    S_inv = np.linalg.inv(S)
+    d2 = float(v @ S_inv @ v)
+    p = float(chi2.sf(d2, len(v)))
+    sigma = float(norm.isf(p / 2)) if p > 0 else math.inf
+    about = f"≈ {sigma:.1f}σ" if math.isfinite(sigma) else "beyond 37σ"  # p below 1e-300
+    z = v / np.sqrt(np.diag(S))
+    worst = int(np.argmax(np.abs(z)))
+    row = _ROW_NAMES[int(np.flatnonzero(rows)[worst])]
+    unit = "N" if row.startswith("Z") else "N·m"
+    off = (f"{row} off by {v[worst]:+.3g} {unit} = {z[worst]:+.1f}σ of its predicted "
+           f"± {math.sqrt(S[worst, worst]):.2g} {unit}")
+    if p < REJECT_P:
+        earlier = (f"{post.experiments} earlier experiment(s)" if post.experiments
+                   else "the profile's thrust map")
+        return post, Outcome(exp.label, False, d2, len(v), sigma, (
+            f"calibration experiment {exp.label!r} disagrees with {earlier}: {off} "
+            f"(χ² {d2:.1f} on {len(v)} rows, {about}); rejected, not learnt: "
+            f"{_what_to_check(profile, exp.change)}"))
+    K = post.cov @ H.T @ S_inv
+    A = np.eye(len(post.mean)) - K @ H
+    cov = A @ post.cov @ A.T + K @ R @ K.T  # Joseph form: stays symmetric, positive
+    new = posterior(post.mean + K @ v, cov, post.experiments + 1)
+    return new, Outcome(exp.label, True, d2, len(v), sigma,
+                        f"calibration experiment {exp.label!r} learnt ({off}; {about})")
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """The posterior of a sequence of experiments and what became of each."""
+
+    posterior: ThrustMapPosterior
+    outcomes: tuple[Outcome, ...]
+
+    @property
+    def rejected(self) -> tuple[Outcome, ...]:
+        """The experiments left out as inconsistent."""
+        return tuple(o for o in self.outcomes if not o.accepted)
+
+
+def calibrate(experiments: Sequence[Experiment], profile: Profile) -> Calibration:
+    """The profile's prior updated by ``experiments`` in order, each inconsistent one left
+    out (and said so in its :class:`Outcome`)."""
+    post, outcomes = prior(profile), []
+    for exp in experiments:
+        post, outcome = update(post, exp, profile)
+        outcomes.append(outcome)
+    return Calibration(post, tuple(outcomes))
+
+
+@dataclass(frozen=True)
+class Gain:
+    """One thruster's relative gain error in one direction [%], 1σ, prior and posterior."""
+
+    thruster: str
+    direction: str
+    mean_pct: float
+    std_pct: float
+    prior_std_pct: float
+
+    @property
+    def determined(self) -> bool:
+        """The data narrowed it (posterior σ below :data:`DETERMINED` of the prior)."""
+        return self.std_pct < DETERMINED * self.prior_std_pct
+
+
+def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
+    """Each thruster's gain error forward and reverse under ``post`` (true thrust =
+    (1 + gain)·the profile curve's)."""
+    n, out = len(profile.thrusters), []
+    for d, direction in enumerate(("forward", "reverse")):
+        for i, t in enumerate(profile.thrusters):
+            k, s = d * n + i, t.curve.uncertainty_pct
+            out.append(Gain(t.name, direction, float(post.mean[k]) * s,
+                            math.sqrt(float(post.cov[k, k])) * s, s))
+    return out

@@ -1,0 +1,97 @@
+"""JSON of the calibration's records (what the trim history and a recording store):
+holds, experiments, gains and the posterior (:mod:`trimd.core.calibration`; units in the
+key names, radians and N, N·m)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from trimd.core.calibration import (
+    CalibrationHold,
+    Experiment,
+    Gain,
+    PieceChange,
+    ThrustMapPosterior,
+    posterior,
+)
+from trimd.core.errors import DataError
+from trimd.core.types import FloatArray, JsonObject
+
+__all__ = ["experiment_from_dict", "experiment_to_dict", "gain_to_dict", "hold_from_dict",
+           "hold_to_dict", "posterior_from_dict", "posterior_to_dict"]
+
+
+def gain_to_dict(g: Gain) -> JsonObject:
+    """JSON-ready dict of a gain (units in the key names)."""
+    return {"thruster": g.thruster, "direction": g.direction, "mean_pct": g.mean_pct,
+            "std_pct": g.std_pct, "prior_std_pct": g.prior_std_pct,
+            "determined": g.determined}
+
+
+def hold_to_dict(h: CalibrationHold) -> JsonObject:
+    """JSON-ready dict of a calibration hold (what the trim history stores)."""
+    return {"label": h.label, "roll_rad": h.phi_rad, "pitch_rad": h.theta_rad,
+            "tau_N_Nm": h.tau.tolist(), "tau_cov": h.tau_cov.tolist(),
+            "exposure_N": h.exposure.tolist()}
+
+
+def _array(d: JsonObject, key: str, shape: tuple[int, ...], source: str) -> FloatArray:
+    try:
+        a = np.asarray(d[key], float)
+    except (KeyError, TypeError, ValueError):
+        raise DataError(f"{source}: {key}: missing or not numbers") from None
+    if (shape and a.shape != shape) or not np.all(np.isfinite(a)):
+        raise DataError(f"{source}: {key}: shape {a.shape}, {shape} of finite numbers expected")
+    return a
+
+
+def hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
+    """The hold of :func:`hold_to_dict`'s dict; DataError naming ``source``."""
+    exposure = _array(d, "exposure_N", (), source)
+    return CalibrationHold(str(d.get("label", "")), float(_array(d, "roll_rad", (), source)),
+                           float(_array(d, "pitch_rad", (), source)),
+                           _array(d, "tau_N_Nm", (6,), source),
+                           _array(d, "tau_cov", (6, 6), source), exposure.reshape(-1))
+
+
+def experiment_to_dict(exp: Experiment) -> JsonObject:
+    """JSON-ready dict of ``exp`` (what the trim history stores)."""
+    return {"label": exp.label, "before": hold_to_dict(exp.before),
+            "after": hold_to_dict(exp.after),
+            "change": [{"slot": c.slot, "piece": c.piece, "count": c.count}
+                       | ({} if c.net_down_N is None else {
+                           "net_down_N": c.net_down_N, "uncertainty_pct": c.uncertainty_pct})
+                       for c in exp.change],
+            "q_before_N_Nm": exp.q_before.tolist(), "q_before_cov": exp.q_before_cov.tolist()}
+
+
+def experiment_from_dict(d: JsonObject, source: str) -> Experiment:
+    """The experiment of :func:`experiment_to_dict`'s dict; DataError naming ``source``."""
+    try:
+        change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]),
+                                   None if c.get("net_down_N") is None
+                                   else float(c["net_down_N"]),
+                                   float(c.get("uncertainty_pct", 1.0)))
+                       for c in d["change"])
+        return Experiment(str(d["label"]), hold_from_dict(d["before"], source),
+                          hold_from_dict(d["after"], source), change,
+                          _array(d, "q_before_N_Nm", (4,), source),
+                          _array(d, "q_before_cov", (4, 4), source))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataError(f"{source}: not a calibration experiment ({exc})") from None
+
+
+def posterior_to_dict(post: ThrustMapPosterior) -> JsonObject:
+    """JSON-ready dict of a posterior (mean and covariance in units of the prior σ)."""
+    return {"mean": post.mean.tolist(), "cov": post.cov.tolist(),
+            "experiments": post.experiments}
+
+
+def posterior_from_dict(d: JsonObject, source: str) -> ThrustMapPosterior:
+    """The posterior of :func:`posterior_to_dict`'s dict; DataError naming ``source``."""
+    mean = _array(d, "mean", (), source).reshape(-1)
+    cov = _array(d, "cov", (len(mean), len(mean)), source)
+    try:
+        return posterior(mean, cov, int(d["experiments"]))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataError(f"{source}: not a thrust-map calibration ({exc})") from None
