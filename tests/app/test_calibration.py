@@ -26,7 +26,9 @@ from trimd.core.calibration import (
     calibrate,
     calibration_hold,
     gains,
+    posterior,
 )
+from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.events import Phase
 from trimd.core.link import Link
@@ -216,3 +218,12 @@ def test_a_calibrated_trim_replays_to_its_result(tmp_path: Path, bluerov: Profil
                                                                     recorded.q_cov)
     plain = asyncio.run(session(ReplayLink(log, bluerov), bluerov, None))
     assert not np.array_equal(plain.q_cov, recorded.q_cov)
+
+
+def test_a_posterior_that_is_no_covariance_is_an_error_not_a_hang() -> None:
+    """The Cholesky's jitter stops at the covariance's own scale: a non-finite or negative
+    definite P is named, never looped on."""
+    for cov in (np.full((4, 4), np.nan), -np.eye(4)):
+        with pytest.raises(EstimationError, match="not a covariance"):
+            posterior(np.zeros(4), cov, 1)
+    assert np.allclose(posterior(np.zeros(2), np.diag([4.0, 0.0]), 1).sqrt_cov[0, 0], 2.0)

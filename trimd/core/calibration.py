@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 from scipy.stats import chi2, norm
 
 from trimd.core.errors import EstimationError
-from trimd.core.estimate import HoldSamples, measurable_dofs
+from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import restoring_matrix
 from trimd.core.profile import Profile
@@ -61,9 +61,6 @@ __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
-#: A hold within this of level in roll and pitch [rad] is level (as
-#: :func:`trimd.core.estimate.is_level`).
-LEVEL_RAD = math.radians(3.0)
 _ROW_NAMES = {2: "Z (W − B)", 3: "K (W·y_g − B·y_b)", 4: "M (W·x_g − B·x_b)"}
 #: An experiment whose innovation has a χ² tail probability below this is rejected.
 REJECT_P = 1e-3
@@ -95,15 +92,19 @@ class ThrustMapPosterior:
 
 def posterior(mean: FloatArray, cov: FloatArray, experiments: int) -> ThrustMapPosterior:
     """The posterior of mean μ and covariance P (symmetrised; L by Cholesky, with the
-    least diagonal jitter that makes P positive definite)."""
+    least diagonal jitter that makes P positive definite; EstimationError when none up to
+    P's own scale does: P is not a covariance)."""
     cov = (cov + cov.T) / 2
+    scale = float(np.max(np.abs(np.diag(cov)), initial=1.0))
     jitter = 0.0
-    while True:
+    while jitter <= scale:
         try:
             L = np.linalg.cholesky(cov + jitter * np.eye(len(cov))).astype(np.float64)
             return ThrustMapPosterior(mean, cov, L, experiments)
         except np.linalg.LinAlgError:
             jitter = max(2 * jitter, 1e-12)
+    raise EstimationError("the thrust map's posterior covariance is not a covariance "
+                          "(not positive definite, or not finite)")
 
 
 def prior(profile: Profile) -> ThrustMapPosterior:

@@ -72,10 +72,9 @@ from trimd.core.systematics import (
 )
 from trimd.core.types import FloatArray
 
-__all__ = ["MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldRecord", "HoldSamples",
-           "HoldSummary",
-           "StaticEstimate", "check_samples", "estimate_static", "is_level",
-           "measurable_dofs", "net_estimate"]
+__all__ = ["LEVEL_RAD", "MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldRecord",
+           "HoldSamples", "HoldSummary", "StaticEstimate", "check_samples", "estimate_static",
+           "is_level", "measurable_dofs", "net_estimate"]
 
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
@@ -83,7 +82,7 @@ _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
 #: a parameter (≈ sin 1.1°): an "almost level" hold does not identify z_g.
 MIN_RELATIVE_SINGULAR = 0.02
 #: A hold whose mean roll and pitch are below this [rad] (≈ 3°) counts as level.
-_LEVEL_RAD = np.radians(3.0)
+LEVEL_RAD = float(np.radians(3.0))
 #: The moment rows (K, M, N) of τ and G(φ, θ).
 MOMENT_ROWS = np.array([False, False, False, True, True, True])
 
@@ -183,7 +182,7 @@ def check_samples(hold: HoldSamples, what: str = "hold") -> None:
 
 def is_level(hold: HoldSamples) -> bool:
     """Are the hold's mean roll and pitch both within 3° of level?"""
-    return bool(abs(np.mean(hold.phi)) < _LEVEL_RAD and abs(np.mean(hold.theta)) < _LEVEL_RAD)
+    return bool(abs(np.mean(hold.phi)) < LEVEL_RAD and abs(np.mean(hold.theta)) < LEVEL_RAD)
 
 
 def _residual_means(holds: Sequence[HoldSamples], rows: Sequence[NDArray[np.bool_]],
