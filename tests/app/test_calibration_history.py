@@ -7,12 +7,14 @@ the previous schema version migrates.
 from __future__ import annotations
 
 import asyncio
+import io
 import json
 import sqlite3
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
 from tests.helpers import carried, sim_trim
@@ -20,18 +22,23 @@ from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
 from trimd.app.calibrate import KnownWeight, calibrate_with_weight
 from trimd.app.connect import open_link
+from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History
 from trimd.app.history.calibration import calibrated_profile, stored_calibration
 from trimd.app.history.report import format_history, history_to_dict
 from trimd.app.history.schema import connect
+from trimd.app.replay import replay_calibration, replay_profile, replay_session
 from trimd.app.session import Session, SessionResult
 from trimd.app.verify import verify_procedure, verify_target
 from trimd.ballast.propose import Proposal
 from trimd.core.calibration import calibrate, gains
 from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
+from trimd.core.errors import DataError
 from trimd.core.events import Phase
 from trimd.core.link import Link
 from trimd.core.profile import Profile
+from trimd.core.profile_yaml import read_profile_text
+from trimd.logs.recorder import TlogRecorder
 
 SEED = 0
 
@@ -128,8 +135,9 @@ def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: P
                                                       ) -> None:
     """``trimd calibrate``'s use case on the perturbed Heavy: a level hold, 0.5 kg (in
     water) hung at W-front-stbd, a second level hold. The experiment is learnt and
-    stored, its gains cover the TRUE curves' errors; the same holds with the weight
-    never hung are rejected, not learnt."""
+    stored, its gains cover the TRUE curves' errors, and the two holds' recordings
+    reproduce it bit for bit (given in the wrong order, they are refused); the same holds
+    with the weight never hung are rejected, not learnt."""
     db = tmp_path / "trimd.db"
     opened: list[str] = []
     weight = KnownWeight(0.5, "W-front-stbd")
@@ -144,9 +152,16 @@ def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: P
         return open_
 
     asked: list[str] = []
+    yaml_text = read_profile_text(bluerov.name)[0]
+
+    def record(hold: dict[str, object]) -> TlogRecorder:
+        return TlogRecorder(tmp_path / f"{hold['hold']}.tlog", bluerov, yaml_text,
+                            calibration_hold=hold)
+
     done = asyncio.run(calibrate_with_weight(link(True), bluerov, weight,
                                              lambda text: asked.append(text) or True,
-                                             db=db, vehicle="rov", wall_clock=False))
+                                             db=db, vehicle="rov", wall_clock=False,
+                                             record=record))
     assert opened == ["", f"+0.5@{x},{y},{z}"] and "W-front-stbd" in asked[0]
     assert done.outcome.accepted, done.outcome.message
     n = len(bluerov.thrusters)
@@ -155,6 +170,19 @@ def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: P
     assert np.any(sd < 0.9) and np.all(np.abs(done.posterior.mean[:2 * n] - truth) <= 1.96 * sd)
     with History(db) as h:
         assert [r.values["accepted"] for r in h.experiments("rov")] == [True]
+    before, after = str(tmp_path / "before.tlog"), str(tmp_path / "after.tlog")
+    again = asyncio.run(replay_calibration(before, after, None))
+    assert (again.outcome.chi2, again.outcome.message) == (done.outcome.chi2,
+                                                           done.outcome.message)
+    assert np.array_equal(again.posterior.mean, done.posterior.mean)
+    out = io.StringIO()
+    replayed, _ = asyncio.run(replay_session(before, replay_profile(before, None)[0],
+                                             speed=None, method="milp",
+                                             presenters=[HeadlessPresenter(out)]))
+    assert replayed.level_hold is not None and "level hold (" in out.getvalue()
+    assert f"{len(replayed.level_hold.t_s)} steady samples" in out.getvalue()
+    with pytest.raises(DataError, match="give the hold before the weight first, then"):
+        asyncio.run(replay_calibration(after, before, None))
     opened.clear()
     never = asyncio.run(calibrate_with_weight(link(False), bluerov, weight, lambda text: True,
                                               db=None, vehicle="rov", wall_clock=False))

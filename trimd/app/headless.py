@@ -16,13 +16,14 @@ from trimd.app.report import (
     NewCommands,
     NewWarnings,
     format_estimate,
+    format_level_hold,
     format_proposal,
     format_verification,
 )
 from trimd.app.session import Session
 from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
-from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Notice, Output, Phase, Progress
 from trimd.core.samples import Health, Sample, VehicleText
@@ -69,6 +70,13 @@ class HeadlessPresenter:
                 self._emit(format_verification(out.verification),
                            {"type": "verification", "t_s": t,
                             **verification_to_dict(out.verification)})
+                return
+            if isinstance(out.verification, HoldSamples):
+                h = out.verification
+                self._emit(format_level_hold(h), {
+                    "type": "level_hold", "t_s": t, "samples": len(h.t_s),
+                    "t_start_s": float(h.t_s[0]), "t_end_s": float(h.t_s[-1]),
+                    "tau_mean": [float(v) for v in h.tau.mean(axis=0)]})
                 return
             phase = out.phase.value if out.phase is not None else None
             self._emit(f"[{t:8.1f} s] {out.kind + ': ' if out.kind != 'state' else ''}"

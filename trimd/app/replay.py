@@ -10,23 +10,33 @@ import sys
 
 import yaml
 
+from trimd.app.calibrate import (
+    HOLDS,
+    CalibrationRun,
+    calibration_experiment,
+    check_against_profile,
+    hold_from_record,
+    level_hold_procedure,
+)
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
-from trimd.core.errors import DataError
-from trimd.core.estimate import StaticEstimate
+from trimd.core.errors import DataError, EstimationError
+from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.events import Phase
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.logs.replay import (
     ReplayLink,
+    recorded_calibration_hold,
     recorded_profile_yaml,
     recorded_verify_target,
     with_recorded_thrust_map,
 )
 
-__all__ = ["replay_profile", "replay_session", "replay_session_of"]
+__all__ = ["replay_calibration", "replay_profile", "replay_session", "replay_session_of"]
 
 
 def replay_profile(path: str, name: str | None) -> tuple[Profile, bool]:
@@ -56,11 +66,14 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
 def replay_session_of(link: Link, path: str, profile: Profile, *,
                       presenters: list[Presenter], method: str) -> Session:
     """The replay's session over ``link`` (the recording ``path``): a verify hold when
-    the recording carries a verify target, else the trim, proposing by ``method``;
-    confirmed where the live session was (the recording's :class:`Confirmed`)."""
+    the recording carries a verify target, a calibration's level hold when it says it is
+    one, else the trim, proposing by ``method``; confirmed where the live session was (the
+    recording's :class:`Confirmed`)."""
     target = recorded_verify_target(path)
     procedure = None if target is None else verify_procedure(
         profile, target, confirmed=False, source=f"{path} (recorded verify target)")
+    if recorded_calibration_hold(path) is not None:
+        procedure = level_hold_procedure(profile, confirmed=False)
 
     def propose(estimate: StaticEstimate) -> Proposal:
         return propose_ballast(estimate, profile, method=method)
@@ -77,3 +90,37 @@ async def replay_session(path: str, profile: Profile, *, speed: float | None,
     link = ReplayLink(path, profile, speed=speed)
     session = replay_session_of(link, path, profile, presenters=presenters, method=method)
     return await session.run(), link
+
+
+async def replay_calibration(before: str, after: str, name: str | None) -> CalibrationRun:
+    """A deliberate calibration reproduced from the recordings of its two level holds
+    (:mod:`trimd.app.calibrate`): each hold replayed, the experiment with the recorded
+    weight, checked against the thrust map the live session had (recorded with it), as
+    the live one was; stored nowhere. DataError when the two are not the holds before and
+    after the same weight; EstimationError when a hold does not replay to a steady one."""
+    holds: list[HoldSamples] = []
+    weights, profiles = [], []
+    for which, path in zip(HOLDS, (before, after), strict=True):
+        d = recorded_calibration_hold(path)
+        if d is None:
+            raise DataError(f"{path}: not a recording of a calibration's level hold (trimd "
+                            "calibrate records one per hold)")
+        recorded, weight = hold_from_record(d, path)
+        if recorded != which:
+            raise DataError(f"{path}: the calibration's hold {recorded} the weight, given "
+                            f"as the one {which} it: give the hold before the weight first, "
+                            "then the one after")
+        weights.append(weight)
+        profiles.append(replay_profile(path, name)[0])
+        result, _ = await replay_session(path, profiles[-1], speed=None, presenters=[],
+                                         method="milp")
+        if result.phase is not Phase.DONE or not isinstance(result.verification, HoldSamples):
+            raise EstimationError(f"{path}: the {which} hold did not replay to a steady "
+                                  f"hold: {result.reason}")
+        holds.append(result.verification)
+    if weights[0] != weights[1]:
+        raise DataError(f"{before} and {after} record different weights ({weights[0]} and "
+                        f"{weights[1]}): not the two holds of one calibration")
+    return check_against_profile(calibration_experiment(holds[0], holds[1], profiles[0],
+                                                        weights[0]),
+                                 profiles[0])

@@ -16,7 +16,7 @@ from trimd.app.session import SessionResult
 from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import VERIFIED, Verification
-from trimd.core.estimate import StaticEstimate
+from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
@@ -123,6 +123,15 @@ def format_verification(v: Verification) -> str:
     return "\n".join(lines)
 
 
+def format_level_hold(hold: HoldSamples) -> str:
+    """A calibration's level hold (:mod:`trimd.app.calibrate`): its steady samples and
+    their mean τ on the rows a level hold measures (Z, K, M)."""
+    z, k, m = np.mean(hold.tau[:, 2:5], axis=0)
+    return (f"level hold ({len(hold.t_s)} steady samples, {hold.t_s[0]:.1f} – "
+            f"{hold.t_s[-1]:.1f} s): mean τ Z {z:+.3f} N, K {k:+.3f} N·m, M {m:+.3f} N·m; "
+            "a calibration is both holds: trimd calibrate --replay BEFORE AFTER")
+
+
 def format_correction(c: Correction | None) -> str:
     """A verify hold's correction (:mod:`trimd.ballast.correct`) as a proposal's table,
     or that none is needed."""
@@ -137,6 +146,8 @@ def format_result(result: SessionResult) -> str | None:
     prints them (None: neither)."""
     if isinstance(result.verification, Verification):
         return format_verification(result.verification)
+    if isinstance(result.verification, HoldSamples):
+        return format_level_hold(result.verification)
     if result.estimate is None:
         return None
     text = format_estimate(result.estimate)

@@ -2,6 +2,9 @@
 the thrust map (:mod:`trimd.app.calibrate`; docs/method.md §7): a level hold, the operator
 hangs a known weight at a known slot, a second level hold; the experiment is checked
 and stored in the vehicle's trim history, and every later session of the vehicle uses it.
+Each hold is recorded (``-calibrate-before`` / ``-calibrate-after`` in the log's name);
+``trimd calibrate --replay BEFORE AFTER`` reproduces the experiment and its outcome from
+the two recordings.
 """
 
 from __future__ import annotations
@@ -10,18 +13,23 @@ import argparse
 import asyncio
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
-from trimd.app.calibrate import KnownWeight, calibrate_with_weight
+from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
 from trimd.app.connect import open_link
+from trimd.app.files import default_record_path
 from trimd.app.history.calibration import calibrated_profile
 from trimd.app.jsonlines import print_result
+from trimd.app.replay import replay_calibration
 from trimd.cli.argtypes import Subcommands
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.calibration import gains
 from trimd.core.calibration_json import gain_to_dict
 from trimd.core.errors import ProfileError, UsageError
-from trimd.core.profile_yaml import load_profile
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile, read_profile_text
+from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["register", "run"]
 
@@ -35,12 +43,14 @@ def register(sub: Subcommands) -> None:
         "second level hold: the thrusters' answer to the known weight calibrates their "
         "thrust map, stored in the vehicle's trim history and used by every later trim, "
         "verify hold and watch of the vehicle (docs/method.md §7).")
-    p.add_argument("--link", required=True, help="sim[:opts] | mavlink:<conn> | "
-                   "serial:<dev>[,<baud>]")
-    p.add_argument("--profile", required=True, help="vehicle profile (YAML path or name)")
-    p.add_argument("--mass", required=True, metavar="KG@SLOT",
+    p.add_argument("--link", help="sim[:opts] | mavlink:<conn> | serial:<dev>[,<baud>] "
+                   "(required unless --replay)")
+    p.add_argument("--profile", help="vehicle profile (YAML path or name; required unless "
+                   "--replay: the recordings carry theirs)")
+    p.add_argument("--mass", metavar="KG@SLOT",
                    help="the weight's net downward force in water [kgf] (negative: a "
-                   "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd")
+                   "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd "
+                   "(required unless --replay)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
     p.add_argument("--yes", action="store_true", help="command the vehicle without asking, "
@@ -48,6 +58,14 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--no-history", action="store_true",
                    help="check the experiment against the profile alone; store nothing")
+    p.add_argument("--record", metavar="PATH", help="where to record the holds: PATH with "
+                   "-calibrate-before / -calibrate-after in its name (default: timestamped "
+                   "logs in the data directory's sessions/)")
+    p.add_argument("--no-record", action="store_true", help="do not record the holds")
+    p.add_argument("--replay", nargs=2, metavar=("BEFORE", "AFTER"),
+                   help="reproduce a calibration from the recordings of its two holds: the "
+                   "experiment checked against the thrust map the live session had, stored "
+                   "nowhere")
     add_history_args(p)
     p.set_defaults(func=run)
 
@@ -65,7 +83,27 @@ def _ask(text: str) -> bool:
     return sys.stdin.readline().strip().lower() in ("y", "yes")
 
 
-def run(args: argparse.Namespace) -> int:
+def _recorder(args: argparse.Namespace, profile: Profile
+              ) -> Callable[[dict[str, object]], TlogRecorder] | None:
+    """Each hold's recorder: ``--record`` (or a timestamped log) with the hold's name."""
+    if args.no_record:
+        return None
+    base = Path(args.record) if args.record else default_record_path(profile)
+    yaml_text = read_profile_text(args.profile)[0]
+
+    def recorder(hold: dict[str, object]) -> TlogRecorder:
+        path = base.with_name(f"{base.stem}-calibrate-{hold['hold']}{base.suffix or '.tlog'}")
+        return TlogRecorder(path, profile, yaml_text, calibration_hold=hold)
+
+    return recorder
+
+
+def _live(args: argparse.Namespace) -> CalibrationRun | None:
+    """The calibration on the vehicle; None when the operator did not confirm it."""
+    missing = [f"--{k}" for k in ("link", "profile", "mass") if not getattr(args, k)]
+    if missing:
+        raise UsageError(f"{', '.join(missing)} required (or --replay BEFORE AFTER)",
+                         "trimd calibrate")
     profile = load_profile(args.profile)
     weight = _weight(args.mass, args.uncertainty_pct)
     profile.slot(weight.slot)  # a wrong slot fails before anything is commanded
@@ -73,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
     if not args.yes and not _ask("two level holds: let trimd command the vehicle?"):
-        return 1
+        return None
     vehicle = vehicle_of(args, profile.name)
     db = None if args.no_history else Path(db_path(args))
     profile = calibrated_profile(db, vehicle, profile)
@@ -84,9 +122,21 @@ def run(args: argparse.Namespace) -> int:
             return True
         return _ask(text)
 
-    done = asyncio.run(calibrate_with_weight(lambda: open_link(args.link, profile), profile,
-                                             weight, hung, db=db, vehicle=vehicle))
-    determined = [g for g in gains(done.posterior, profile) if g.determined]
+    return asyncio.run(calibrate_with_weight(lambda: open_link(args.link, profile), profile,
+                                             weight, hung, db=db, vehicle=vehicle,
+                                             record=_recorder(args, profile)))
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.replay:
+        before, after = args.replay
+        done: CalibrationRun | None = asyncio.run(replay_calibration(before, after, args.profile))
+    else:
+        done = _live(args)
+    if done is None:
+        return 1
+    vehicle = vehicle_of(args, done.profile.name)
+    determined = [g for g in gains(done.posterior, done.profile) if g.determined]
     lines = [done.outcome.message] + [
         f"  {g.thruster} {g.direction}: {g.mean_pct:+.1f} ± {g.std_pct:.1f} % "
         f"(prior ± {g.prior_std_pct:.1f} %)" for g in determined]

@@ -26,6 +26,7 @@ from trimd.drivers.mavlink.message import MavMessage
 from trimd.logs.log import is_dataflash, open_log
 from trimd.logs.recorder import (
     CALIBRATION_BLOCK,
+    CALIBRATION_HOLD_BLOCK,
     PROFILE_BLOCK,
     SESSION_START,
     TRIMD_COMPONENT,
@@ -34,17 +35,18 @@ from trimd.logs.recorder import (
 )
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "recorded_notices", "recorded_profile_yaml", "recorded_trimd_texts",
-           "recorded_verify_target", "with_recorded_thrust_map"]
+__all__ = ["ReplayLink", "recorded_calibration_hold", "recorded_notices",
+           "recorded_profile_yaml", "recorded_trimd_texts", "recorded_verify_target",
+           "with_recorded_thrust_map"]
 
 
-_BLOCKS = (PROFILE_BLOCK, VERIFY_BLOCK, CALIBRATION_BLOCK)
+_BLOCKS = (PROFILE_BLOCK, VERIFY_BLOCK, CALIBRATION_BLOCK, CALIBRATION_HOLD_BLOCK)
 
 
 def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
     """The ENCAPSULATED_DATA blocks at the start of a trimd recording, by the start of the
     STATUSTEXT naming each (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`,
-    :data:`CALIBRATION_BLOCK`); empty for other
+    :data:`CALIBRATION_BLOCK`, :data:`CALIBRATION_HOLD_BLOCK`); empty for other
     logs. Any other trimd message after a block ends them."""
     blocks: dict[str, list[bytes]] = {}
     current: str | None = None
@@ -109,6 +111,12 @@ def recorded_verify_target(path: str | Path) -> dict[str, Any] | None:
     for a trim's recording (and for a verify hold recorded before trimd wrote it) and
     other logs."""
     return _recorded_json(path, VERIFY_BLOCK, "verify target")
+
+
+def recorded_calibration_hold(path: str | Path) -> dict[str, Any] | None:
+    """Which level hold of a deliberate calibration a recording is and the weight hung
+    (:mod:`trimd.app.calibrate`); None for any other recording and other logs."""
+    return _recorded_json(path, CALIBRATION_HOLD_BLOCK, "calibration hold")
 
 
 def with_recorded_thrust_map(path: str | Path, profile: Profile) -> Profile:
