@@ -24,7 +24,8 @@ any telemetry once a second) gives a disconnected Health saying what is missing.
 
 The pilot: when the vehicle reports (VHSTA) that control went from trimd's hold or
 open-loop input back to the pilot while trimd still commands, or that the pilot still
-flies :data:`NOT_TAKEN_AFTER` status sentences after trimd's command, the link yields a
+flies :data:`NOT_TAKEN_AFTER` status sentences, and :data:`NOT_TAKEN_S` of wall clock,
+after trimd's command, the link yields a
 :class:`PilotInput`, on which the procedure releases and ends: no data from the pilot's
 flying is taken for a hold.
 """
@@ -66,8 +67,8 @@ from trimd.drivers.serial.protocol import (
     to_sample,
 )
 
-__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "NOT_TAKEN_AFTER", "TIMEOUT_S", "SerialLink",
-           "open_serial_link"]
+__all__ = ["CONTROL_PERIOD_S", "DEFAULT_BAUD", "NOT_TAKEN_AFTER", "NOT_TAKEN_S", "TIMEOUT_S",
+           "SerialLink", "open_serial_link"]
 
 DEFAULT_BAUD = 115_200
 #: Vehicle silence that makes the link lost [s].
@@ -78,8 +79,11 @@ CONTROL_PERIOD_S = 0.5
 #: at most this often [s, wall clock], VHSTA or not.
 WAITING_EVERY_S = 1.0
 #: While trimd commands, this many VHSTA in a row saying control PILOT (1 Hz: the first
-#: may have left before the vehicle had trimd's command) mean the vehicle did not take it.
-NOT_TAKEN_AFTER = 3
+#: may have left before the vehicle had trimd's command) mean the vehicle did not take it,
+#: once the last of them came this long [s, wall clock] after trimd took control: a
+#: vehicle (or a simulator faster than real time) sending status faster than the command
+#: reaches it is not taken for one that refused it.
+NOT_TAKEN_AFTER, NOT_TAKEN_S = 3, 1.0
 _READ_TIMEOUT_S = 0.05
 _WRITE_TIMEOUT_S = 1.0
 _QUEUE_MAX = 20_000
@@ -160,6 +164,7 @@ class SerialLink:
         self._t_waiting = -WAITING_EVERY_S  # monotonic: when a not-connected Health went out
         self._pilot_stas = 0  # VHSTAs in a row saying PILOT while trimd commands
         self._pilot_said = False  # a PilotInput was yielded for this command
+        self._t_taken = 0.0  # monotonic: when trimd took control afresh
         self._clock = _VehicleClock()
         self._pending: deque[Sample] = deque()
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -213,6 +218,7 @@ class SerialLink:
         if isinstance(command, HoldAttitude | OpenLoop):
             if isinstance(self._active, Heartbeat):   # trimd takes control afresh
                 self._pilot_stas, self._pilot_said = 0, False
+                self._t_taken = time.monotonic()
             self._active, self._commanded = command, True
         elif isinstance(command, Release):
             self._active = Heartbeat()
@@ -282,7 +288,7 @@ class SerialLink:
                          self.vehicle.name if self.vehicle else "", out.mode_class)
             self._last = out
             self._emit(out)
-            self._on_control(str(s.values[3]), out)   # STA: t_ms, mode, armed, control
+            self._on_control(str(s.values[3]), out, now)   # STA: t_ms, mode, armed, control
             if not self._connected:
                 self._t_waiting = now
             return
@@ -295,11 +301,12 @@ class SerialLink:
             self._t_waiting = now
             self._emit(Health(t_s, False, "", False, self.parser.bad_lines, self._problem))
 
-    def _on_control(self, control: str, health: Health) -> None:
+    def _on_control(self, control: str, health: Health, now: float) -> None:
         """While trimd commands, the pilot flies if the vehicle handed control back (HOLD/
         OPEN → PILOT) or never took trimd's command (PILOT in :data:`NOT_TAKEN_AFTER`
-        status sentences in a row): say so with one PilotInput. trimd's own release sets
-        ``_active`` first, so the PILOT after it is no takeover."""
+        status sentences in a row, the last :data:`NOT_TAKEN_S` or more after the command,
+        ``now`` [s, monotonic] the sentence's receipt): say so with one PilotInput.
+        trimd's own release sets ``_active`` first, so the PILOT after it is no takeover."""
         previous, self._flying = self._flying, control
         if (control != "PILOT" or self._pilot_said
                 or not isinstance(self._active, HoldAttitude | OpenLoop)):
@@ -308,7 +315,7 @@ class SerialLink:
         self._pilot_stas += 1
         if previous in ("HOLD", "OPEN"):
             source = f"the vehicle reports control PILOT, mode {health.mode}"
-        elif self._pilot_stas >= NOT_TAKEN_AFTER:
+        elif self._pilot_stas >= NOT_TAKEN_AFTER and now - self._t_taken >= NOT_TAKEN_S:
             source = (f"the vehicle did not take trimd's command: control PILOT in "
                       f"{self._pilot_stas} status sentences, mode {health.mode}")
         else:
