@@ -20,8 +20,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from trimd.app.announce import WatchAnnouncer
 from trimd.core.errors import LinkError
@@ -173,6 +171,9 @@ def write_watch_plot(watch: TrimWatch, path: str | Path) -> Path:
     """A PNG of W − B and the net moments over time: each segment's estimate ± 1σ across
     its span, the baseline shaded, each alert a vertical line at its time (dashed at the
     change time it names)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # 0.7 s: only to plot
+    from matplotlib.figure import Figure
+
     names = ("W − B [N]", "W·x_g − B·x_b [N·m]", "W·y_g − B·y_b [N·m]")
     fig = Figure(figsize=(10, 8))
     FigureCanvasAgg(fig)

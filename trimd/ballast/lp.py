@@ -51,16 +51,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import Bounds, LinearConstraint, OptimizeResult, linprog, milp
 
 from trimd.ballast.check import MIN_GM_M
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.types import FloatArray
+
+if TYPE_CHECKING:
+    from scipy.optimize import OptimizeResult
 
 __all__ = ["Item", "Programme", "Solution", "build_programme", "ideal_items",
            "moment_resolution", "piece_items", "solve_programme"]
@@ -322,6 +324,8 @@ def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: F
 
 def _solve_stage(c: FloatArray, A: FloatArray, b: FloatArray, upper: FloatArray,
                  integrality: NDArray[np.int_] | None, node_limit: int) -> OptimizeResult:
+    from scipy.optimize import Bounds, LinearConstraint, linprog, milp  # 0.5 s: when solving
+
     if integrality is None:
         return linprog(c, A_ub=A, b_ub=b, bounds=np.column_stack([np.zeros_like(upper), upper]),
                        method="highs")

@@ -7,7 +7,6 @@ import argparse
 from pathlib import Path
 
 from trimd.app.history import History
-from trimd.app.history.plot import write_history_plot
 from trimd.app.history.report import format_history, history_to_dict
 from trimd.app.jsonlines import print_result
 from trimd.cli.argtypes import Subcommands
@@ -53,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
             return _nothing(args, path, f"the trim history {path} is empty: no trim, "
                             "installed ballast or watch record yet")
         if args.plot:
+            from trimd.app.history.plot import write_history_plot  # matplotlib: 0.7 s
+
             if len(vehicles) > 1:
                 raise DataError(f"--plot draws one vehicle; pick one with --vehicle "
                                 f"({', '.join(vehicles)})")

@@ -30,8 +30,6 @@ import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from trimd.app.excite_logs import experiments_by_stage, stopped_early
-from trimd.app.experiment import run_experiment
 from trimd.app.files import read_statics
 from trimd.app.jsonlines import print_result
 from trimd.app.session import SessionResult
@@ -106,6 +104,7 @@ def register(sub: Subcommands) -> None:
 
 def run_excite(args: argparse.Namespace) -> int:
     from trimd.app.connect import open_link
+    from trimd.app.experiment import run_experiment
     from trimd.app.files import default_record_path
     from trimd.logs.recorder import TlogRecorder
 
@@ -151,6 +150,8 @@ def _missing(fits: Sequence[StageFit]) -> list[tuple[StageFit, tuple[DofExcitati
 
 
 def run_identify(args: argparse.Namespace) -> int:
+    from trimd.app.excite_logs import experiments_by_stage, stopped_early  # reads logs
+
     profile = load_profile(args.profile)
     statics = read_statics(args.estimate) if args.estimate else None
     experiments = experiments_by_stage(args.logs, profile, args.stage)

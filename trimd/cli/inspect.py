@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import argparse
 
-from trimd.app.log_report import inspect_log, print_report
 from trimd.cli.argtypes import Subcommands
 from trimd.core.profile_yaml import load_profile
 
@@ -26,6 +25,8 @@ def register(sub: Subcommands) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from trimd.app.log_report import inspect_log, print_report  # pymavlink: 0.3 s
+
     profile = load_profile(args.profile) if args.profile else None
     print_report(inspect_log(args.log, profile), args.json)
     return 0

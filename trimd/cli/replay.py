@@ -34,7 +34,6 @@ from trimd.core.events import Phase
 from trimd.core.procedure import VERIFY_DONE
 from trimd.core.profile import Profile
 from trimd.logs.replay import recorded_trimd_texts, recorded_verify_target
-from trimd.tui.run import run_in_tui
 
 __all__ = ["register", "run"]
 
@@ -81,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
         return _analyse_foreign(path, profile, args)
     if wants_tui(args):
         from trimd.tui.replay_app import replay_app  # Textual only for the TUI
+        from trimd.tui.run import run_in_tui
 
         app = replay_app(path, profile, speed=math.inf if args.fast else args.speed or 1.0,
                          method=args.ballast)

@@ -18,14 +18,11 @@ import os
 import sys
 from pathlib import Path
 
-from aiohttp import web
-
 from trimd.app.files import data_dir
 from trimd.app.headless import stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.calibration import calibrated_profile
 from trimd.app.serve import DEFAULT_PORT, Clock, Service
-from trimd.app.web import make_app
 from trimd.cli.argtypes import Subcommands, bounded, integer
 from trimd.cli.history_args import vehicle_of
 from trimd.cli.watch_args import add_watch_args, new_watch
@@ -68,6 +65,10 @@ def _rate(text: str) -> float | None:
 
 
 async def _serve(args: argparse.Namespace, service: Service) -> int:
+    from aiohttp import web  # 0.5 s: only for serve
+
+    from trimd.app.web import make_app
+
     stop = asyncio.Event()
     stop_on_signals(lambda why: stop.set())
     runner = web.AppRunner(make_app(service), access_log=None)

@@ -45,7 +45,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2, norm
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
@@ -272,6 +271,8 @@ def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
            ) -> tuple[ThrustMapPosterior, Outcome]:
     """``post`` updated by ``exp``, or ``post`` unchanged when ``exp`` disagrees with it
     (χ² tail probability below :data:`REJECT_P`), with the outcome."""
+    from scipy.stats import chi2, norm  # 1 s to import: only when a calibration is checked
+
     y, H, R, rows = experiment_rows(exp, profile)
     v = y - H @ post.mean
     S = H @ post.cov @ H.T + R

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import lfilter
 
 from trimd.core.types import FloatArray
 
@@ -37,6 +36,8 @@ def ratio_statistic(x: ArrayLike, lambda1: float = 0.2, lambda2: float = 0.1,
     >>> bool(R[40] == 1.0), bool(R[-1] > 2.5)
     (True, True)
     """
+    from scipy.signal import lfilter  # 1 s to import: only for a whole series
+
     a = np.asarray(x, float)
     X = a.reshape(len(a), -1)
     zi = (1 - lambda1) * X[0]

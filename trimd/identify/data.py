@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from trimd.core.effort import tau_at
 from trimd.core.errors import DataError
@@ -233,6 +232,8 @@ def depth_rate(eta: FloatArray, h: float, depth_h_s: float = 0.0,
     sensor sampling every ``depth_h_s`` [s] (0: every grid step): the derivative of a
     Savitzky–Golay fit (quadratic) over :data:`DEPTH_WINDOW_S` and at least ``samples``
     depth samples."""
+    from scipy.signal import savgol_filter  # 1 s to import: not for every identify import
+
     window = depth_window(len(eta), h, depth_h_s, samples)
     z_dot: FloatArray = savgol_filter(eta[:, 2], window, 2, deriv=1, delta=h)
     return z_dot

@@ -23,7 +23,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from trimd.core.types import FloatArray
 from trimd.identify.data import Experiment, depth_window
@@ -73,6 +72,8 @@ class DepthRate:
     def _filtered(self, z: FloatArray) -> FloatArray:
         """Depth (L + 1, B, K) kept at the depth samples, interpolated between them and
         differentiated by the filter: (L + 1, B, K) [m/s]."""
+        from scipy.signal import savgol_filter  # 1 s to import: not for every identify import
+
         prev = np.take_along_axis(z, self._prev[:, None, :], axis=0)
         nxt = np.take_along_axis(z, self._next[:, None, :], axis=0)
         held = prev + self._a[:, None, :] * (nxt - prev)

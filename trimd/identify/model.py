@@ -31,7 +31,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter, lfilter_zi
 
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import Profile
@@ -197,6 +196,8 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
     -------
     start, mid : lagged τ at t_k and at t_k + h/2 (exact), each (N, 6).
     """
+    from scipy.signal import lfilter, lfilter_zi  # 1 s to import: only when simulating
+
     lead = 0.5 * h if lead_s is None else max(lead_s, 0.0)
     shift = min(int(lead / h), len(tau) - 1)
     c = min(lead - shift * h, h)

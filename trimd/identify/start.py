@@ -19,8 +19,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import nnls
-from scipy.signal import savgol_filter
 
 from trimd.core.model import restoring_matrix
 from trimd.core.types import FloatArray
@@ -45,6 +43,9 @@ def equation_error_start(experiments: Sequence[Experiment], stage: Stage, static
 
     The mass entry is at least the one whose time constant at the fastest recorded speed
     is one integration step ``step_s`` (a stiffer start makes the RK4 simulation diverge)."""
+    from scipy.optimize import nnls  # 1.5 s to import both: not for every identify import
+    from scipy.signal import savgol_filter
+
     m = statics.mass_kg
     q_rest = statics.q_rest
     regressors: dict[int, FloatArray] = {}

@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import lfilter
 
 from trimd.drivers.sim.config import SimConfig
 
@@ -66,6 +65,8 @@ class GaussMarkov:
     def step(self) -> tuple[float, ...]:
         """The next sample of the ``n`` components."""
         if self._next >= len(self._block):
+            from scipy.signal import lfilter  # 1 s to import: only once a process is on
+
             w = self._b * self._rng.standard_normal((_BLOCK, self.n))
             x, _ = lfilter([1.0], [1.0, -self._a], w, axis=0, zi=self._a * self._x[None, :])
             self._x = x[-1]
