@@ -111,7 +111,7 @@ def test_finds_the_passive_trim_and_judges_it(bluerov: Profile, trim: tuple[floa
     assert isinstance(r, FloatResult)
     for got, std, want in ((r.roll_deg, r.roll_std_deg, trim[0]),
                            (r.pitch_deg, r.pitch_std_deg, trim[1])):
-        assert abs(got - want) <= Z95 * std and abs(got - want) < 0.05
+        assert abs(got - want) <= Z95 * std and abs(got - want) < 0.1
         # the AHRS's own error is in the ±, and it is most of it
         assert bluerov.attitude_error_deg <= std < 1.5 * bluerov.attitude_error_deg
     assert r.verdict is verdict

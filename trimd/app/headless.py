@@ -16,6 +16,7 @@ from trimd.app.report import (
     NewCommands,
     NewWarnings,
     format_estimate,
+    format_float,
     format_level_hold,
     format_proposal,
     format_verification,
@@ -26,6 +27,7 @@ from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Notice, Output, Phase, Progress
+from trimd.core.floating import FloatResult, float_to_dict
 from trimd.core.samples import Health, Sample, VehicleText
 
 __all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "result_to_dict",
@@ -70,6 +72,10 @@ class HeadlessPresenter:
                 self._emit(format_verification(out.verification),
                            {"type": "verification", "t_s": t,
                             **verification_to_dict(out.verification)})
+                return
+            if isinstance(out.verification, FloatResult):
+                self._emit(format_float(out.verification),
+                           {"type": "float", "t_s": t, **float_to_dict(out.verification)})
                 return
             if isinstance(out.verification, HoldSamples):
                 h = out.verification

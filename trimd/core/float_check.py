@@ -14,8 +14,9 @@ relaxation time allows (:func:`~trimd.core.floating.remaining_transient_deg`), t
 window then being collected already. Collect: until roll and pitch are known to
 :data:`~trimd.core.floating.STOP_SHARE` of the level tolerance, or ``collect_max_s``, or the
 depth has used :data:`DEPTH_STOP_SHARE` of its envelope (a vehicle that is not neutrally
-buoyant sinks or rises all the while): then the vehicle is released and the result
-(:class:`~trimd.core.floating.FloatResult`) rides on the result notice, in
+buoyant sinks or rises all the while; the result then takes at least two batches,
+reaching back into the settled windows, or there is none): then the vehicle is released
+and the result (:class:`~trimd.core.floating.FloatResult`) rides on the result notice, in
 ``verification``. Settling and collecting are timed and decided on the samples alone, so
 a replay reproduces the live result exactly.
 
@@ -102,7 +103,8 @@ class FloatCheck(Phases):
         self._health: Health | None = None
         self._depth: Depth | None = None
         self._t_float = math.nan       # floating began [s]
-        self._depth_ref = math.nan     # depth then [m]
+        #: the depth [m] when floating began (the depth envelope's reference)
+        self.start_depth_m = math.nan
         self._times: list[float] = []  # attitude samples since floating began [s]
         self._angles: list[tuple[float, float]] = []  # their roll, pitch [deg]
         self._depths: list[tuple[float, float]] = []  # (t [s], depth [m]) since then
@@ -194,9 +196,9 @@ class FloatCheck(Phases):
     def _start(self) -> list[Output]:
         now = self._now_data()
         self._t_float = now
-        self._depth_ref = self._depth.depth_m if self._depth is not None else math.nan
+        self.start_depth_m = self._depth.depth_m if self._depth is not None else math.nan
         self._next_look = now + LOOK_EVERY_S
-        self.guard.start(now, self._depth_ref, "the float's start depth")
+        self.guard.start(now, self.start_depth_m, "the float's start depth")
         w = self.timing
         out: list[Output] = [NEUTRAL]
         return out + self._enter(Phase.SETTLE, (
@@ -253,13 +255,19 @@ class FloatCheck(Phases):
         return []
 
     def _depth_check(self, d: Depth) -> list[Output]:
-        change = d.depth_m - self._depth_ref
+        change = d.depth_m - self.start_depth_m
         limit = DEPTH_STOP_SHARE * self.depth_excursion_m
         if not abs(change) >= limit:
             return []
         why = (f"depth {change:+.2f} m from the start ({DEPTH_STOP_SHARE:.0%} of the "
                f"±{self.depth_excursion_m:g} m envelope)")
         if self.phase is Phase.COLLECT:
+            # too short for two batches: the settled windows before count too (what they
+            # still hold of the transient shows in the trend, which the ± counts)
+            t = self._times
+            start = t[-1] - 2 * self.timing.batch_s
+            if t[self._first] > start:
+                self._first = max(0, int(np.searchsorted(t, start, side="left")) - 1)
             result = self._result(why)
             if result.t_end_s - result.t_start_s >= 2 * self.timing.batch_s:
                 return self._done(result)
@@ -275,7 +283,7 @@ class FloatCheck(Phases):
     def _result(self, stopped: str) -> FloatResult:
         t = self._times[self._first:]
         depth = [(ts, d) for ts, d in self._depths if ts >= t[0]]
-        change = self._depths[-1][1] - self._depth_ref if self._depths else math.nan
+        change = self._depths[-1][1] - self.start_depth_m if self._depths else math.nan
         return float_result(t, np.asarray(self._angles[self._first:]), depth,
                             timing=self.timing, profile=self.profile,
                             settle_s=t[0] - self._t_float, depth_change_m=change,
@@ -292,7 +300,7 @@ class FloatCheck(Phases):
         if not self._times:
             return ""
         roll, pitch = self._angles[-1]
-        change = self._depths[-1][1] - self._depth_ref if self._depths else math.nan
+        change = self._depths[-1][1] - self.start_depth_m if self._depths else math.nan
         return (f" (after {self._times[-1] - self._t_float:.1f} s of floating: roll "
                 f"{roll:+.2f}°, pitch {pitch:+.2f}°, depth {change:+.2f} m)")
 

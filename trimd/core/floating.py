@@ -33,8 +33,8 @@ from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 
 __all__ = ["MIN_BATCHES", "SETTLED_SHARE", "STOP_SHARE", "Z95", "FloatResult",
-           "FloatTiming", "Verdict", "float_result", "float_timing", "float_to_dict",
-           "known_well_enough",
+           "FloatTiming", "Verdict", "drift_share", "float_result", "float_timing",
+           "float_to_dict", "known_well_enough",
            "remaining_transient_deg"]
 
 #: Two-sided 95 % quantile of the normal distribution.
@@ -141,11 +141,14 @@ class FloatResult:
 
     Attributes
     ----------
-    roll_deg, pitch_deg : mean roll and pitch of the collected samples [deg].
+    roll_deg, pitch_deg : mean roll and pitch of the collected samples [deg], corrected
+        for the moment of the vertical drift (:func:`drift_share`).
     roll_std_deg, pitch_std_deg : their 1σ [deg]: the statistical part (batch means), the
-        transient not yet over (the trend times the relaxation time) and the attitude
-        reference's error (``attitude_error_deg``) in quadrature.
-    stat_std_deg, transient_deg : the statistical and transient parts, roll and pitch.
+        transient not yet over (the trend times the relaxation time), the moment of the
+        vertical drift (:func:`drift_share`) and the attitude reference's error
+        (``attitude_error_deg``) in quadrature.
+    stat_std_deg, transient_deg, drift_deg : the statistical, transient and drift parts,
+        roll and pitch [deg].
     samples : attitude samples collected.
     t_start_s, t_end_s : the collected span [s, session time].
     settle_s : from the start of floating to the first collected sample [s].
@@ -162,6 +165,7 @@ class FloatResult:
     pitch_std_deg: float
     stat_std_deg: tuple[float, float]
     transient_deg: tuple[float, float]
+    drift_deg: tuple[float, float]
     samples: int
     t_start_s: float
     t_end_s: float
@@ -226,19 +230,47 @@ def float_result(t_s: Sequence[float], angles_deg: np.ndarray, depth: Sequence[
     span). The statistical σ is infinite with fewer than two batches."""
     t = np.asarray(t_s, float)
     a = np.asarray(angles_deg, float)
-    stat, trans, std = [], [], []
+    d = np.asarray(depth, float).reshape(-1, 2)
+    rate = _trend(d[:, 0], d[:, 1]) if len(d) >= 2 else math.nan
+    share = drift_share(profile, rate)
+    mean, stat, trans, drift, std = [], [], [], [], []
     for i in (0, 1):
         s, _ = _batch_std(t, a[:, i], timing.batch_s)
         tr = abs(_trend(t, a[:, i])) * timing.relax_s[i]
+        mean.append(float(a[:, i].mean()) * (1.0 + share[i]))
+        dr = abs(float(a[:, i].mean()) * share[i])
         stat.append(s)
         trans.append(tr)
-        std.append(math.sqrt(s * s + tr * tr + profile.attitude_error_deg ** 2))
-    d = np.asarray(depth, float).reshape(-1, 2)
-    rate = _trend(d[:, 0], d[:, 1]) if len(d) >= 2 else math.nan
-    return FloatResult(float(a[:, 0].mean()), float(a[:, 1].mean()), std[0], std[1],
-                       (stat[0], stat[1]), (trans[0], trans[1]), len(t), float(t[0]),
-                       float(t[-1]), settle_s, rate, depth_change_m, profile.level_tol_deg,
-                       stopped)
+        drift.append(dr)
+        std.append(math.sqrt(s * s + tr * tr + dr * dr + profile.attitude_error_deg ** 2))
+    return FloatResult(mean[0], mean[1], std[0], std[1],
+                       (stat[0], stat[1]), (trans[0], trans[1]), (drift[0], drift[1]),
+                       len(t), float(t[0]), float(t[-1]), settle_s, rate, depth_change_m,
+                       profile.level_tol_deg, stopped)
+
+
+def drift_share(profile: Profile, depth_rate_m_s: float) -> tuple[float, float]:
+    """What a vertical drift does to a float angle, roll and pitch [fraction]: the trim is
+    the float angle times 1 + this.
+
+    A vehicle sinking or rising at w_d [m/s] through still water while tilted by φ moves
+    along its body y and z axes at once (v = w_d·sin φ, w = w_d·cos φ), and its added
+    masses turn that into a moment (Munk's; Fossen eq. 6.43, the simulator's C_A):
+    −(A_w − A_v)·v·w about x, a stiffness k_m = w_d²·(A_w − A_v) [N·m/rad] beside the
+    restoring k: the vehicle floats at k·φ_trim / (k + k_m), short of its trim (A_w > A_v)
+    by the share k_m / k of the angle (A_u for pitch). k is the nominal vehicle's
+    −B·z_b: a vehicle whose ballast is lower is stiffer and drifts less, so the share is
+    a correction only to first order, and its size counts again in the ± (1σ). 0 without
+    a rate, infinite without static stability."""
+    if not math.isfinite(depth_rate_m_s):
+        return (0.0, 0.0)
+    k = -profile.buoyancy_N * profile.r_b_m[2]
+    A = profile.added_mass
+    munk = [depth_rate_m_s ** 2 * (A[2] - A[i]) for i in (1, 0)]
+    if not k > 0:
+        return tuple(math.copysign(math.inf, m) if m else 0.0  # type: ignore[return-value]
+                     for m in munk)
+    return (munk[0] / k, munk[1] / k)
 
 
 def known_well_enough(r: FloatResult) -> bool:
@@ -255,6 +287,7 @@ def float_to_dict(r: FloatResult) -> dict[str, Any]:
             "pitch_std_deg": json_number(r.pitch_std_deg),
             "stat_std_deg": [json_number(v) for v in r.stat_std_deg],
             "transient_deg": [json_number(v) for v in r.transient_deg],
+            "drift_deg": [json_number(v) for v in r.drift_deg],
             "verdict": r.verdict.value, "level": r.verdict is Verdict.LEVEL,
             "level_tol_deg": r.level_tol_deg, "samples": r.samples,
             "t_start_s": r.t_start_s, "t_end_s": r.t_end_s, "settle_s": r.settle_s,

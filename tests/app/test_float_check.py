@@ -1,0 +1,243 @@
+"""The float check on the simulated vehicle (``trimd float``, docs/method.md §8).
+
+Physics, not shapes: let go with every thruster at neutral, the simulated vehicle that its
+profile does not describe exactly (``truth=perturbed``) under realistic disturbances
+(``disturb=real``) must float at its TRUE passive trim
+(:func:`trimd.drivers.sim.truth.passive_trim_deg` of its true net weight and moments), and
+the float check must find it within its 95 % interval and within 0.2°; its recording must
+replay to the very same result; a vehicle that sinks out of the depth envelope, an abort,
+a missing confirmation must each leave it released or never commanded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.helpers import ballast_payload, sim_trim
+from trimd.app.connect import open_link
+from trimd.app.float_check import FloatRequest, float_session
+from trimd.app.replay import replay_profile, replay_session
+from trimd.app.session import SessionResult
+from trimd.ballast.proposal import Proposal
+from trimd.cli.main import main
+from trimd.core.events import Cause, Notice, Output, Phase, Progress
+from trimd.core.float_check import NEUTRAL, FloatCheck
+from trimd.core.floating import Z95, FloatResult, Verdict
+from trimd.core.profile import Profile
+from trimd.core.samples import Command, Release, Sample
+from trimd.drivers.sim.link import SimLink
+from trimd.drivers.sim.truth import passive_trim_deg
+
+OPTIONS = "disturb=real,truth=perturbed"
+
+
+@dataclass
+class Watched:
+    """A simulated link that keeps what trimd sent and the largest thrust moment [N·m]
+    the simulated thrusters gave while the vehicle floated."""
+
+    link: SimLink
+    sent: list[Command] = field(default_factory=list)
+    t_float: float = math.nan
+    moment_Nm: float = 0.0
+    force_N: float = 0.0
+    #: the thrust counts from this long [s] after letting go (the thrusters' spin-down)
+    after_s: float = 2.0
+
+    @property
+    def description(self) -> str:
+        return self.link.description
+
+    async def samples(self) -> AsyncIterator[Sample]:
+        async for s in self.link.samples():
+            if self.link.vehicle.t_s - self.t_float >= self.after_s:
+                tau = self.link.vehicle.truth.tau
+                self.force_N = max(self.force_N, float(np.abs(tau[:3]).max()))
+                self.moment_Nm = max(self.moment_Nm, float(np.abs(tau[3:5]).max()))
+            yield s
+
+    async def send(self, command: Command) -> None:
+        self.sent.append(command)
+        await self.link.send(command)
+        self.t_float = self.link.vehicle.t_s if command == NEUTRAL else math.nan
+
+    async def close(self) -> None:
+        await self.link.close()
+
+
+@dataclass
+class Float:
+    """One float check on the simulator: the session's result, the link, the true trim."""
+
+    result: SessionResult
+    watched: Watched
+    truth_deg: tuple[float, float]
+    check: FloatCheck
+
+    @property
+    def r(self) -> FloatResult:
+        assert isinstance(self.result.verification, FloatResult), self.result.reason
+        return self.result.verification
+
+
+class AbortAfter:
+    """Aborts the session ``after_s`` of sample time into the float (or at confirm)."""
+
+    def __init__(self, after_s: float | None = None) -> None:
+        self.after_s = after_s
+        self.t_float = math.nan
+        self.abort = lambda reason: None
+
+    def output(self, out: Output, progress: Progress) -> None:
+        if isinstance(out, Notice) and out.phase is Phase.CONFIRM and self.after_s is None:
+            self.abort("not confirmed by the operator")
+        if isinstance(out, Notice) and out.phase is Phase.SETTLE:
+            self.t_float = out.t_s
+
+    def sample(self, sample: Sample, progress: Progress) -> None:
+        if self.after_s is not None and sample.t_s - self.t_float >= self.after_s:
+            self.abort("aborted by the operator")
+
+
+def float_on_sim(profile: Profile, payload: str, seed: int, *, options: str = OPTIONS,
+                 depth_excursion_m: float | None = None, record: Path | None = None,
+                 confirmed: bool = True, stop: AbortAfter | None = None) -> Float:
+    async def go() -> Float:
+        url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
+        link = await open_link(url, profile)
+        assert isinstance(link, SimLink)
+        watched = Watched(link)
+        session = float_session(watched, profile, [stop] if stop else [], FloatRequest(
+            str(profile.source), confirmed=confirmed, depth_excursion_m=depth_excursion_m,
+            record=record), wall_clock=False)
+        if stop is not None:
+            stop.abort = session.abort
+        result = await session.run()
+        trim = passive_trim_deg(link.vehicle.truth.mass.net)
+        assert isinstance(session.procedure, FloatCheck)
+        return Float(result, watched, trim, session.procedure)
+    return asyncio.run(go())
+
+
+def assert_true_trim(f: Float) -> None:
+    """The float attitude is the true passive trim within its 95 % interval and 0.2°."""
+    r = f.r
+    for got, std, want in ((r.roll_deg, r.roll_std_deg, f.truth_deg[0]),
+                           (r.pitch_deg, r.pitch_std_deg, f.truth_deg[1])):
+        assert abs(got - want) <= Z95 * std, (got, want, std, r)
+        assert abs(got - want) <= 0.2, (got, want, r)
+
+
+def assert_replays_exactly(log: Path, live: FloatResult) -> None:
+    replayed, _ = asyncio.run(replay_session(str(log), replay_profile(str(log), None)[0],
+                                             speed=None, presenters=[], method="milp"))
+    assert replayed.verification == live   # every float, bit for bit
+
+
+@pytest.mark.parametrize(("name", "payload", "seed", "excursion_m"), [
+    ("bluerov2-heavy", "0.4@W-aft-stbd", 5, None),
+    ("bluerov2-heavy", "0.4@W-aft-stbd", 8, None),
+    ("sabertooth-dh2", "10@AftSB", 5, 30.0)])
+def test_the_float_is_the_true_passive_trim(name: str, payload: str, seed: int,
+                                            excursion_m: float | None, tmp_path: Path,
+                                            bluerov: Profile, sabertooth: Profile) -> None:
+    """Raw payloads, far out of trim (5–14°): the Heavy settles in seconds within its
+    0.5 m envelope; the Sabertooth's pitch relaxes in ≈ 21 s and it rises 0.1 m/s, so it
+    needs room (30 m here: the simulator has no bottom). Recorded, and replayed to the same
+    result."""
+    profile = bluerov if name == "bluerov2-heavy" else sabertooth
+    log = tmp_path / "float.tlog"
+    f = float_on_sim(profile, payload, seed, depth_excursion_m=excursion_m, record=log)
+    assert f.result.phase is Phase.DONE, f.result.reason
+    assert_true_trim(f)
+    assert f.r.verdict is Verdict.NOT_LEVEL
+    assert f.watched.sent == [NEUTRAL, Release()]
+    assert_replays_exactly(log, f.r)
+
+
+@pytest.mark.parametrize(("name", "payload", "seed", "excursion_m"), [
+    ("bluerov2-heavy", "0.4@W-aft-stbd", 0, 2.0), ("sabertooth-dh2", "10@AftSB", 3, 10.0)])
+def test_after_ballast_the_float_finds_what_the_ballast_left(
+        name: str, payload: str, seed: int, excursion_m: float, bluerov: Profile,
+        sabertooth: Profile) -> None:
+    """The use case: trim, fit the proposal's ballast, float. What the ballast left (1.6°
+    of roll on this Heavy, 1.7° of pitch on this Sabertooth: trims whose thrust map near
+    the dead band misled them) is found to 0.2°, with a ± (0.2–0.3° at 95 %) well inside
+    the level tolerance of the Heavy and near the Sabertooth's."""
+    profile = bluerov if name == "bluerov2-heavy" else sabertooth
+    trim = sim_trim(profile, payload, seed, OPTIONS)
+    assert isinstance(trim.result.proposal, Proposal), trim.result.reason
+    ballasted = f"{payload}+{ballast_payload(trim.result.proposal, profile)}"
+    f = float_on_sim(profile, ballasted, seed, depth_excursion_m=excursion_m)
+    assert f.result.phase is Phase.DONE, f.result.reason
+    assert f.truth_deg == pytest.approx(trim.trim_after_proposal_deg(), abs=1e-9)
+    assert_true_trim(f)
+    assert max(f.r.roll_std_deg, f.r.pitch_std_deg) * Z95 < 0.35
+
+
+def test_neutral_input_gives_no_thrust(bluerov: Profile, sabertooth: Profile) -> None:
+    """Open loop at zero: PWM at neutral, inside every dead band, so no thrust at all
+    without the simulated PWM dither; with it (disturb=real, ±0.5 µs, an ESC hunting at
+    its band edge) a few hundredths of a degree of trim at most. (The thrusters spin down
+    from the hold's thrust with their lag, 0.1 s: counted from 2 s on.)"""
+    f = float_on_sim(bluerov, "0.4@W-aft-stbd", 5, options="", depth_excursion_m=2.0)
+    assert f.result.phase is Phase.DONE, f.result.reason
+    assert f.watched.moment_Nm < 1e-6 and f.watched.force_N < 1e-6
+    for profile, payload, seed, excursion in ((bluerov, "0.4@W-aft-stbd", 5, None),
+                                              (sabertooth, "10@AftSB", 5, 30.0)):
+        f = float_on_sim(profile, payload, seed, depth_excursion_m=excursion)
+        stiffness = -profile.buoyancy_N * profile.r_b_m[2]
+        assert math.degrees(f.watched.moment_Nm / stiffness) < 0.05
+
+
+def test_a_sinking_vehicle_is_released_before_the_envelope(bluerov: Profile) -> None:
+    """3 N heavy in water (seed 2), the Heavy sinks 0.07 m/s: at 80 % of its 0.5 m
+    envelope it has not settled; released, failed, saying why."""
+    f = float_on_sim(bluerov, "0.4@W-aft-stbd", 2)
+    assert f.result.phase is Phase.FAILED and f.result.cause is Cause.ENVELOPE
+    assert "sinks" in f.result.reason and "W − B > 0" in f.result.reason
+    assert f.watched.sent == [NEUTRAL, Release()]
+    depth = f.watched.link.vehicle.truth.eta[2] - f.check.start_depth_m
+    assert 0.35 < depth < bluerov.procedure.max_depth_excursion_m
+    assert f.watched.link.vehicle.mode == "ALT_HOLD"   # back in the pilot's depth hold
+
+
+def test_an_abort_releases_at_once(bluerov: Profile) -> None:
+    stop = AbortAfter(3.0)
+    f = float_on_sim(bluerov, "0.4@W-aft-stbd", 5, stop=stop)
+    assert f.result.phase is Phase.ABORTED and f.watched.sent == [NEUTRAL, Release()]
+    assert f.watched.link.vehicle.mode == "ALT_HOLD"
+
+
+def test_nothing_is_commanded_without_confirmation(bluerov: Profile) -> None:
+    f = float_on_sim(bluerov, "0.4@W-aft-stbd", 5, confirmed=False, stop=AbortAfter())
+    assert f.result.phase is Phase.ABORTED and f.watched.sent == []
+    assert f.watched.link.vehicle.mode == "ALT_HOLD"
+
+
+def test_trimd_float_prints_the_verdict_and_replays(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]
+                                                    ) -> None:
+    """``trimd float``: exit 0 for a level vehicle (the Heavy as its profile says, no
+    payload), 1 for one that is not; the last JSON line is the float; ``trimd replay``
+    of the recording prints the same line."""
+    log = tmp_path / "level.tlog"
+    code = main(["float", "--link", "sim:seed=1,disturb=real", "--profile", "bluerov2-heavy",
+                 "--yes", "--json", "--max-depth-excursion", "2", "--record", str(log)])
+    live = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert code == 0 and live["type"] == "float" and live["verdict"] == "level", live
+    assert abs(live["roll_deg"]) < 0.2 and abs(live["pitch_deg"]) < 0.2
+    assert main(["replay", str(log), "--headless", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.splitlines()[-1]) == live
+    code = main(["float", "--link", f"sim:payload=0.4@W-aft-stbd,seed=5,{OPTIONS}",
+                 "--profile", "bluerov2-heavy", "--yes", "--no-record"])
+    out = capsys.readouterr().out
+    assert code == 1 and "NOT level within 1°" in out
