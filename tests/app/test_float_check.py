@@ -23,11 +23,12 @@ import pytest
 
 from tests.helpers import ballast_payload, sim_trim
 from trimd.app.connect import open_link
-from trimd.app.float_check import FloatRequest, float_session
+from trimd.app.float_check import FloatRequest, float_from_settings, float_session
 from trimd.app.replay import replay_profile, replay_session
 from trimd.app.session import SessionResult
 from trimd.ballast.proposal import Proposal
 from trimd.cli.main import main
+from trimd.core.errors import DataError
 from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.float_check import NEUTRAL, FloatCheck
 from trimd.core.floating import Z95, FloatResult, Verdict
@@ -35,6 +36,8 @@ from trimd.core.profile import Profile
 from trimd.core.samples import Command, Release, Sample
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.truth import passive_trim_deg
+from trimd.logs.recorder import TlogRecorder
+from trimd.logs.replay import recorded_float_check
 
 OPTIONS = "disturb=real,truth=perturbed"
 
@@ -241,3 +244,17 @@ def test_trimd_float_prints_the_verdict_and_replays(tmp_path: Path,
                  "--profile", "bluerov2-heavy", "--yes", "--no-record"])
     out = capsys.readouterr().out
     assert code == 1 and "NOT level within 1°" in out
+
+
+def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_path: Path
+                                                      ) -> None:
+    """The settings block makes a recording a float check's; a malformed one is named."""
+    plain, floated = tmp_path / "trim.tlog", tmp_path / "float.tlog"
+    TlogRecorder(plain, bluerov, "").close()
+    TlogRecorder(floated, bluerov, "", float_check={"depth_excursion_m": 1.5}).close()
+    assert recorded_float_check(plain) is None
+    assert recorded_float_check(floated) == {"depth_excursion_m": 1.5}
+    check = float_from_settings(bluerov, {"depth_excursion_m": 1.5}, "x")
+    assert check.depth_excursion_m == 1.5 and check.guard.depth_excursion_m == 1.5
+    with pytest.raises(DataError, match="x: the recorded float check is malformed"):
+        float_from_settings(bluerov, {"depth_excursion_m": -1}, "x")

@@ -105,7 +105,8 @@ class HeadlessPresenter:
             return
         self._next_progress = sample.t_s + self.every
         p = progress
-        text = (f"[{p.t_s:8.1f} s]   hold {p.hold + 1}/{p.holds} {p.phase.value}: "
+        what = f"hold {p.hold + 1}/{p.holds}" if p.setpoint_deg is not None else "float"
+        text = (f"[{p.t_s:8.1f} s]   {what} {p.phase.value}: "
                 f"settled {p.settled_fraction:4.0%}, {p.samples} samples, "
                 f"{p.time_left_s:.0f} s left")
         self._emit(text, {"type": "progress", "t_s": p.t_s, "phase": p.phase.value,

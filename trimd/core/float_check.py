@@ -110,6 +110,11 @@ class FloatCheck(Phases):
         self._depths: list[tuple[float, float]] = []  # (t [s], depth [m]) since then
         self._first = 0                # index of the first collected attitude sample
         self._next_look = math.nan
+        #: roll/pitch may still move this much [deg] (at the last look), counts as settled
+        #: below ``_steady_deg``
+        self._remaining_deg = math.inf
+        self._steady_deg = max(SETTLED_SHARE * profile.level_tol_deg,
+                               profile.attitude_error_deg)
 
     # ---------------------------------------------------------------- interface
     @property
@@ -117,7 +122,9 @@ class FloatCheck(Phases):
         settled, left = 0.0, math.inf
         elapsed = self._now_data() - self._t_phase if not math.isnan(self._t_phase) else 0.0
         if self.phase is Phase.SETTLE:
-            settled = min(1.0, elapsed / (2 * self.timing.window_s))
+            # half for the two windows' time, half for how near they agree
+            settled = 0.5 * min(1.0, elapsed / (2 * self.timing.window_s)) + 0.5 * min(
+                1.0, self._steady_deg / self._remaining_deg)
             left = self.proc.settle_timeout_s - elapsed
         elif self.phase is Phase.COLLECT:
             settled, left = 1.0, self.proc.collect_max_s - elapsed
@@ -228,8 +235,9 @@ class FloatCheck(Phases):
     def _settle(self, elapsed: float) -> list[Output]:
         t = np.asarray(self._times)
         rem = remaining_transient_deg(t, np.asarray(self._angles), self.timing)
-        steady = max(SETTLED_SHARE * self.profile.level_tol_deg, self.profile.attitude_error_deg)
-        if rem is None or float(rem.max()) > steady:
+        if rem is not None:
+            self._remaining_deg = float(rem.max())
+        if rem is None or float(rem.max()) > self._steady_deg:
             if elapsed > self.proc.settle_timeout_s:
                 what = "" if rem is None else (f": roll may still move {rem[0]:.2f}°, "
                                                f"pitch {rem[1]:.2f}°")
