@@ -14,6 +14,8 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import os
+import subprocess
 from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import ballast_payload, sim_trim
+from tests.drivers.test_mavlink_link import TRIMD, free_udp_port, wait_bound
+from tests.helpers import REPO, ballast_payload, sim_trim
 from trimd.app.connect import open_link
 from trimd.app.float_check import FloatRequest, float_from_settings, float_session
 from trimd.app.replay import replay_profile, replay_session
@@ -33,9 +36,12 @@ from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.float_check import NEUTRAL, FloatCheck
 from trimd.core.floating import Z95, FloatResult, Verdict
 from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
 from trimd.core.samples import Command, Release, Sample
+from trimd.drivers.sim.config import parse_sim_options
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.truth import passive_trim_deg
+from trimd.drivers.sim.vehicle import SimVehicle
 from trimd.logs.recorder import TlogRecorder
 from trimd.logs.replay import recorded_float_check
 
@@ -258,3 +264,42 @@ def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_pat
     assert check.depth_excursion_m == 1.5 and check.guard.depth_excursion_m == 1.5
     with pytest.raises(DataError, match="x: the recorded float check is malformed"):
         float_from_settings(bluerov, {"depth_excursion_m": -1}, "x")
+
+
+@pytest.mark.slow
+def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -> None:
+    """``trimd float`` over MAVLink against ``trimd sim --serve`` (ArduSub's MANUAL with
+    neutral sticks, the mode restored on release): the served vehicle's true trim within
+    the 95 % interval and 0.2°, and the packets as recorded replay to the same line. At
+    twice real time: faster, a loaded machine delays the attitude stream past the guard's
+    link timeout."""
+    payload, seed = "0.4@W-aft-stbd", 5
+    log, port = tmp_path / "float.tlog", free_udp_port()
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    run = subprocess.Popen(
+        [*TRIMD, "float", "--link", f"mavlink:udpin:127.0.0.1:{port}?pilot=always",
+         "--profile", "bluerov2-heavy", "--yes", "--json", "--record", str(log)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
+    wait_bound(port)
+    sim = subprocess.Popen(
+        [*TRIMD, "sim", "--profile", "bluerov2-heavy", "--payload", payload, "--seed",
+         str(seed), "--serve", f"mavlink:udpout:127.0.0.1:{port}", "--rate", "2",
+         "--options", f"{OPTIONS},armed=true,mode=ALT_HOLD"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
+    try:
+        out, err = run.communicate(timeout=150)
+    finally:
+        sim.kill()
+        sim.wait()
+    assert run.returncode == 1, err                       # not level: 9° and 7° off
+    line = json.loads(out.splitlines()[-1])
+    assert line["type"] == "float", line
+    vehicle = SimVehicle(load_profile("bluerov2-heavy"),
+                         parse_sim_options(f"payload={payload},seed={seed},{OPTIONS}"))
+    truth = passive_trim_deg(vehicle.truth.mass.net)
+    for axis, want in zip(("roll", "pitch"), truth, strict=True):
+        error = line[f"{axis}_deg"] - want
+        assert abs(error) <= Z95 * line[f"{axis}_std_deg"] and abs(error) <= 0.2, line
+    replayed = subprocess.run([*TRIMD, "replay", str(log), "--json"], capture_output=True,
+                              text=True, cwd=REPO, timeout=120, check=True, env=env)
+    assert json.loads(replayed.stdout.splitlines()[-1]) == line
