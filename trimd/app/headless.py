@@ -16,6 +16,7 @@ from trimd.app.report import (
     NewCommands,
     NewWarnings,
     format_estimate,
+    format_float,
     format_level_hold,
     format_proposal,
     format_verification,
@@ -26,6 +27,7 @@ from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Notice, Output, Phase, Progress
+from trimd.core.floating import FloatResult, float_to_dict
 from trimd.core.samples import Health, Sample, VehicleText
 
 __all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "result_to_dict",
@@ -71,6 +73,10 @@ class HeadlessPresenter:
                            {"type": "verification", "t_s": t,
                             **verification_to_dict(out.verification)})
                 return
+            if isinstance(out.verification, FloatResult):
+                self._emit(format_float(out.verification),
+                           {"type": "float", "t_s": t, **float_to_dict(out.verification)})
+                return
             if isinstance(out.verification, HoldSamples):
                 h = out.verification
                 self._emit(format_level_hold(h), {
@@ -99,7 +105,8 @@ class HeadlessPresenter:
             return
         self._next_progress = sample.t_s + self.every
         p = progress
-        text = (f"[{p.t_s:8.1f} s]   hold {p.hold + 1}/{p.holds} {p.phase.value}: "
+        what = f"hold {p.hold + 1}/{p.holds}" if p.setpoint_deg is not None else "float"
+        text = (f"[{p.t_s:8.1f} s]   {what} {p.phase.value}: "
                 f"settled {p.settled_fraction:4.0%}, {p.samples} samples, "
                 f"{p.time_left_s:.0f} s left")
         self._emit(text, {"type": "progress", "t_s": p.t_s, "phase": p.phase.value,

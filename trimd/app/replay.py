@@ -1,7 +1,8 @@
 """The replay of a trimd recording as a use case: which profile it runs with, and the
 session that feeds the recorded samples through the same procedure as the live run (a trim,
-or a verify hold when the recording carries its target), so that it reproduces the live
-estimate, proposal or verdict exactly.
+a verify hold when the recording carries its target, a calibration's level hold, a float
+check), so that it reproduces the live estimate, proposal, verdict or float attitude
+exactly.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from trimd.app.calibrate import (
     hold_from_record,
     level_hold_procedure,
 )
-from trimd.app.session import Presenter, Session, SessionResult
+from trimd.app.float_check import float_from_settings
+from trimd.app.session import Machine, Presenter, Session, SessionResult
 from trimd.app.verify import verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
@@ -31,6 +33,7 @@ from trimd.core.profile_yaml import load_profile, parse_profile
 from trimd.logs.replay import (
     ReplayLink,
     recorded_calibration_hold,
+    recorded_float_check,
     recorded_profile_yaml,
     recorded_verify_target,
     with_recorded_thrust_map,
@@ -67,13 +70,17 @@ def replay_session_of(link: Link, path: str, profile: Profile, *,
                       presenters: list[Presenter], method: str) -> Session:
     """The replay's session over ``link`` (the recording ``path``): a verify hold when
     the recording carries a verify target, a calibration's level hold when it says it is
-    one, else the trim, proposing by ``method``; confirmed where the live session was (the
-    recording's :class:`Confirmed`)."""
+    one, a float check when it carries one's settings, else the trim, proposing by
+    ``method``; confirmed where the live session was (the recording's
+    :class:`Confirmed`)."""
     target = recorded_verify_target(path)
-    procedure = None if target is None else verify_procedure(
+    procedure: Machine | None = None if target is None else verify_procedure(
         profile, target, confirmed=False, source=f"{path} (recorded verify target)")
     if recorded_calibration_hold(path) is not None:
         procedure = level_hold_procedure(profile, confirmed=False)
+    settings = recorded_float_check(path)
+    if settings is not None:
+        procedure = float_from_settings(profile, settings, f"{path} (recorded float check)")
 
     def propose(estimate: StaticEstimate) -> Proposal:
         return propose_ballast(estimate, profile, method=method)

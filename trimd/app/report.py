@@ -17,13 +17,14 @@ from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import VERIFIED, Verification
 from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.floating import Z95, FloatResult
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
 _Z95 = 1.959964
 
 __all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
-           "format_correction", "format_estimate", "format_proposal",
+           "format_correction", "format_estimate", "format_float", "format_proposal",
            "format_result", "format_verification"]
 
 
@@ -132,6 +133,19 @@ def format_level_hold(hold: HoldSamples) -> str:
             "a calibration is both holds: trimd calibrate --replay BEFORE AFTER")
 
 
+def format_float(r: FloatResult) -> str:
+    """A float check's result (:mod:`trimd.core.floating`): the attitude ± (95 %), where
+    the ± comes from, the depth's drift and the verdict."""
+    parts = ", ".join(f"{axis} statistics {Z95 * s:.2f}°, transient {Z95 * t:.2f}°, "
+                      f"drift {Z95 * d:.2f}°"
+                      for axis, s, t, d in zip(("roll", "pitch"), r.stat_std_deg,
+                                               r.transient_deg, r.drift_deg, strict=True))
+    return (f"float check: {r.message}\n  ± (95 %) from {parts}, the attitude reference's "
+            f"error in both; settled after {r.settle_s:.1f} s; depth changed "
+            f"{r.depth_change_m:+.2f} m ({r.depth_rate_m_s:+.3f} m/s while collecting, "
+            "positive down)")
+
+
 def format_correction(c: Correction | None) -> str:
     """A verify hold's correction (:mod:`trimd.ballast.correct`) as a proposal's table,
     or that none is needed."""
@@ -142,12 +156,14 @@ def format_correction(c: Correction | None) -> str:
 
 
 def format_result(result: SessionResult) -> str | None:
-    """The estimate and proposal, or a verify hold's verification, as the headless daemon
-    prints them (None: neither)."""
+    """The estimate and proposal, or a verify hold's verification (a calibration's level
+    hold, a float check's result), as the headless daemon prints them (None: none)."""
     if isinstance(result.verification, Verification):
         return format_verification(result.verification)
     if isinstance(result.verification, HoldSamples):
         return format_level_hold(result.verification)
+    if isinstance(result.verification, FloatResult):
+        return format_float(result.verification)
     if result.estimate is None:
         return None
     text = format_estimate(result.estimate)

@@ -22,6 +22,7 @@ from trimd.app.jsonlines import error_line, print_json
 from trimd.cli import (
     ballast,
     calibrate,
+    float_check,
     history,
     identify,
     inspect,
@@ -37,8 +38,8 @@ from trimd.core.errors import LinkError, NoResultError, TrimdError, UsageError
 __all__ = ["main"]
 
 #: Modules that provide sub-commands, in the order ``trimd --help`` lists them.
-COMMANDS = (run, watch, serve, replay, solve, ballast, calibrate, history, sim, inspect,
-            identify)
+COMMANDS = (run, float_check, watch, serve, replay, solve, ballast, calibrate, history, sim,
+            inspect, identify)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -17,10 +17,11 @@ zero; a replay measures every sample's time from it.
   so a trimd recording replays without ``--profile``; a verify hold's recording carries
   its verify target (:mod:`trimd.app.verify`) the same way, as gzip-compressed JSON, so
   its replay is a verify hold too, and a deliberate calibration's level hold
-  (:mod:`trimd.app.calibrate`) which hold it is and the weight hung. Each block follows a
-  STATUSTEXT that names it (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`,
-  :data:`CALIBRATION_HOLD_BLOCK`); a reader that knows only the profile stops at the next
-  one.
+  (:mod:`trimd.app.calibrate`) which hold it is and the weight hung, and a float check
+  (:mod:`trimd.app.float_check`) its settings, so that its replay is a float check. Each
+  block follows a STATUSTEXT that names it (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`,
+  :data:`CALIBRATION_HOLD_BLOCK`, :data:`FLOAT_BLOCK`); a reader that knows only the
+  profile stops at the next one.
 
 :meth:`TlogRecorder.sample` returns the sample *as the log stores it* (float32 angles,
 integer PWM, millivolts): the live procedure sees exactly what a replay will see. The file
@@ -66,7 +67,8 @@ from trimd.drivers.mavlink.ardusub import mode_class, mode_name, mode_number
 from trimd.drivers.mavlink.message import MavEncoder, MavMessage
 from trimd.drivers.mavlink.statustext import text_chunks
 
-__all__ = ["CALIBRATION_BLOCK", "CALIBRATION_HOLD_BLOCK", "PILOT_TEXT", "PROFILE_BLOCK",
+__all__ = ["CALIBRATION_BLOCK", "CALIBRATION_HOLD_BLOCK", "FLOAT_BLOCK", "PILOT_TEXT",
+           "PROFILE_BLOCK",
            "TRIMD_COMPONENT", "TRIMD_SYSTEM", "VERIFY_BLOCK", "TlogRecorder", "session_s",
            "session_us"]
 
@@ -79,6 +81,8 @@ PROFILE_BLOCK, VERIFY_BLOCK = "trimd profile ", "trimd verify target"
 CALIBRATION_BLOCK = "trimd thrust map calibration"
 #: ... and before the block of a deliberate calibration's level hold (which hold, the weight)
 CALIBRATION_HOLD_BLOCK = "trimd calibration hold"
+#: ... and before the block of a float check's settings (:mod:`trimd.app.float_check`)
+FLOAT_BLOCK = "trimd float check"
 #: A :class:`PilotInput` is recorded as the vehicle's STATUSTEXT (warning) with this
 #: prefix before its source; :class:`trimd.logs.log.TlogLog` reads it back as one.
 PILOT_TEXT = "pilot took over: "
@@ -118,13 +122,15 @@ class TlogRecorder:
     """Record one session to ``path`` (parent directories are created); ``verify_target``:
     the session is a verify hold of that target (:mod:`trimd.app.verify`);
     ``calibration_hold``: a deliberate calibration's level hold (:mod:`trimd.app.calibrate`:
-    which hold, the weight). A profile
+    which hold, the weight); ``float_check``: a float check with these settings
+    (:mod:`trimd.app.float_check`). A profile
     with a calibrated thrust map has it recorded too, so that a replay estimates as the
     live session did."""
 
     def __init__(self, path: str | Path, profile: Profile, profile_yaml: str, *,
                  verify_target: dict[str, Any] | None = None,
-                 calibration_hold: dict[str, Any] | None = None) -> None:
+                 calibration_hold: dict[str, Any] | None = None,
+                 float_check: dict[str, Any] | None = None) -> None:
         self.path = str(path)
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self._file = open(path, "wb")  # noqa: SIM115 - kept open for the session
@@ -146,6 +152,8 @@ class TlogRecorder:
             self._write_block(VERIFY_BLOCK, json.dumps(verify_target), "JSON")
         if calibration_hold is not None:
             self._write_block(CALIBRATION_HOLD_BLOCK, json.dumps(calibration_hold), "JSON")
+        if float_check is not None:
+            self._write_block(FLOAT_BLOCK, json.dumps(float_check), "JSON")
 
     # ---------------------------------------------------------------- writing
     def _write(self, t_s: float, mav: MavEncoder, msg: MavMessage) -> None:

@@ -27,6 +27,7 @@ from trimd.logs.log import is_dataflash, open_log
 from trimd.logs.recorder import (
     CALIBRATION_BLOCK,
     CALIBRATION_HOLD_BLOCK,
+    FLOAT_BLOCK,
     PROFILE_BLOCK,
     SESSION_START,
     TRIMD_COMPONENT,
@@ -35,19 +36,19 @@ from trimd.logs.recorder import (
 )
 from trimd.logs.tlog import TlogReader
 
-__all__ = ["ReplayLink", "recorded_calibration_hold", "recorded_notices",
+__all__ = ["ReplayLink", "recorded_calibration_hold", "recorded_float_check", "recorded_notices",
            "recorded_profile_yaml", "recorded_trimd_texts", "recorded_verify_target",
            "with_recorded_thrust_map"]
 
 
-_BLOCKS = (PROFILE_BLOCK, VERIFY_BLOCK, CALIBRATION_BLOCK, CALIBRATION_HOLD_BLOCK)
+_BLOCKS = (PROFILE_BLOCK, VERIFY_BLOCK, CALIBRATION_BLOCK, CALIBRATION_HOLD_BLOCK, FLOAT_BLOCK)
 
 
 def _recorded_blocks(path: str | Path) -> dict[str, list[bytes]]:
     """The ENCAPSULATED_DATA blocks at the start of a trimd recording, by the start of the
     STATUSTEXT naming each (:data:`PROFILE_BLOCK`, :data:`VERIFY_BLOCK`,
-    :data:`CALIBRATION_BLOCK`, :data:`CALIBRATION_HOLD_BLOCK`); empty for other
-    logs. Any other trimd message after a block ends them."""
+    :data:`CALIBRATION_BLOCK`, :data:`CALIBRATION_HOLD_BLOCK`, :data:`FLOAT_BLOCK`); empty
+    for other logs. Any other trimd message after a block ends them."""
     blocks: dict[str, list[bytes]] = {}
     current: str | None = None
     trimd = False
@@ -117,6 +118,12 @@ def recorded_calibration_hold(path: str | Path) -> dict[str, Any] | None:
     """Which level hold of a deliberate calibration a recording is and the weight hung
     (:mod:`trimd.app.calibrate`); None for any other recording and other logs."""
     return _recorded_json(path, CALIBRATION_HOLD_BLOCK, "calibration hold")
+
+
+def recorded_float_check(path: str | Path) -> dict[str, Any] | None:
+    """The settings a float check's recording carries (:mod:`trimd.app.float_check`);
+    None for any other recording and other logs."""
+    return _recorded_json(path, FLOAT_BLOCK, "float check")
 
 
 def with_recorded_thrust_map(path: str | Path, profile: Profile) -> Profile:

@@ -1,0 +1,220 @@
+"""The float check's machine, driven by a synthetic floating vehicle (no I/O, no clock):
+once let go it turns to its passive trim along a known damped response and sinks at a
+known rate; the machine must find the trim to its ±, judge it, and release the vehicle on
+every way out."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pytest
+
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Tick
+from trimd.core.float_check import DEPTH_STOP_SHARE, NEUTRAL, FloatCheck
+from trimd.core.floating import (
+    Z95,
+    FloatResult,
+    Verdict,
+    float_result,
+    float_timing,
+    float_to_dict,
+    remaining_transient_deg,
+)
+from trimd.core.profile import Profile
+from trimd.core.samples import Attitude, Depth, Health, ModeClass, OpenLoop, PilotInput, Release
+
+DT = 0.01
+
+
+@dataclass
+class Floater:
+    """Level and at constant depth while held; let go (an :class:`OpenLoop`), its roll and
+    pitch approach ``trim_deg`` as a damped oscillator of period ``period_s`` and damping
+    ratio ``zeta`` and it sinks at ``sink_m_s``. Attitude at 20 Hz with white noise
+    ``noise_deg``, depth at 5 Hz, health at 1 Hz."""
+
+    trim_deg: tuple[float, float]
+    period_s: float = 3.0
+    zeta: float = 0.3
+    sink_m_s: float = 0.0
+    noise_deg: float = 0.05
+    seed: int = 0
+    angle: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    rate: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    depth: float = 10.0
+    floating: bool = False
+    commands: list[tuple[float, object]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.rng = np.random.default_rng(self.seed)
+
+    def apply(self, t: float, out: Output) -> None:
+        if isinstance(out, Notice):
+            return
+        self.commands.append((t, out))
+        self.floating = isinstance(out, OpenLoop)
+
+    def samples(self, t: float) -> list[Event]:
+        if self.floating:
+            w = 2 * math.pi / self.period_s
+            trim = np.radians(self.trim_deg)
+            acc = -w * w * (self.angle - trim) - 2 * self.zeta * w * self.rate
+            self.rate = self.rate + acc * DT
+            self.angle = self.angle + self.rate * DT
+            self.depth += self.sink_m_s * DT
+        k = round(t / DT)
+        out: list[Event] = []
+        if k % 100 == 0:
+            out.append(Health(t, True, "ALT_HOLD", True, mode_class=ModeClass.DEPTH_HOLDING))
+        if k % 20 == 0:
+            out.append(Depth(t, self.depth + 0.003 * self.rng.standard_normal()))
+        if k % 5 == 0:
+            noise = np.radians(self.noise_deg) * self.rng.standard_normal(2)
+            phi, theta = self.angle + noise
+            out.append(Attitude(t, float(phi), float(theta), 0.0, *self.rate, 0.0))
+        return out
+
+
+def run(check: FloatCheck, v: Floater, t_end: float = 600.0,
+        at: dict[float, Event] | None = None, silent_after: float = math.inf
+        ) -> list[tuple[float, Output]]:
+    log: list[tuple[float, Output]] = []
+    pending = dict(at or {})
+    t = 0.0
+    while t < t_end and not check.phase.final:
+        t = round(t + DT, 6)
+        events = [] if t > silent_after else v.samples(t)
+        events += [pending.pop(w) for w in sorted(pending) if w <= t]
+        events.append(Tick(t))
+        for e in events:
+            for out in check.step(e):
+                log.append((t, out))
+                v.apply(t, out)
+    return log
+
+
+def commands(log: list[tuple[float, Output]]) -> list[object]:
+    return [o for _, o in log if not isinstance(o, Notice)]
+
+
+@pytest.mark.parametrize(("trim", "verdict"), [((0.3, -0.2), Verdict.LEVEL),
+                                                ((2.5, 0.4), Verdict.NOT_LEVEL)])
+def test_finds_the_passive_trim_and_judges_it(bluerov: Profile, trim: tuple[float, float],
+                                              verdict: Verdict) -> None:
+    v = Floater(trim)
+    check = FloatCheck(bluerov, confirmed=True)
+    log = run(check, v)
+    assert check.phase is Phase.DONE, check.reason
+    r = check.verification
+    assert isinstance(r, FloatResult)
+    for got, std, want in ((r.roll_deg, r.roll_std_deg, trim[0]),
+                           (r.pitch_deg, r.pitch_std_deg, trim[1])):
+        assert abs(got - want) <= Z95 * std and abs(got - want) < 0.1
+        # the AHRS's own error is in the ±, and it is most of it
+        assert bluerov.attitude_error_deg <= std < 1.5 * bluerov.attitude_error_deg
+    assert r.verdict is verdict
+    assert commands(log) == [NEUTRAL, Release()]
+    result = [o for _, o in log if isinstance(o, Notice) and o.kind == "result"]
+    assert len(result) == 1 and result[0].verification is r
+    assert float_to_dict(r)["verdict"] == verdict.value
+
+
+def test_nothing_is_commanded_before_the_confirmation(bluerov: Profile) -> None:
+    v = Floater((0.0, 0.0))
+    check = FloatCheck(bluerov)
+    log = run(check, v, t_end=40.0)
+    assert check.phase is Phase.CONFIRM and commands(log) == []
+    log = run(check, v, t_end=41.0, at={0.0: Confirm()})
+    assert commands(log)[:1] == [NEUTRAL]
+
+
+def test_a_sinking_vehicle_is_released_and_the_reason_says_why(bluerov: Profile) -> None:
+    """Sinking 0.2 m/s, the float reaches 80 % of the 0.5 m envelope in 2 s: before the
+    attitude has settled (two windows of a period), so no result, FAILED, released."""
+    v = Floater((1.0, 1.0), sink_m_s=0.2)
+    check = FloatCheck(bluerov, confirmed=True)
+    log = run(check, v)
+    assert check.phase is Phase.FAILED and check.cause is Cause.ENVELOPE
+    assert "sinks at about 0.2" in check.reason and "W − B > 0" in check.reason
+    assert commands(log)[-1] == Release() and check.verification is None
+    released = next(t for t, o in log if isinstance(o, Release))
+    moved = abs(v.depth - 10.0)
+    assert moved < bluerov.procedure.max_depth_excursion_m
+    assert moved >= DEPTH_STOP_SHARE * bluerov.procedure.max_depth_excursion_m - 0.05
+    assert released < 10.0
+
+
+def test_a_slow_sinker_ends_with_what_was_collected(bluerov: Profile) -> None:
+    """Sinking slowly, the float collects for a while before the depth stops it (a level
+    tolerance of 0.02° is not reached in 20 s): done, the result says why collecting
+    stopped."""
+    v = Floater((0.5, -0.5), sink_m_s=0.018)
+    check = FloatCheck(replace(bluerov, level_tol_deg=0.02), confirmed=True)
+    run(check, v)
+    assert check.phase is Phase.DONE, check.reason
+    r = check.verification
+    assert r is not None and r.stopped.startswith("depth +0.4")
+    assert r.depth_rate_m_s == pytest.approx(0.018, abs=0.003)
+
+
+def test_more_depth_change_when_the_operator_allows_it(bluerov: Profile) -> None:
+    v = Floater((1.0, 1.0), sink_m_s=0.2)
+    check = FloatCheck(bluerov, confirmed=True, depth_excursion_m=20.0)
+    run(check, v)
+    assert check.phase is Phase.DONE, check.reason
+
+
+@pytest.mark.parametrize("how", ["abort", "link", "silence", "pilot"])
+def test_every_way_out_releases_at_once(bluerov: Profile, how: str) -> None:
+    v = Floater((0.5, 0.5))
+    check = FloatCheck(bluerov, confirmed=True)
+    t_stop = 8.0
+    event: dict[float, Event] = {
+        "abort": {t_stop: Abort()}, "link": {t_stop: Health(t_stop, False, "", False)},
+        "pilot": {t_stop: PilotInput(t_stop, "sticks")}, "silence": {}}[how]
+    log = run(check, v, at=event, silent_after=t_stop if how == "silence" else math.inf)
+    assert check.phase in (Phase.FAILED, Phase.ABORTED)
+    released = [t for t, o in log if isinstance(o, Release)]
+    assert len(released) == 1
+    assert t_stop <= released[0] <= t_stop + 1.0
+    assert check.verification is None
+
+
+def test_floating_beyond_the_tilt_limit_ends_it(bluerov: Profile) -> None:
+    v = Floater((bluerov.procedure.max_tilt_deg + 2.0, 0.0), zeta=0.8)
+    check = FloatCheck(bluerov, confirmed=True)
+    log = run(check, v)
+    assert check.phase is Phase.FAILED and "beyond the tilt limit" in check.reason
+    assert commands(log) == [NEUTRAL, Release()]
+
+
+def test_timing_from_the_profiles_dynamics(bluerov: Profile, sabertooth: Profile) -> None:
+    """The Heavy oscillates (period 2π·√(J/k), k = −B·z_b); the Sabertooth's pitch is
+    heavily over-damped: its slow pole c/k ≈ 21 s sets the settling windows."""
+    heavy = float_timing(bluerov)
+    J = bluerov.inertia_kg_m2[0] + bluerov.added_mass[3]
+    k = -bluerov.buoyancy_N * bluerov.r_b_m[2]
+    assert heavy.period_s[0] == pytest.approx(2 * math.pi * math.sqrt(J / k))
+    assert not any(heavy.damped) and heavy.window_s == pytest.approx(heavy.period_s[0])
+    saber = float_timing(sabertooth)
+    k = -sabertooth.buoyancy_N * sabertooth.r_b_m[2]
+    assert all(saber.damped)
+    assert saber.relax_s[1] == pytest.approx(-sabertooth.linear_damping[4] / k, rel=0.05)
+    assert saber.window_s == pytest.approx(saber.relax_s[1])
+
+
+def test_batch_means_average_an_oscillation_out(bluerov: Profile) -> None:
+    """Undamped roll oscillating ±2° about 0.7° for ten periods: the mean is 0.7°, the
+    batch-means σ about nothing, no transient left."""
+    timing = float_timing(bluerov)
+    t = np.arange(0.0, 10 * timing.batch_s, 0.05)
+    roll = 0.7 + 2.0 * np.sin(2 * math.pi * t / timing.batch_s + 0.3)
+    angles = np.column_stack([roll, np.full_like(t, -0.4)])
+    r = float_result(t, angles, [(0.0, 5.0), (t[-1], 5.0)], timing=timing, profile=bluerov,
+                     settle_s=0.0, depth_change_m=0.0)
+    assert r.roll_deg == pytest.approx(0.7, abs=0.02)
+    assert r.stat_std_deg[0] < 0.01 and r.transient_deg[0] < 0.05
+    rem = remaining_transient_deg(t, angles, timing)
+    assert rem is not None and rem.max() < 0.05

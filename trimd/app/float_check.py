@@ -1,0 +1,95 @@
+"""The float check as a use case (``trimd float``): let go of the vehicle and measure the
+attitude it floats at (:class:`trimd.core.float_check.FloatCheck`, docs/method.md §8), in a
+:class:`~trimd.app.session.Session` that records it like every session.
+
+The recording carries the float check's settings (:func:`float_settings`, a JSON block:
+:data:`trimd.logs.recorder.FLOAT_BLOCK`), so that :func:`trimd.app.replay.replay_session_of`
+replays it as a float check, built from the very settings, and reproduces the live result
+exactly (:func:`float_from_settings`). The request is typed (:class:`FloatRequest`), not
+the command line's arguments.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from trimd.app.headless import StdinConfirm, stop_on_signals
+from trimd.app.session import Presenter, Session, SessionResult
+from trimd.core.errors import DataError
+from trimd.core.float_check import FloatCheck
+from trimd.core.link import Link
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import read_profile_text
+from trimd.logs.recorder import TlogRecorder
+
+__all__ = ["FloatRequest", "float_from_settings", "float_session", "float_settings",
+           "run_float_check"]
+
+
+@dataclass(frozen=True)
+class FloatRequest:
+    """What a float check is asked to do.
+
+    Attributes
+    ----------
+    profile_ref : the profile as the operator named it (a YAML path or a shipped name):
+        its text goes into the recording.
+    confirmed : the operator confirmed up front (``--yes``).
+    depth_excursion_m : the largest depth change from the start [m]; None: the profile's
+        ``max_depth_excursion_m``.
+    record : where to record the session (a ``.tlog``); None: not recorded.
+    """
+
+    profile_ref: str
+    confirmed: bool = False
+    depth_excursion_m: float | None = None
+    record: Path | None = None
+
+
+def float_settings(check: FloatCheck) -> dict[str, Any]:
+    """What a float check's recording says of it: the settings its machine is built from."""
+    return {"depth_excursion_m": check.depth_excursion_m}
+
+
+def float_from_settings(profile: Profile, settings: dict[str, Any], source: str, *,
+                        confirmed: bool = False) -> FloatCheck:
+    """The float check of recorded ``settings`` (:func:`float_settings`); DataError naming
+    ``source`` when they are malformed."""
+    limit = settings.get("depth_excursion_m")
+    if not isinstance(limit, int | float) or not (math.isfinite(limit) and limit > 0):
+        raise DataError(f"{source}: the recorded float check is malformed ({settings!r})")
+    return FloatCheck(profile, confirmed=confirmed, depth_excursion_m=float(limit))
+
+
+def float_session(link: Link, profile: Profile, presenters: list[Presenter],
+                  request: FloatRequest, *, wall_clock: bool = True) -> Session:
+    """The float check's session on ``link``, recorded where ``request`` says."""
+    check = FloatCheck(profile, confirmed=request.confirmed,
+                       depth_excursion_m=request.depth_excursion_m)
+    recorder = None
+    if request.record is not None:
+        recorder = TlogRecorder(request.record, profile,
+                                read_profile_text(request.profile_ref)[0],
+                                float_check=float_settings(check))
+    return Session(link, profile, recorder=recorder, presenters=presenters,
+                   confirmed=request.confirmed, procedure=check, wall_clock=wall_clock)
+
+
+async def run_float_check(open_link: Callable[[], Awaitable[Link]], profile: Profile,
+                          request: FloatRequest, presenters: list[Presenter], *,
+                          signals: bool = True) -> SessionResult:
+    """``trimd float``: the float check on the link ``open_link`` opens, asking the
+    operator at the terminal unless ``request.confirmed``; with ``signals``, SIGINT,
+    SIGTERM and SIGHUP abort it (the vehicle is released, the log closed)."""
+    link = await open_link()
+    shown = list(presenters)
+    session = float_session(link, profile, shown, request)
+    if not request.confirmed:
+        shown.append(StdinConfirm(session))
+    if signals:
+        stop_on_signals(session.abort)
+    return await session.run()
