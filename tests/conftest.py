@@ -52,6 +52,7 @@ MODULE_COST_S = {
     "tests/drivers/test_mavlink_stations.py": 121,
     "tests/app/test_watch_sim.py": 104,
     "tests/app/test_correction.py": 95,
+    "tests/app/test_float_check.py": 90,
     "tests/identify/test_staged.py": 90,
     "tests/drivers/test_mavlink_mavproxy.py": 87,
     "tests/drivers/test_serial_link.py": 82,
