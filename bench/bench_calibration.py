@@ -79,9 +79,10 @@ class Seed:
     "rejected" or why there was none) and its σ; how many of each of :data:`BLOCKS` it
     narrowed below :data:`DETERMINED` of the prior σ; the wrong-weight calibration's
     outcome against the first one and against the profile alone and its σ; per trim
-    (without, with) the share of the variance of W − B and of each net moment that
-    collecting longer would reduce (``q_cov_noise``; the rest is the thrust map's and the
-    attitude reference's)."""
+    (without, with) the shares of the variance of W − B and of each net moment that
+    collecting longer would reduce (``q_cov_noise``) and that rests on the dead bands
+    (``q_cov_band``), those of W − B, x, y, z net in that order (the rest: the curves'
+    gains, the attitude reference, the drift model)."""
 
     seed: int
     before: Run
@@ -92,7 +93,7 @@ class Seed:
     wrong: str = ""
     wrong_prior: str = ""
     wrong_sigma: float = float("nan")
-    noise_share: tuple[tuple[float, ...], ...] = ()
+    shares: tuple[tuple[float, ...], ...] = ()
 
 
 def known_weight(profile: Profile) -> KnownWeight:
@@ -124,12 +125,14 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str, weight: K
 
 def _trim(profile: Profile, payload: str, seed: int, options: str
           ) -> tuple[Run, tuple[float, ...]]:
-    """The trim of ``seed`` judged, and its noise share of the variance of q (:class:`Seed`;
-    NaN when it did not end with an estimate)."""
+    """The trim of ``seed`` judged, and the noise and band shares of the variance of q
+    (:class:`Seed`; NaN when it did not end with an estimate)."""
     trial = sim_trim(profile, payload, seed, options)
     est = trial.result.estimate
-    share = (np.diag(est.q_cov_noise) / np.diag(est.q_cov) if est is not None
-             else np.full(4, np.nan))
+    share = np.full(8, np.nan)
+    if est is not None and est.q_cov_noise is not None and est.q_cov_band is not None:
+        share = np.r_[np.diag(est.q_cov_noise), np.diag(est.q_cov_band)] / np.tile(
+            np.diag(est.q_cov), 2)
     return judge(seed, trial), tuple(map(float, share))
 
 
@@ -148,13 +151,13 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
             good = calibrate(profile, payload, seed, options, weight, weight.kg, 0, db)
         except (EstimationError, LinkError) as exc:
             return Seed(seed, before, calibration=f"no experiment: {exc}",
-                        noise_share=(before_share,))
+                        shares=(before_share,))
         sd = np.sqrt(np.diag(good.posterior.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         calibrated = calibrated_profile(db, "bench", profile)
         after, after_share = _trim(calibrated, payload, seed, options)
         out = Seed(seed, before, after, _verdict(good.outcome.accepted), good.outcome.sigma,
-                   narrowed, noise_share=(before_share, after_share))
+                   narrowed, shares=(before_share, after_share))
         try:
             wrong = calibrate(profile, payload, seed, options, weight, HEAVIER * weight.kg, 2, db)
         except (EstimationError, LinkError) as exc:
@@ -181,11 +184,12 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
         rms = rms_errors(runs, profile.weight_N)
         sigma = np.mean([r.sigma[:4] for r in runs if r.sigma is not None], axis=0)
         sigma[1:] *= 1e3 / profile.weight_N
-        share = np.nanmean([s.noise_share[k] for s in pairs], axis=0)
+        share = np.nanmean([s.shares[k] for s in pairs], axis=0)
         for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
                                    ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
                                    ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
-                                   ("noise share of σ²", share, "8.0%")):
+                                   ("σ² share: noise", share[:4], "8.0%"),
+                                   ("σ² share: dead band", share[4:], "8.0%")):
             lines.append(f"  {label:12s} {what:22s} " + " ".join(f"{v:{form}}" for v in values))
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
