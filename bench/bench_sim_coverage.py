@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bench.size import size
-from tests.helpers import sim_trim
+from tests.helpers import SimTrim, sim_trim
 from trimd.ballast.propose import Proposal
 from trimd.core.events import Phase
 from trimd.core.profile_yaml import load_profile
@@ -56,7 +56,11 @@ class Run:
 
 def run(profile_name: str, payload: str, seed: int, options: str) -> Run:
     """One full trim of ``seed``; errors against the truth (module docstring)."""
-    trial = sim_trim(load_profile(profile_name), payload, seed, options)
+    return judge(seed, sim_trim(load_profile(profile_name), payload, seed, options))
+
+
+def judge(seed: int, trial: SimTrim) -> Run:
+    """The trim ``trial`` of ``seed`` judged against its simulator's truth."""
     est = trial.result.estimate
     if trial.result.phase is not Phase.DONE or est is None:
         return Run(seed, trial.result.reason, trial.vehicle.t_s, None, None)
@@ -110,6 +114,17 @@ def coverage(runs: list[Run]) -> tuple[np.ndarray, np.ndarray, int]:
     return np.mean(np.abs(z) <= Z95, axis=0), np.sqrt(np.mean(z ** 2, axis=0)), len(done)
 
 
+def rms_errors(runs: list[Run], weight_N: float) -> FloatArray:
+    """RMS error over the DONE runs of W − B [N] and of the three net moments in
+    mm-equivalent (error [N·m] / ``weight_N``, the nominal weight [N], × 1000); NaN without
+    a DONE run."""
+    errors = np.array([r.error[:4] for r in runs if r.error is not None]).reshape(-1, 4)
+    if not len(errors):
+        return np.full(4, np.nan)
+    rms = np.sqrt(np.mean(errors**2, axis=0))
+    return np.r_[rms[0], 1e3 * rms[1:] / weight_N]
+
+
 def main() -> None:
     seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", size(200, 1)))
     options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real,truth=perturbed")
@@ -130,10 +145,9 @@ def main() -> None:
         print("  " + " ".join(f"{n:>7s}" for n in ("", *NAMES)))
         print("  " + f"{'cover':>7s} " + " ".join(f"{c:7.0%}" for c in covered))
         print("  " + f"{'rms z':>7s} " + " ".join(f"{v:7.2f}" for v in rms))
-        errors = np.array([r.error for r in runs if r.error is not None]).reshape(-1, len(NAMES))
-        W = load_profile(name).weight_N
-        print(f"  rms error: W − B {np.sqrt(np.mean(errors[:, 0]**2)):.3f} N, net moments "
-              + ", ".join(f"{1e3 * np.sqrt(np.mean(errors[:, k]**2)) / W:.2f}" for k in (1, 2, 3))
+        rms_err = rms_errors(runs, load_profile(name).weight_N)
+        print(f"  rms error: W − B {rms_err[0]:.3f} N, net moments "
+              + ", ".join(f"{v:.2f}" for v in rms_err[1:])
               + " mm-equivalent (error / nominal weight)")
         o = trim_as_said(runs, load_profile(name).level_tol_deg)
         print(f"  proposal on the true vehicle: within the level tolerance or the predicted "

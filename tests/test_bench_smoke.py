@@ -26,7 +26,8 @@ RUN_ELSEWHERE = {"bench_alert_latency": ("tests/app/test_serve_gcs.py",
 
 
 def test_every_benchmark_module_is_found() -> None:
-    assert len(MODULES) >= 12 and {"bench_session", "bench_sim_coverage"} <= set(MODULES)
+    assert len(MODULES) >= 12 and {"bench_session", "bench_sim_coverage",
+                                 "bench_calibration"} <= set(MODULES)
     for name, (path, test) in RUN_ELSEWHERE.items():
         assert name in MODULES and f"def {test}(" in (REPO / path).read_text(encoding="utf-8")
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tests.helpers import FakeVehicle, payload_truth
+from trimd.core.estimate import HoldSamples
 from trimd.core.events import Abort, Confirm, Notice, Phase, Tick
 from trimd.core.guards import ENVELOPE_MARGIN_DEG, STREAM_MISSED_PERIODS
 from trimd.core.model import thrust_configuration
@@ -355,3 +356,21 @@ def test_the_held_heading_follows_a_turning_vehicle_on_a_leash(sabertooth: Profi
         heading = 0.3 + vehicle.yaw_rate_rad_s * t
         assert abs(math.degrees(c.psi - heading)) <= HEADING_LEASH_DEG
         assert (round(math.degrees(c.phi)), round(math.degrees(c.theta))) in {(0, 0), (20, 20)}
+
+
+def test_a_calibration_hold_collects_its_whole_time(sabertooth: Profile,
+                                                    thesis_vehicle: FakeVehicle) -> None:
+    """A verify hold ends once its rows are known (the stop rule's first look, 10 s here);
+    with ``collect_s`` (a calibration's level hold) it collects that long, whatever the
+    stop rule says, and ends without the "not reached" warning."""
+    spans = {}
+    for collect_s in (None, 60.0):
+        proc = Procedure(sabertooth, confirmed=True, verify=lambda hold: hold,
+                         collect_s=collect_s)
+        log = run(proc, FakeVehicle(sabertooth, thesis_vehicle.W, thesis_vehicle.r_g), 1000.0)
+        assert proc.phase is Phase.DONE, proc.reason
+        hold = proc.verification
+        assert isinstance(hold, HoldSamples)
+        spans[collect_s] = float(hold.t_s[-1] - hold.t_s[0])
+        assert not any(isinstance(n, Notice) and n.kind == "warning" for _, n in log)
+    assert spans[None] < 20.0 and 59.0 <= spans[60.0] <= 61.0, spans

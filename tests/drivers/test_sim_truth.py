@@ -152,6 +152,12 @@ def test_true_net_quantities_and_reproducible_by_seed(bluerov: Profile) -> None:
     # the noise and disturbances do not move the truth: one seed, one vehicle
     real = with_presets(perturbed(7, payload), disturb="real")
     assert np.array_equal(SimVehicle(bluerov, real).truth.mass.net, q)
+    # truth_seed: the vehicle of seed 7 on a dive of another seed (a later trim, a
+    # calibration), another vehicle only without it
+    dive = SimVehicle(bluerov, perturbed(9, payload, truth_seed=7, thrust_err_max=0.1))
+    assert np.array_equal(dive.truth.mass.net, q)
+    assert dive.offset == SimVehicle(bluerov, perturbed(7, payload, thrust_err_max=0.1)).offset
+    assert parse_sim_options("seed=9,truth_seed=7").truth_seed == 7
 
 
 def test_url_options(bluerov: Profile) -> None:

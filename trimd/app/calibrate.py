@@ -5,11 +5,14 @@ vehicle's calibration so far and stored in its trim history like those of
 ``ballast apply`` and a verify hold (:mod:`trimd.app.history.calibration`).
 
 Each hold is a session of its own on the link opened again (the verify hold's
-procedure: the profile's first hold, level, collected until its rows are known), so the
-vehicle is released while the weight is hung, and a recording of its own that says which
-hold it is and what weight was hung: :func:`trimd.app.replay.replay_calibration`
-reproduces the experiment and its outcome from the two. Confirmation is the caller's: both
-holds command the vehicle without asking again.
+procedure: the profile's first hold, level), so the vehicle is released while the weight
+is hung, and a recording of its own that says which hold it is and what weight was hung:
+:func:`trimd.app.replay.replay_calibration` reproduces the experiment and its outcome from
+the two. Each collects for the profile's whole ``collect_max_s``, not until the trim's
+stop rule is met: that rule stops once the noise is below the thrust map's share of the
+±, while the experiment's noise is what it cannot tell from the thrust map's errors (on
+the simulated Sabertooth a level hold's mean Z ± 2.6–18 N after 10 s, ≈ 0.9 N after
+180 s). Confirmation is the caller's: both holds command the vehicle without asking again.
 """
 
 from __future__ import annotations
@@ -74,8 +77,10 @@ class CalibrationRun:
 
 def level_hold_procedure(profile: Profile, *, confirmed: bool) -> Procedure:
     """A calibration's level hold: the verify hold's procedure (the profile's first hold,
-    level, collected until its rows are known) whose result is the hold's samples."""
-    return Procedure(profile, confirmed=confirmed, verify=_the_hold)
+    level) collected for the profile's whole ``collect_max_s`` (module docstring), whose
+    result is the hold's samples."""
+    return Procedure(profile, confirmed=confirmed, verify=_the_hold,
+                     collect_s=profile.procedure.collect_max_s)
 
 
 def _the_hold(hold: HoldSamples) -> HoldSamples:

@@ -11,6 +11,7 @@ Phases: connect → precheck → confirm → for each hold (settle → collect) 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -74,6 +75,9 @@ class Procedure(Phases):
     verify : makes this a verify hold (after ballasting): only the profile's first hold
         (level), collected until its own rows are known, then ``verify`` is called with
         its samples instead of estimating; its result rides on the result notice.
+    collect_s : collect each hold this long [s] instead of until the stop rule is met (a
+        calibration's level holds: the stop rule stops once the noise is below the thrust
+        map's share, the very errors a calibration measures, docs/method.md §7).
 
     The safety rules (:class:`trimd.core.guards.Guard`) are checked on every sample and
     Tick; whatever ends the procedure after the first command sends a Release.
@@ -81,7 +85,8 @@ class Procedure(Phases):
 
     def __init__(self, profile: Profile, *, confirmed: bool = False,
                  propose: Callable[[StaticEstimate], object] | None = None,
-                 verify: Callable[[HoldSamples], object] | None = None) -> None:
+                 verify: Callable[[HoldSamples], object] | None = None,
+                 collect_s: float | None = None) -> None:
         self.profile = profile
         self.proc = profile.procedure
         self.propose = propose
@@ -95,6 +100,9 @@ class Procedure(Phases):
         self.proposal: object | None = None
         self.guard = Guard(profile.procedure, min_rates_hz=MIN_RATES_HZ)
         self.rule = StopRule.for_profile(profile)
+        self.collect_s = collect_s
+        if collect_s is not None:
+            self.rule = dataclasses.replace(self.rule, looks_s=(collect_s,))
         self._confirmed = confirmed
         self._t = self._t_data = self._t_phase = math.nan
         self._health: Health | None = None
@@ -168,7 +176,7 @@ class Procedure(Phases):
         if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
             return []
         if self.phase is Phase.COLLECT and self._time_left(self._t_data) < 0:
-            return self._end_hold(self._decided())
+            return self._end_hold(self.collect_s is not None or self._decided())
         return self._heading_leash(a) + self._hold_sample(a, self._settling)
 
     def _heading_leash(self, a: Attitude) -> list[Output]:
@@ -260,7 +268,7 @@ class Procedure(Phases):
         if self._look >= len(looks) or self._t_data - self._t_phase < looks[self._look]:
             return []
         self._look += 1
-        decided = self._decided()
+        decided = self.collect_s is not None or self._decided()
         if not decided and self._look < len(looks):
             return []
         return self._end_hold(decided)

@@ -96,7 +96,11 @@ class SimConfig:
 
     A vehicle that differs from its profile (the simulator flies the truth; everything
     that reads the profile, the controller included, sees the nominal vehicle). The sign
-    and direction of each error is drawn from ``seed`` (its own random stream):
+    and direction of each error is drawn from ``truth_seed`` (its own random stream):
+
+    truth_seed : seed of the vehicle's errors below; −1 (the default): ``seed``. Another
+        ``seed`` with the same ``truth_seed`` is the same vehicle on another dive (other
+        noise and disturbances), as a calibration and a later trim of one vehicle are.
 
     buoyancy_err : true buoyancy B = (1 ± buoyancy_err)·profile B [fraction].
     cob_err_mm : true centre of buoyancy r_b = profile r_b + cob_err_mm in a random
@@ -173,6 +177,7 @@ class SimConfig:
     thruster_dither_tau_s: float = 0.3
     clock_jump_s: float = 0.0
     clock_jump_at_s: float = 60.0
+    truth_seed: int = -1
     buoyancy_err: float = 0.0
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0

@@ -53,7 +53,8 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     """The true profile of the vehicle ``config`` describes, and how it differs.
 
     Signs (buoyancy, each thruster direction) are ±1 with equal chance and the centre of
-    buoyancy moves in a direction uniform on the sphere, all drawn from ``config.seed``;
+    buoyancy moves in a direction uniform on the sphere, all drawn from ``config.truth_seed``
+    (``config.seed`` when it is −1);
     the sizes are exactly those of ``config`` (a thrust error's size uniform in
     [thrust_err, thrust_err_max] when ``thrust_err_max`` is larger). With no error
     configured the true profile is ``profile`` itself.
@@ -71,7 +72,7 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
             or config.thrust_err_max or config.esc_band_us):
         n = len(profile.thrusters)
         return profile, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.0, 1.0),) * n)
-    rng = np.random.default_rng([config.seed, _STREAM])
+    rng = np.random.default_rng([_truth_seed(config), _STREAM])
     sign_b = float(rng.choice((-1.0, 1.0)))
     direction = rng.standard_normal(3)
     direction /= np.linalg.norm(direction)
@@ -97,6 +98,11 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     return true, error
 
 
+def _truth_seed(config: SimConfig) -> int:
+    """The seed of the vehicle's errors: ``truth_seed``, or ``seed`` when that is −1."""
+    return config.seed if config.truth_seed < 0 else config.truth_seed
+
+
 def _thrust_err_sizes(config: SimConfig, n: int) -> NDArray[np.float64]:
     """Size [fraction] of the thrust error of each of ``n`` thrusters (rows) forward and
     reverse (columns): ``thrust_err``, or uniform in [thrust_err, thrust_err_max] from a
@@ -104,7 +110,7 @@ def _thrust_err_sizes(config: SimConfig, n: int) -> NDArray[np.float64]:
     k = config.thrust_err
     if config.thrust_err_max <= k:
         return np.full((n, 2), k)
-    rng = np.random.default_rng([config.seed, _THRUST_SIZE_STREAM])
+    rng = np.random.default_rng([_truth_seed(config), _THRUST_SIZE_STREAM])
     return rng.uniform(k, config.thrust_err_max, size=(n, 2))
 
 

@@ -1,0 +1,238 @@
+"""The thrust map learns (issue 24, docs/method.md §7): one deliberate calibration, then a
+new trim of the same simulated vehicle, judged by its TRUE net quantities.
+
+Per seed and case (:data:`bench.bench_sim_coverage.CASES`; a vehicle that its profile
+does not describe exactly, ``truth=perturbed``: thrust curves 5 % off, ESC bands up to
+4 µs off with outputs hunting at their edge): a full trim with the profile alone
+(:func:`tests.helpers.sim_trim`); a deliberate calibration of the same vehicle
+(:func:`trimd.app.calibrate.calibrate_with_weight`, ``trimd calibrate``'s use case, into a
+trim history of the seed's own: a level hold, the known weight of :data:`WEIGHTS` — pieces
+of the profile's inventory, their net weight in water and its 1σ as the inventory says —
+hung at its slot, a second level hold); the trim again with the calibrated profile
+(:func:`trimd.app.history.calibration.calibrated_profile`). The vehicle is the seed's
+(``truth_seed``), each calibration hold's noise and disturbances another dive's (``seed``
++ k·:data:`NOISE`); both trims fly the seed's own, so that they differ by the calibration
+alone. Then a second calibration whose weight is :data:`HEAVIER` times what it is
+declared to be (the inventory entry 10 % light): it must be rejected as inconsistent,
+checked against the first (and, for comparison, against the profile's own thrust map).
+
+Printed per case: the RMS error of W − B [N] and of the three net moments in
+mm-equivalent (error / nominal weight, as :mod:`bench.bench_sim_coverage`) and the share
+of 95 % intervals covering the truth, without and with the calibration, beside issue 24's
+targets (:data:`TARGETS`); the mean ± of each; how many calibrations were learnt and which
+thrust-map parameters they narrowed; how many wrong-weight calibrations were rejected.
+
+``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
+(default :data:`OPTIONS`); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
+``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 20 s (Heavy)
+and ≈ 25 s (Sabertooth) of one core: two trims and four level holds of ``collect_max_s``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import tempfile
+import time
+from collections.abc import Awaitable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from bench.bench_sim_coverage import CASES, NAMES, Run, coverage, judge, rms_errors
+from bench.size import size
+from tests.helpers import sim_trim
+from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
+from trimd.app.connect import open_link
+from trimd.app.history.calibration import calibrated_profile
+from trimd.core.calibration import DETERMINED, prior, update
+from trimd.core.errors import EstimationError, LinkError
+from trimd.core.link import Link
+from trimd.core.profile import Profile
+from trimd.core.profile_yaml import load_profile
+
+OPTIONS = "disturb=real,truth=perturbed"
+#: profile → the known weight of its calibration: inventory piece, count, slot. Weights
+#: in a corner (all three level rows, Z, K, M, move), enough to move the thrusters well
+#: out of their dead band and not so much that a buoyant vehicle's thrusters cross it (on
+#: the Heavy the 5.4 N cross it whatever the buoyancy: W − B ≈ 0.3 ± 1.4 N before).
+WEIGHTS = {"bluerov2-heavy": ("lead-200g", 3, "W-front-stbd"),
+           "sabertooth-dh2": ("lead-1kg", 5, "FrontSB")}
+#: profile → issue 24's targets after one calibration, RMS over the seeds: W − B [N]
+#: (None: none stated) and each net moment [mm-equivalent].
+TARGETS: dict[str, tuple[float | None, float]] = {"bluerov2-heavy": (0.1, 0.3),
+                                                  "sabertooth-dh2": (None, 0.1)}
+#: The wrong-weight calibration's true weight / declared weight.
+HEAVIER = 1.1
+#: The noise seed of a calibration's k-th hold: seed + k·NOISE (another dive).
+NOISE = 100_000
+#: The blocks of the thrust map's parameters (calibration.ThrustMapPosterior's order).
+BLOCKS = ("gain fwd", "gain rev", "band lo", "band hi")
+
+
+@dataclass(frozen=True)
+class Seed:
+    """One seed of a case: the trim without and with the calibration (``after`` None when
+    the calibration did not end with an experiment); the calibration's outcome ("learnt",
+    "rejected" or why there was none) and its σ; how many of each of :data:`BLOCKS` it
+    narrowed below :data:`DETERMINED` of the prior σ; the wrong-weight calibration's
+    outcome against the first one and against the profile alone and its σ; per trim
+    (without, with) the shares of the variance of W − B and of each net moment that
+    collecting longer would reduce (``q_cov_noise``) and that rests on the dead bands
+    (``q_cov_band``), those of W − B, x, y, z net in that order (the rest: the curves'
+    gains, the attitude reference, the drift model)."""
+
+    seed: int
+    before: Run
+    after: Run | None = None
+    calibration: str = ""
+    sigma: float = float("nan")
+    narrowed: tuple[int, ...] = (0, 0, 0, 0)
+    wrong: str = ""
+    wrong_prior: str = ""
+    wrong_sigma: float = float("nan")
+    shares: tuple[tuple[float, ...], ...] = ()
+
+
+def known_weight(profile: Profile) -> KnownWeight:
+    """The calibration's weight (:data:`WEIGHTS`) as ``trimd calibrate --mass`` takes it:
+    net kg in water at its slot, 1σ the piece's own."""
+    name, count, slot = WEIGHTS[profile.name]
+    piece = profile.piece(name)
+    return KnownWeight(count * piece.net_down_N(profile.water_density_kg_m3, 1.0), slot,
+                       piece.net_uncertainty_pct)
+
+
+def calibrate(profile: Profile, payload: str, seed: int, options: str, weight: KnownWeight,
+              hung_kg: float, first: int, db: Path) -> CalibrationRun:
+    """A deliberate calibration with ``weight`` declared and ``hung_kg`` [kg in water]
+    hung, of the vehicle of ``seed``, its holds the dives ``seed + (first + k)·NOISE``,
+    stored in ``db``."""
+    x, y, z = profile.slot(weight.slot).position_m
+    opened: list[str] = []
+
+    def opener() -> Awaitable[Link]:
+        extra = f"+{hung_kg:.6f}@{x},{y},{z}" if opened else ""
+        opened.append(extra)
+        return open_link(f"sim:payload={payload}{extra},seed={seed + (first + len(opened)) * NOISE}"
+                         f",truth_seed={seed},{options}", profile)
+
+    return asyncio.run(calibrate_with_weight(opener, profile, weight, lambda _text: True,
+                                             db=db, vehicle="bench", wall_clock=False))
+
+
+def _trim(profile: Profile, payload: str, seed: int, options: str
+          ) -> tuple[Run, tuple[float, ...]]:
+    """The trim of ``seed`` judged, and the noise and band shares of the variance of q
+    (:class:`Seed`; NaN when it did not end with an estimate)."""
+    trial = sim_trim(profile, payload, seed, options)
+    est = trial.result.estimate
+    share = np.full(8, np.nan)
+    if est is not None and est.q_cov_noise is not None and est.q_cov_band is not None:
+        share = np.r_[np.diag(est.q_cov_noise), np.diag(est.q_cov_band)] / np.tile(
+            np.diag(est.q_cov), 2)
+    return judge(seed, trial), tuple(map(float, share))
+
+
+def _verdict(accepted: bool) -> str:
+    return "learnt" if accepted else "rejected"
+
+
+def run(name: str, payload: str, seed: int, options: str) -> Seed:
+    """The seed (module docstring)."""
+    profile = load_profile(name)
+    before, before_share = _trim(profile, payload, seed, options)
+    weight = known_weight(profile)
+    with tempfile.TemporaryDirectory() as tmp:
+        db = Path(tmp) / "trimd.db"
+        try:
+            good = calibrate(profile, payload, seed, options, weight, weight.kg, 0, db)
+        except (EstimationError, LinkError) as exc:
+            return Seed(seed, before, calibration=f"no experiment: {exc}",
+                        shares=(before_share,))
+        sd = np.sqrt(np.diag(good.posterior.cov)).reshape(len(BLOCKS), -1)
+        narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
+        calibrated = calibrated_profile(db, "bench", profile)
+        after, after_share = _trim(calibrated, payload, seed, options)
+        out = Seed(seed, before, after, _verdict(good.outcome.accepted), good.outcome.sigma,
+                   narrowed, shares=(before_share, after_share))
+        try:
+            wrong = calibrate(profile, payload, seed, options, weight, HEAVIER * weight.kg, 2, db)
+        except (EstimationError, LinkError) as exc:
+            return replace(out, wrong=f"no experiment: {exc}")
+    alone = update(prior(profile), wrong.experiment, profile)[1]
+    return replace(out, wrong=_verdict(wrong.outcome.accepted),
+                   wrong_prior=_verdict(alone.accepted), wrong_sigma=wrong.outcome.sigma)
+
+
+def _count(values: list[str], what: str) -> str:
+    return f"{sum(v == what for v in values)}/{len(values)}"
+
+
+def report(seeds: list[Seed], profile: Profile) -> list[str]:
+    """The figures of ``seeds`` for people (module docstring), one string per line."""
+    calibrated = [s for s in seeds if s.after is not None]
+    pairs = [s for s in calibrated if s.before.error is not None and s.after is not None
+             and s.after.error is not None]
+    target_wb, target_m = TARGETS[profile.name]
+    lines = [f"{len(pairs)} of {len(seeds)} seeds with both trims done and a calibration",
+             f"  {'':35s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
+    for k, label in enumerate(("uncalibrated", "calibrated")):
+        runs = [r for s in pairs if (r := (s.before, s.after)[k]) is not None]
+        rms = rms_errors(runs, profile.weight_N)
+        sigma = np.mean([r.sigma[:4] for r in runs if r.sigma is not None], axis=0)
+        sigma[1:] *= 1e3 / profile.weight_N
+        share = np.nanmean([s.shares[k] for s in pairs], axis=0)
+        for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
+                                   ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
+                                   ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
+                                   ("σ² share: noise", share[:4], "8.0%"),
+                                   ("σ² share: dead band", share[4:], "8.0%")):
+            lines.append(f"  {label:12s} {what:22s} " + " ".join(f"{v:{form}}" for v in values))
+    wb = "—" if target_wb is None else f"{target_wb:.3g} N"
+    lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
+                 f"{target_m:.3g} mm-equivalent; coverage 90–99 %")
+    outcomes = [s.calibration for s in seeds]
+    narrowed = np.array([s.narrowed for s in seeds if s.calibration == "learnt"]).reshape(
+        -1, len(BLOCKS))
+    lines.append(f"  calibration learnt {_count(outcomes, 'learnt')} (rejected "
+                 f"{_count(outcomes, 'rejected')}); parameters narrowed below "
+                 f"{DETERMINED:.0%} of the prior σ, mean per seed of "
+                 f"{len(profile.thrusters)} each: " + ", ".join(
+                     f"{b} {v:.1f}" for b, v in zip(BLOCKS, narrowed.mean(axis=0)
+                                                    if len(narrowed) else [np.nan] * 4,
+                                                    strict=True)))
+    wrong = [s for s in seeds if s.wrong in ("learnt", "rejected")]
+    lines.append(f"  weight {HEAVIER:.0%} of its declared value: rejected "
+                 f"{_count([s.wrong for s in wrong], 'rejected')} after the calibration, "
+                 f"{_count([s.wrong_prior for s in wrong], 'rejected')} against the profile "
+                 f"alone; its σ median {np.median([s.wrong_sigma for s in wrong]):.1f}"
+                 if wrong else "  weight heavier than declared: no experiment")
+    done = {s.seed for s in pairs}
+    for s in [s for s in seeds if s.seed not in done or s.wrong not in ("learnt", "rejected")
+              ][:size(5, 1)]:
+        lines.append(f"  seed {s.seed}: trim {s.before.outcome[:50]}; calibration "
+                     f"{s.calibration[:60]}; wrong weight {s.wrong[:60]}")
+    return lines
+
+
+def main() -> None:
+    seeds = int(os.environ.get("TRIMD_CALIB_SEEDS", size(60, 1)))
+    options = os.environ.get("TRIMD_CALIB_OPTIONS", OPTIONS)
+    processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
+    wanted = os.environ.get("TRIMD_CALIB_CASES", "")
+    for name, payload in size(CASES, CASES[:1]):
+        if wanted and not any(w in f"{name} {payload}" for w in wanted.split(",")):
+            continue
+        t0 = time.perf_counter()
+        with ProcessPoolExecutor(processes) as pool:
+            runs = list(pool.map(run, [name] * seeds, [payload] * seeds, range(seeds),
+                                 [options] * seeds))
+        wall = time.perf_counter() - t0
+        print(f"{name}, {payload}, sim:{options}, calibration "
+              f"{known_weight(load_profile(name)).kg:.3f} kg at "
+              f"{WEIGHTS[name][2]}: {seeds} seeds, {wall / seeds:.1f} s wall per seed")
+        for line in report(runs, load_profile(name)):
+            print(f"  {line}")
