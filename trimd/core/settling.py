@@ -1,10 +1,10 @@
 """Has a commanded attitude hold settled? The live test, one sample at a time.
 
-A hold has settled when the attitude is at its set-point within ``attitude_tol_deg``, the
-body rates (their mean over :data:`RATE_WINDOW_S`) are below ``rate_tol_deg_s``, and two
-streams are steady, each on its own samples (a zero-order-held, repeated value would
-distort both tests): the attitude (roll, pitch) and the thruster effort τ. A stream is
-steady on a channel when the Cao–Rhinehart ratio test
+A hold has settled when the attitude is at its set-point within ``attitude_tol_deg`` and
+its body rates are below ``rate_tol_deg_s`` (both judged by their mean over
+:data:`RATE_WINDOW_S`), and two streams are steady, each on its own samples (a
+zero-order-held, repeated value would distort both tests): the attitude (roll, pitch) and
+the thruster effort τ. A stream is steady on a channel when the Cao–Rhinehart ratio test
 (:class:`trimd.core.steady.RatioTest`) finds no transient, *or* the channel does not
 drift by more than a practical floor over a trailing window
 (:func:`trimd.core.steady.window_drift`).
@@ -29,23 +29,35 @@ the frame) is another matter: the attitude wanders at the loop's own time scale 
 effort wanders by nearly the whole torque, tens of times what the decision floor allows
 (the simulated Sabertooth with 0.2° RMS of such wander at a 20 s correlation: roll and
 pitch effort 30–130 N·m RMS against a floor of ≈ 4 N·m), so no drift floor on effort can
-let it through. Two things do:
+let it through. Where the attitude loop is weak (the Heavy inside its thrusters' dead
+band) the attitude itself wanders by as much as the tolerance: the same torques leave
+0.4–1.1° RMS there, drifting 1–2° per window and crossing a 1.5° tolerance for seconds at
+a time, so neither the attitude's drift floor nor a tolerance on each sample lets such a
+hold settle (issue 22: 7 of 80 Heavy trims at 0.2° never settled a hold). What does:
 
 - each drift test looks over a short window (:data:`WINDOW_S`) *and* a long one
   (:data:`LONG_WINDOW_S`), and a channel is steady when either stays within its floor: fast
   wander averages out over the long window, slow wander barely moves over the short one,
   while an approach still under way drifts over both;
-- once the attitude has been steady (in tolerance, rates low, no drift) for
-  :data:`EFFORT_WAIVER_S`, effort beyond its floor still counts as steady if it only
-  wanders: over the long window its drift is within :data:`WANDER_RATIO` times its
-  scatter about the drift line. What moves then is the disturbance the loop fights,
-  which the estimate's long-run variance carries; integrators still winding up after
-  the step (a creep towards a new level, the attitude already still) drift far more
-  than they scatter and keep the hold unsettled.
+- a stream only wanders (:meth:`StreamSteadiness.only_wanders`) when over the long window
+  each channel's drift is within its floor or within :data:`WANDER_RATIO` times its
+  scatter about the drift line: stationary wander comes back, a creep towards a new level
+  drifts far more than it scatters. The attitude counts as steady when it only wanders:
+  the hold is then as steady as its attitude loop makes it, and the estimate's ± carries
+  the rest. The set-point tolerance is judged on the mean attitude over
+  :data:`RATE_WINDOW_S`, like the rates, and its lapses get the same grace as the other
+  tests: wander about the set-point is no departure from it;
+- once the attitude has been steady (at its set-point, rates low, no drift or only
+  wander) for :data:`EFFORT_WAIVER_S`, effort beyond its floor still counts as steady if
+  it only wanders. What moves then is the disturbance the loop fights, which the
+  estimate's long-run variance carries; integrators still winding up after the step (a
+  creep towards a new level, the attitude already still) drift far more than they
+  scatter and keep the hold unsettled.
 
 The statistical tests have false alarms (a few % of samples each), so a failure unsettles
-the hold only when it lasts longer than :data:`UNSTEADY_GRACE_S`; leaving the attitude
-tolerance, or stale thruster data, unsettles at once. Time is the samples' own [s].
+the hold only when it lasts longer than :data:`UNSTEADY_GRACE_S`; stale thruster data
+unsettles at once. The safety envelope is not this module's business
+(:class:`trimd.core.guards.Guard` checks every sample). Time is the samples' own [s].
 """
 
 from __future__ import annotations
@@ -74,8 +86,9 @@ EFFORT_WAIVER_S = 10.0
 #: Effort whose drift over the long window is within this many times its scatter about
 #: the drift line only wanders (:meth:`StreamSteadiness.only_wanders`).
 WANDER_RATIO = 5.0
-#: The body rates are judged by their mean over this trailing window [s]: a vehicle
-#: turning towards its set-point keeps its rate, wander about it averages out.
+#: The body rates and the attitude's distance from its set-point are judged by their mean
+#: over this trailing window [s]: a vehicle turning towards its set-point keeps its rate,
+#: wander about it averages out.
 RATE_WINDOW_S = 2.0
 #: Samples each ratio test needs before it can call a stream settled.
 MIN_RATIO_SAMPLES = 12
@@ -123,7 +136,8 @@ class StreamSteadiness:
         """Does every channel move only as stationary wander does over the long window:
         its least-squares drift (slope × window) within the floor or within
         :data:`WANDER_RATIO` times the scatter about that line? A transient — a creep
-        towards a new level — drifts far more than it scatters."""
+        towards a new level — drifts far more than it scatters. False until the samples
+        span most of the long window."""
         t, x = self._window.t.copy(), self._window.x.copy()
         if len(t) < 3 or t[-1] - t[0] < 0.9 * LONG_WINDOW_S:
             return False
@@ -181,7 +195,8 @@ class HoldSettling:
         self.rate_tol = math.radians(limits.rate_tol_deg_s)
         self._settled = GraceTimer()            # the whole hold
         self._attitude_steady = GraceTimer()    # the attitude alone (the effort waiver)
-        self._rates: deque[tuple[float, float, float]] = deque()
+        #: the last RATE_WINDOW_S of (t [s], p, q [rad/s], φ, θ [rad])
+        self._recent: deque[tuple[float, float, float, float, float]] = deque()
         self._attitude = StreamSteadiness(np.full(2, ATTITUDE_DRIFT_SHARE * self.tol))
         self._effort = StreamSteadiness(floor)
 
@@ -189,17 +204,14 @@ class HoldSettling:
         """A new thruster-effort sample τ [N, N·m] at ``t_s``."""
         self._effort.update(t_s, tau)
 
-    def in_tolerance(self, a: Attitude) -> bool:
-        return abs(a.phi - self.phi) <= self.tol and abs(a.theta - self.theta) <= self.tol
-
     def attitude(self, a: Attitude, have_tau: bool) -> bool:
         """A new attitude sample; is the hold settled now? ``have_tau``: fresh thruster
         outputs are held at this sample."""
-        if not have_tau or not self.in_tolerance(a):
-            self._steady(a)
+        steady = self._steady(a)
+        if not have_tau:                # stale thruster data: no sample of this hold
             self._settled.reset()
             return False
-        self._settled.update(a.t_s, self._steady(a))
+        self._settled.update(a.t_s, steady)
         return self._settled.on
 
     @property
@@ -207,14 +219,23 @@ class HoldSettling:
         """Since when [s] the hold has been settled (NaN: it is not)."""
         return self._settled.since
 
+    def at_setpoint(self) -> bool:
+        """Is the mean roll and pitch over the last :data:`RATE_WINDOW_S` within the
+        tolerance of the set-point?"""
+        recent, n = self._recent, len(self._recent)
+        return (n > 0 and abs(sum(r[3] for r in recent) / n - self.phi) <= self.tol
+                and abs(sum(r[4] for r in recent) / n - self.theta) <= self.tol)
+
     def _steady(self, a: Attitude) -> bool:
-        rates = self._rates
-        rates.append((a.t_s, a.p, a.q))
-        while rates[0][0] < a.t_s - RATE_WINDOW_S:
-            rates.popleft()
-        mean_rate = max(abs(sum(r[1] for r in rates)), abs(sum(r[2] for r in rates))) / len(rates)
-        attitude_steady = (self._attitude.update(a.t_s, (a.phi, a.theta))
-                           and self.in_tolerance(a) and mean_rate <= self.rate_tol)
+        """Is everything steady at ``a`` (before the grace of :class:`GraceTimer`)?"""
+        recent = self._recent
+        recent.append((a.t_s, a.p, a.q, a.phi, a.theta))
+        while recent[0][0] < a.t_s - RATE_WINDOW_S:
+            recent.popleft()
+        mean_rate = max(abs(sum(r[1] for r in recent)),
+                        abs(sum(r[2] for r in recent))) / len(recent)
+        still = self._attitude.update(a.t_s, (a.phi, a.theta)) or self._attitude.only_wanders()
+        attitude_steady = still and self.at_setpoint() and mean_rate <= self.rate_tol
         self._attitude_steady.update(a.t_s, attitude_steady)
         return attitude_steady and (self._effort.steady or (
             a.t_s - self._attitude_steady.since >= EFFORT_WAIVER_S
