@@ -18,16 +18,20 @@ from pathlib import Path
 from typing import Any
 
 from trimd.app.headless import StdinConfirm, stop_on_signals
+from trimd.app.history.installed import current_installed
 from trimd.app.session import Presenter, Session, SessionResult
+from trimd.app.verify import read_target
+from trimd.ballast.correct import Correction, propose_float_correction
 from trimd.core.errors import DataError
 from trimd.core.float_check import FloatCheck
+from trimd.core.floating import FloatResult, Verdict
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
-__all__ = ["FloatRequest", "float_from_settings", "float_session", "float_settings",
-           "run_float_check"]
+__all__ = ["FloatRequest", "float_correction", "float_from_settings", "float_session",
+           "float_settings", "run_float_check"]
 
 
 @dataclass(frozen=True)
@@ -93,3 +97,18 @@ async def run_float_check(open_link: Callable[[], Awaitable[Link]], profile: Pro
     if signals:
         stop_on_signals(session.abort)
     return await session.run()
+
+
+def float_correction(f: FloatResult, target: dict[str, Any], profile: Profile,
+                     db: str | Path | None, vehicle: str) -> Correction | None:
+    """After the float check ``f`` of the trim ``target`` (:func:`trimd.app.verify.
+    trim_target`): the correction of the ballast installed now (the history ``db``'s for
+    ``vehicle``, else the profile's) for the vehicle as it floated
+    (:func:`trimd.ballast.correct.floated_vehicle`); None when it floats level. DataError
+    for a target that does not fit the profile, ProfileError for installed pieces it does
+    not have."""
+    if f.verdict is Verdict.LEVEL:
+        return None
+    estimate, loads = read_target(target, "the trim", profile)
+    installed, _ = current_installed(db, vehicle, profile)
+    return propose_float_correction(f, estimate, loads, profile, installed)

@@ -146,12 +146,12 @@ def format_float(r: FloatResult) -> str:
             "positive down)")
 
 
-def format_correction(c: Correction | None) -> str:
-    """A verify hold's correction (:mod:`trimd.ballast.correct`) as a proposal's table,
-    or that none is needed."""
+def format_correction(c: Correction | None, source: str = "the verify hold") -> str:
+    """The correction from ``source`` (a verify hold's, a float check's:
+    :mod:`trimd.ballast.correct`) as a proposal's table, or that none is needed."""
     if c is None:
         return "no correction needed: level and as predicted"
-    return ("correction from the verify hold (the vehicle as measured, from the ballast "
+    return (f"correction from {source} (the vehicle as measured, from the ballast "
             "installed now):\n" + format_proposal(c.proposal))
 
 

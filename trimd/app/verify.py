@@ -12,9 +12,12 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
-from trimd.app.files import installed_from_json
+from trimd.app.files import installed_from_json, read_estimate, read_installed
+from trimd.app.history import History
+from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.ballast.changes import change_loads
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.proposal import slot_to_dict
@@ -25,7 +28,8 @@ from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
 from trimd.core.procedure import Procedure
 from trimd.core.profile import InstalledPiece, Profile
 
-__all__ = ["read_target", "recorded_target", "verify_procedure", "verify_target"]
+__all__ = ["read_target", "recorded_target", "trim_target", "verify_procedure",
+           "verify_target"]
 
 
 def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[str, Any]:
@@ -90,3 +94,25 @@ def verify_procedure(profile: Profile, target: dict[str, Any], *, confirmed: boo
     estimate, loads = read_target(json.loads(json.dumps(target)), source, profile)
     return Procedure(profile, confirmed=confirmed,
                      verify=lambda hold: verify_hold(hold, profile, estimate, loads))
+
+
+def trim_target(path: str | None, profile: Profile, db: str | Path, vehicle: str
+                ) -> dict[str, Any]:
+    """The verify target of the trim in ``path`` (a trim's result, or a verify hold's
+    correction) or, with ``path`` None, of the vehicle's last trim in the history ``db``
+    or of the correction since that was applied
+    (:func:`trimd.app.history.chain.proposal_on_vehicle`), predicting for the ballast
+    recorded as installed since the trim, if any (:func:`recorded_target`). DataError
+    when there is none or it is malformed."""
+    if path is not None:
+        return verify_target(read_estimate(path), read_installed(path, profile))
+    with History(db) as history:
+        found = proposal_on_vehicle(history, vehicle, profile.installed)
+        recorded = installed_since_trim(history, vehicle)
+        where = history.path
+    if found is None:
+        raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
+                        "the trim (TRIM.json)")
+    estimate, proposal, what = found
+    return recorded_target(estimate, proposal, profile.installed if recorded else None,
+                           profile, what)

@@ -10,6 +10,11 @@ vehicle as it is now, with its ballast on (:func:`measured_vehicle`): an estimat
 trim's, whose roll and pitch rows are the verify hold's, whose ± is mostly the verify
 hold's (its thrusters barely work, so the thrust curves' errors hardly enter).
 
+A float check (:mod:`trimd.core.float_check`) measures the same vehicle without the
+thrust map: the attitude it floats at, at which W·r_g − B·r_b points along gravity, so
+that with the prediction's W·z_g − B·z_b it gives the x/y net moments
+(:func:`floated_vehicle`), to the attitude reference's accuracy.
+
 The correction is :func:`trimd.ballast.propose.propose_ballast`'s ``milp`` proposal for
 that vehicle from the ballast installed now: the same inventory, slots, net-buoyancy
 window, aim inside the level tolerance by the 95 % interval, pieces moved, removed or
@@ -19,21 +24,24 @@ and the stiffness's).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from trimd.ballast.check import SlotLoad, check_trim
 from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.propose import propose_ballast
 from trimd.ballast.verify import Verification
 from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.floating import FloatResult
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.static_estimate import HoldSummary, StaticEstimate, net_estimate
 
-__all__ = ["Correction", "correction_to_dict", "measured_vehicle", "needs_correction",
-           "propose_correction"]
+__all__ = ["Correction", "correction_to_dict", "floated_vehicle", "measured_vehicle",
+           "needs_correction", "propose_correction", "propose_float_correction"]
 
 #: The rows a level hold measures each net quantity by: Z → W − B, M → W·x_g − B·x_b,
 #: K → W·y_g − B·y_b (for the estimate's ``dofs_used``).
@@ -106,12 +114,56 @@ def measured_vehicle(v: Verification, estimate: StaticEstimate, profile: Profile
                         residual_rms=np.full(6, np.nan), notes=(note,))
 
 
+def floated_vehicle(f: FloatResult, estimate: StaticEstimate, loads: Sequence[SlotLoad],
+                    profile: Profile) -> StaticEstimate:
+    """The vehicle as the float check ``f`` found it, its ballast on: q = [W − B,
+    W·x_g − B·x_b, W·y_g − B·y_b, W·z_g − B·z_b] [N, N·m] (body FRD, origin CG0).
+
+    At the attitude (φ, θ) it floats at, the restoring moment (W·r_g − B·r_b) × g_b
+    vanishes, g_b = (−sin θ, cos θ·sin φ, cos θ·cos φ) the direction of gravity in the
+    body (Fossen eq. 4.6): W·r_g − B·r_b = λ·g_b, so with m_z = W·z_g − B·z_b the
+    prediction's (the trim ``estimate`` plus ``loads``, the pieces installed since, exactly
+    known: ``estimate``'s covariance), m_x = −m_z·tan θ / cos φ and m_y = m_z·tan φ. W − B
+    is the prediction's too (the float's depth rate is only its sign). The covariance
+    carries the float's 1σ in φ and θ and the prediction's in W − B and m_z, through the
+    Jacobian."""
+    predicted = check_trim(estimate, loads, profile.gravity_m_s2)
+    wb, m_z = -predicted.net_buoyancy_N, float(predicted.net_moment_Nm[2])
+    phi, theta = math.radians(f.roll_deg), math.radians(f.pitch_deg)
+    t_phi, t_theta, c_phi = math.tan(phi), math.tan(theta), math.cos(phi)
+    q = np.array([wb, -m_z * t_theta / c_phi, m_z * t_phi, m_z])
+    J = np.zeros((4, 4))   # ∂q / ∂(W − B, m_z, φ, θ)
+    J[0, 0] = J[3, 1] = 1.0
+    J[1] = (0.0, -t_theta / c_phi, -m_z * t_theta * t_phi / c_phi,
+            -m_z / (c_phi * math.cos(theta)**2))
+    J[2] = (0.0, t_phi, m_z / c_phi**2, 0.0)
+    cov = np.zeros((4, 4))
+    cov[:2, :2] = estimate.q_cov[np.ix_((0, 3), (0, 3))]
+    cov[2, 2], cov[3, 3] = math.radians(f.roll_std_deg)**2, math.radians(f.pitch_std_deg)**2
+    note = ("the vehicle as a float check found it, its ballast on: the x/y net moments from "
+            "the attitude it floats at (no thrust map) and W·z_g − B·z_b from the trim and "
+            "the pieces installed since; W − B the prediction's")
+    hold = HoldSummary("float", f.roll_deg, f.pitch_deg, f.samples, f.t_start_s, f.t_end_s)
+    return net_estimate(q, J @ cov @ J.T, profile, holds=(hold,), dofs_used=("K", "M"),
+                        residual_rms=np.full(6, np.nan), notes=(note,))
+
+
 def propose_correction(v: Verification, estimate: StaticEstimate, profile: Profile,
                        installed: Sequence[InstalledPiece]) -> Correction:
     """The correction of the ballast ``installed`` now (what the verify hold ``v`` of the
     trim ``estimate`` measured with on the vehicle), by the ``milp`` proposal for the
     measured vehicle. ProfileError when ``installed`` is not ``profile``'s."""
     vehicle = measured_vehicle(v, estimate, profile)
+    return Correction(vehicle, propose_ballast(vehicle, profile, "milp", installed=installed))
+
+
+def propose_float_correction(f: FloatResult, estimate: StaticEstimate,
+                             loads: Sequence[SlotLoad], profile: Profile,
+                             installed: Sequence[InstalledPiece]) -> Correction:
+    """The correction of the ballast ``installed`` now, for the vehicle as the float
+    check ``f`` found it (:func:`floated_vehicle` of the trim ``estimate`` with ``loads``
+    installed since), by the ``milp`` proposal."""
+    vehicle = floated_vehicle(f, estimate, loads, profile)
     return Correction(vehicle, propose_ballast(vehicle, profile, "milp", installed=installed))
 
 

@@ -4,6 +4,11 @@ measures the attitude it floats at, its passive trim, with no thrust map; it pri
 attitude ± (95 %) and the verdict. Headless; recorded like every session, and ``trimd
 replay LOG`` reproduces the result.
 
+With ``--correct [TRIM.json]`` (the trim whose ballast is on: a trim's or correction's
+result, or alone the vehicle's last trim in the history) a float that is not level ends
+with the correction of the ballast installed now, from the attitude it floated at
+(:func:`trimd.ballast.correct.floated_vehicle`), as ``trimd run --verify`` prints one.
+
 Exit codes: 0 level within the profile's tolerance, 1 not level, undecided, failed or
 aborted, 2 usage or profile error, 3 link error (cannot open, or lost during the float).
 """
@@ -17,15 +22,23 @@ from pathlib import Path
 
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
-from trimd.app.float_check import FloatRequest, run_float_check
+from trimd.app.float_check import FloatRequest, float_correction, run_float_check
 from trimd.app.headless import HeadlessPresenter
+from trimd.app.jsonlines import print_result
+from trimd.app.report import format_correction
+from trimd.app.verify import trim_target
+from trimd.ballast.correct import correction_to_dict
 from trimd.cli.argtypes import Subcommands, bounded
-from trimd.core.errors import ProfileError
+from trimd.cli.history_args import add_history_args, db_path, vehicle_of
+from trimd.core.errors import ProfileError, TrimdError
 from trimd.core.events import Phase
 from trimd.core.floating import FloatResult, Verdict
 from trimd.core.profile_yaml import load_profile
 
 __all__ = ["register", "run"]
+
+#: ``--correct`` without a file: the vehicle's last trim in the history.
+_LAST_TRIM = "last"
 
 
 def register(sub: Subcommands) -> None:
@@ -50,6 +63,11 @@ def register(sub: Subcommands) -> None:
     record.add_argument("--record", metavar="PATH", help="session log (default: a "
                         "timestamped file in the data directory's sessions/)")
     record.add_argument("--no-record", action="store_true", help="do not write a session log")
+    p.add_argument("--correct", metavar="TRIM.json", nargs="?", const=_LAST_TRIM,
+                   help="when it does not float level, propose the correction of the "
+                   "ballast installed now for the trim in TRIM.json (a trim's or "
+                   "correction's result) or, alone, the vehicle's last trim in the history")
+    add_history_args(p)
     p.set_defaults(func=run)
 
 
@@ -58,6 +76,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd let go of the vehicle")
+    vehicle, db = vehicle_of(args, profile.name), db_path(args)
+    # the trim is read before the link opens: bad input commands nothing
+    target = None if args.correct is None else trim_target(
+        None if args.correct == _LAST_TRIM else args.correct, profile, db, vehicle)
     record = None
     if not args.no_record:
         record = Path(args.record) if args.record else default_record_path(profile)
@@ -71,6 +93,15 @@ def run(args: argparse.Namespace) -> int:
         print(f"session log: {result.log_path}", file=sys.stderr)
     if result.cause == "link":
         return 3
-    level = (isinstance(result.verification, FloatResult)
-             and result.verification.verdict is Verdict.LEVEL)
-    return 0 if level else 1
+    f = result.verification if isinstance(result.verification, FloatResult) else None
+    if f is not None and target is not None:
+        try:
+            correction = float_correction(f, target, profile, db, vehicle)
+        except TrimdError as exc:
+            print(f"trimd float: warning: no correction proposed: {exc}", file=sys.stderr)
+        else:
+            if correction is not None:
+                print_result(args.json, {"type": "correction",
+                                         **correction_to_dict(correction)},
+                             "\n" + format_correction(correction, "the float check"))
+    return 0 if f is not None and f.verdict is Verdict.LEVEL else 1

@@ -20,19 +20,15 @@ from trimd.app import connect
 from trimd.app.after_trim import AfterTrim
 from trimd.app.files import (
     default_record_path,
-    read_estimate,
-    read_installed,
 )
 from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
-from trimd.app.history import History
 from trimd.app.history.calibration import calibrated_profile
-from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction, format_result
 from trimd.app.session import Presenter, Session, SessionResult
 from trimd.app.trim import TrimRequest, trim_session
-from trimd.app.verify import recorded_target, verify_target
+from trimd.app.verify import trim_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
@@ -119,26 +115,10 @@ def _target_source(args: argparse.Namespace) -> str:
 
 
 def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any]:
-    """The verify target (:mod:`trimd.app.verify`): the estimate and proposed ballast of
-    ``--verify FILE`` (a trim's, or a verify hold's correction), or (``--verify`` alone)
-    of the vehicle's last trim in the history, or of the correction since that was
-    applied (:func:`trimd.app.history.chain.proposal_on_vehicle`), predicting for the
-    ballast recorded as installed since the trim, if any
-    (:func:`trimd.app.verify.recorded_target`)."""
-    if args.verify != LAST_TRIM:
-        loads = read_installed(args.verify, profile)
-        return verify_target(read_estimate(args.verify), loads)
-    vehicle = vehicle_of(args, profile.name)
-    with History(db_path(args)) as history:
-        found = proposal_on_vehicle(history, vehicle, profile.installed)
-        recorded = installed_since_trim(history, vehicle)
-        where = history.path
-    if found is None:
-        raise DataError(f"no trim with a proposal for vehicle {vehicle} in {where}: give "
-                        "the trim to verify (--verify TRIM.json)")
-    estimate, proposal, what = found
-    return recorded_target(estimate, proposal, profile.installed if recorded else None,
-                           profile, what)
+    """The verify target of ``--verify FILE`` or (``--verify`` alone) of the vehicle's
+    last trim in the history (:func:`trimd.app.verify.trim_target`)."""
+    return trim_target(None if args.verify == LAST_TRIM else args.verify, profile,
+                       db_path(args), vehicle_of(args, profile.name))
 
 
 def _truth(link: Link, wanted: bool) -> str | None:
