@@ -9,7 +9,11 @@ envelope: how many floats gave a result; how often the truth
 (:func:`trimd.drivers.sim.truth.passive_trim_deg` of the ballasted true vehicle) lay within
 each angle's 95 % interval; the largest and mean |float − truth|; the 95 % half-widths;
 the floating time (from letting go to the release, simulated seconds) and the depth change;
-and the verdicts against the truth (right, wrong, undecided). ``TRIMD_FLOAT_SEEDS``
+and the verdicts against the truth (right, wrong, undecided). Then the loop closed through
+the wider envelope's float: where it did not float level, the correction from the attitude
+it floated at (:func:`trimd.ballast.correct.propose_float_correction`) fitted too, and
+how many TRUE vehicles end within the level tolerance, against the trim's ballast alone.
+``TRIMD_FLOAT_SEEDS``
 (default 10) seeds per case. One seed takes ≈ 5 s (Heavy) and ≈ 8 s (Sabertooth) of one
 core.
 """
@@ -23,9 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from bench.size import size
-from tests.helpers import ballast_payload, sim_trim
+from tests.helpers import SimTrim, ballast_payload, carried, sim_trim
 from trimd.app.connect import open_link
 from trimd.app.float_check import FloatRequest, float_session
+from trimd.ballast.changes import change_loads
+from trimd.ballast.correct import propose_float_correction
 from trimd.ballast.proposal import Proposal
 from trimd.core.floating import Z95, FloatResult, Verdict
 from trimd.core.profile import Profile
@@ -89,11 +95,38 @@ def report(name: str, excursion: str, floats: list[Floated]) -> None:
           f"{verdicts.count('undecided')} undecided")
 
 
+def corrected_trim_deg(trim: SimTrim, profile: Profile, proposal: Proposal, f: Floated
+                       ) -> tuple[float, float]:
+    """The TRUE vehicle's passive roll and pitch [deg] with the trim's ``proposal`` fitted
+    and, unless the float ``f`` found it level, the correction from the float too."""
+    r, estimate = f.result, trim.result.estimate
+    if r is None or estimate is None or r.verdict is Verdict.LEVEL:
+        return f.truth_deg
+    loads = change_loads(profile, proposal.installed, proposal.installed_after)
+    c = propose_float_correction(r, estimate, loads, profile, proposal.installed_after)
+    g = profile.gravity_m_s2
+    extra = "+".join(filter(None, (carried(ld, g) for ld in (loads, c.proposal.slots))))
+    return passive_trim_deg(trim.vehicle.ballasted(extra).net)
+
+
+def report_loop(name: str, tol_deg: float, pairs: list[tuple[tuple[float, float],
+                                                            tuple[float, float]]]) -> None:
+    """Before (the trim's ballast) and after (the float's correction too), the TRUE trim."""
+    before = np.array([max(map(abs, b)) for b, _ in pairs])
+    after = np.array([max(map(abs, a)) for _, a in pairs])
+    print(f"{name}, trim → ballast → float → correction: within the level tolerance "
+          f"({tol_deg:g}°) {int((after <= tol_deg).sum())} of {len(pairs)} (the trim's "
+          f"ballast alone: {int((before <= tol_deg).sum())}); largest |roll|, |pitch| "
+          f"{before.max():.2f}° → {after.max():.2f}°, RMS {np.sqrt(np.mean(before**2)):.2f}° "
+          f"→ {np.sqrt(np.mean(after**2)):.2f}°")
+
+
 def main() -> None:
     seeds = range(int(os.environ.get("TRIMD_FLOAT_SEEDS", size(10, 1))))
     for name, payload, wide in CASES:
         profile = load_profile(name)
         by_envelope: dict[float | None, list[Floated]] = {None: [], wide: []}
+        loop = []
         for seed in seeds:
             trim = sim_trim(profile, payload, seed, OPTIONS)
             if not isinstance(trim.result.proposal, Proposal):
@@ -102,9 +135,15 @@ def main() -> None:
             ballasted = f"{payload}+{ballast_payload(trim.result.proposal, profile)}"
             for excursion in by_envelope:
                 by_envelope[excursion].append(float_once(profile, ballasted, seed, excursion))
+            f = by_envelope[wide][-1]
+            if f.result is not None:
+                loop.append((f.truth_deg, corrected_trim_deg(trim, profile,
+                                                             trim.result.proposal, f)))
         report(name, f"{profile.procedure.max_depth_excursion_m:g} m (the profile's)",
                by_envelope[None])
         report(name, f"{wide:g} m", by_envelope[wide])
+        if loop:
+            report_loop(name, profile.level_tol_deg, loop)
 
 
 if __name__ == "__main__":
