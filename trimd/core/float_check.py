@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.floating import (
     MIN_BATCHES,
     SETTLED_SHARE,
@@ -49,7 +49,7 @@ from trimd.core.floating import (
 )
 from trimd.core.guards import Guard
 from trimd.core.phases import Phases
-from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
+from trimd.core.precheck import Precheck
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample
@@ -139,17 +139,6 @@ class FloatCheck(Phases):
         return self.phase in (Phase.SETTLE, Phase.COLLECT)
 
     # ---------------------------------------------------------------- events
-    def _step(self, event: Event) -> list[Output]:
-        if isinstance(event, Abort):
-            return self._finish(Phase.ABORTED, event.reason, Cause.OPERATOR)
-        if isinstance(event, Confirm):
-            return self._on_confirm()
-        self._clock(event)
-        if isinstance(event, Tick):
-            return self._check_time()
-        out = self._on_sample(event)
-        return out if self.phase.final else out + self._check_time()
-
     def _on_sample(self, s: Sample) -> list[Output]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
@@ -170,35 +159,9 @@ class FloatCheck(Phases):
             return self._precheck()
         return []
 
-    def _precheck(self) -> list[Output]:
-        h = self._health
-        if self.phase not in (Phase.CONNECT, Phase.PRECHECK) or h is None or not h.connected:
-            return []
-        if self.phase is Phase.CONNECT:
-            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
-            return []
-        problems = self.precheck.problems(self._t_data)
-        if problems:
-            self.reason = "waiting: " + "; ".join(problems)
-            return []
-        if self._confirmed:
-            return self._start()
-        return self._enter(Phase.CONFIRM, "ready: confirm to let go of the vehicle (thrusters "
-                           "at neutral) and measure how it floats")
-
-    def _on_confirm(self) -> list[Output]:
-        """The operator's go: in the confirm phase the precheck is run again; earlier, it
-        stands for the moment the precheck passes (as the trim procedure's)."""
-        if self.phase is not Phase.CONFIRM:
-            self._confirmed = True
-            return []
-        problems = self.precheck.problems(self._t_data)
-        if problems:
-            return self._enter(Phase.PRECHECK, "cannot start: " + "; ".join(problems)
-                               + " (confirm again when ready)")
-        self._confirmed = True
-        return self._start()
+    def _ready_text(self) -> str:
+        return ("ready: confirm to let go of the vehicle (thrusters at neutral) and measure "
+                "how it floats")
 
     def _start(self) -> list[Output]:
         now = self._now_data()

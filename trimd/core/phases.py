@@ -1,16 +1,18 @@
 """What every commanding state machine shares: its phase, when the phase began, how it
-steps (an internal error still releases the vehicle) and how it ends (the trim
-:class:`~trimd.core.procedure.Procedure` and the excitation experiment
-:class:`~trimd.identify.experiment.Excite`); their precheck is
-:class:`trimd.core.precheck.Precheck`."""
+steps (an internal error still releases the vehicle), how it gets to command (the vehicle
+present, the precheck :class:`trimd.core.precheck.Precheck` passed, the operator's
+confirmation) and how it ends (the trim :class:`~trimd.core.procedure.Procedure`, the
+float check :class:`~trimd.core.float_check.FloatCheck` and the excitation experiment
+:class:`~trimd.identify.experiment.Excite`)."""
 
 from __future__ import annotations
 
 import math
 
-from trimd.core.events import Cause, Event, Notice, Output, Phase, Tick
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Tick
 from trimd.core.guards import Guard
-from trimd.core.samples import Release, Sample
+from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
+from trimd.core.samples import Health, Release, Sample
 
 __all__ = ["Phases"]
 
@@ -21,13 +23,18 @@ class Phases:
     ``_t_data``, the latest sample's time: a phase begins, and everything the samples
     decide is timed, on ``_t_data`` alone, so a replay, which has no Ticks, decides as the
     live run did however late the live shell's event loop ran. A subclass sets every
-    attribute in its ``__init__`` (the times NaN until the first event) and calls
-    :meth:`_clock` on each timed event."""
+    attribute in its ``__init__`` (the times NaN until the first event), calls
+    :meth:`_clock` on each timed event, :meth:`_precheck` on the samples before it
+    commands and :meth:`_on_confirm` on the operator's Confirm, and says how it starts
+    (:meth:`_start`) and what the operator confirms (:meth:`_ready_text`)."""
 
     phase: Phase
     reason: str
     cause: Cause
     guard: Guard
+    precheck: Precheck
+    _health: Health | None
+    _confirmed: bool
     _t: float
     _t_data: float
     _t_phase: float
@@ -44,8 +51,70 @@ class Phases:
                                 cause=Cause.INTERNAL)
 
     def _step(self, event: Event) -> list[Output]:
-        """One event, the machine's own way."""
+        """One event: an Abort ends the machine (releasing the vehicle), a Confirm is the
+        operator's go (:meth:`_on_confirm`); a sample (:meth:`_on_sample`) or a Tick
+        advances the clocks, then the timeouts are checked (:meth:`_check_time`)."""
+        if isinstance(event, Abort):
+            return self._finish(Phase.ABORTED, event.reason, cause=Cause.OPERATOR)
+        if isinstance(event, Confirm):
+            return self._on_confirm()
+        self._clock(event)
+        out = [] if isinstance(event, Tick) else self._on_sample(event)
+        return out if self.phase.final else out + self._check_time()
+
+    def _on_sample(self, s: Sample) -> list[Output]:
+        """One sample, the machine's own way."""
         raise NotImplementedError
+
+    def _check_time(self) -> list[Output]:
+        """The timeouts at the latest event's time, the machine's own way."""
+        raise NotImplementedError
+
+    def _start(self) -> list[Output]:
+        """Begin commanding (the precheck passed, the operator confirmed)."""
+        raise NotImplementedError
+
+    def _ready_text(self) -> str:
+        """What the operator is asked to confirm."""
+        raise NotImplementedError
+
+    def _ready(self) -> None:
+        """The precheck has passed (before the confirmation): note what the start needs."""
+
+    def _precheck(self) -> list[Output]:
+        """Before commanding: CONNECT → PRECHECK once the vehicle is present; then, once
+        the precheck has held for :data:`PRECHECK_WINDOW_S` of the samples' time, start
+        when confirmed up front, else ask (CONFIRM); until it passes, the reason says
+        what it waits for."""
+        h = self._health
+        if self.phase not in (Phase.CONNECT, Phase.PRECHECK) or h is None or not h.connected:
+            return []
+        if self.phase is Phase.CONNECT:
+            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
+        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
+            return []
+        problems = self.precheck.problems(self._t_data)
+        if problems:
+            self.reason = "waiting: " + "; ".join(problems)
+            return []
+        self._ready()
+        if self._confirmed:
+            return self._start()
+        return self._enter(Phase.CONFIRM, self._ready_text())
+
+    def _on_confirm(self) -> list[Output]:
+        """The operator's go. Given in the confirm phase, the precheck is run again (the
+        vehicle may have changed while the operator thought); given earlier, it stands
+        for the moment the precheck passes."""
+        if self.phase is not Phase.CONFIRM:
+            self._confirmed = True
+            return []
+        problems = self.precheck.problems(self._t_data)
+        if problems:
+            return self._enter(Phase.PRECHECK, "cannot start: " + "; ".join(problems)
+                               + " (confirm again when ready)")
+        self._confirmed = True
+        return self._start()
 
     def _clock(self, event: Sample | Tick) -> None:
         """Advance the clocks to a timed ``event`` (a sample or a Tick); the first one

@@ -21,20 +21,16 @@ from trimd.core.effort import HeldThrust
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldRecord, HoldSamples, StaticEstimate, estimate_static
 from trimd.core.events import (
-    Abort,
     Cause,
-    Confirm,
-    Event,
     Notice,
     Output,
     Phase,
     Progress,
-    Tick,
     TrimResult,
 )
 from trimd.core.guards import Guard
 from trimd.core.phases import Phases
-from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
+from trimd.core.precheck import Precheck
 from trimd.core.profile import HoldSetpoint, Profile
 from trimd.core.samples import (
     Attitude,
@@ -134,20 +130,6 @@ class Procedure(Phases):
             time_left_s=self._time_left(self._t), message=self.reason)
 
     # ---------------------------------------------------------------- event handling
-    def _step(self, event: Event) -> list[Output]:
-        if isinstance(event, Abort):
-            return self._finish(Phase.ABORTED, event.reason, cause=Cause.OPERATOR)
-        if isinstance(event, Confirm):
-            return self._on_confirm()
-        self._clock(event)
-        if not isinstance(event, Tick):
-            out = self._on_sample(event)
-            if self.phase.final:
-                return out
-        else:
-            out = []
-        return out + self._check_time()
-
     def _on_sample(self, s: Sample) -> list[Output]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
@@ -208,43 +190,13 @@ class Procedure(Phases):
         return self._maybe_next_hold()
 
     # ---------------------------------------------------------------- phases
-    def _precheck(self) -> list[Output]:
-        h = self._health
-        if h is None or not h.connected:
-            return []
-        if self.phase is Phase.CONNECT:
-            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
-            return []
-        missing = self._precheck_problems()
-        if missing:
-            self.reason = "waiting: " + "; ".join(missing)
-            return []
+    def _ready(self) -> None:
         self._psi = self._attitude.psi if self._attitude else 0.0
-        if self._confirmed:
-            return self._start_holds()
-        return self._enter(Phase.CONFIRM, "ready: confirm to let trimd command the vehicle "
-                                          f"({len(self.holds)} holds)")
 
-    def _precheck_problems(self) -> list[str]:
-        """What keeps trimd from commanding now (:class:`trimd.core.precheck.Precheck`)."""
-        return self.precheck.problems(self._t_data)
+    def _ready_text(self) -> str:
+        return f"ready: confirm to let trimd command the vehicle ({len(self.holds)} holds)"
 
-    def _on_confirm(self) -> list[Output]:
-        """The operator's go. Given in the confirm phase, the precheck is run again (the
-        vehicle may have changed while the operator thought); given earlier, it stands
-        for the moment the precheck passes."""
-        if self.phase is not Phase.CONFIRM:
-            self._confirmed = True
-            return []
-        problems = self._precheck_problems()
-        if problems:
-            return self._enter(Phase.PRECHECK, "cannot start: " + "; ".join(problems)
-                               + " (confirm again when ready)")
-        self._confirmed = True
-        return self._start_holds()
-
-    def _start_holds(self) -> list[Output]:
+    def _start(self) -> list[Output]:
         return self._next_hold()
 
     def _next_hold(self) -> list[Output]:

@@ -37,10 +37,10 @@ from __future__ import annotations
 
 import math
 
-from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Progress, Tick
+from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.guards import ENVELOPE_MARGIN_DEG, Guard
 from trimd.core.phases import Phases
-from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
+from trimd.core.precheck import Precheck
 from trimd.core.procedure import MIN_RATES_HZ
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude, Depth, Health, OpenLoop, Sample, Thrusters
@@ -148,17 +148,6 @@ class Excite(Phases):
         return Progress(self._t, self.phase, 0, 1, None, done, 0, left, self.reason)
 
     # ---------------------------------------------------------------- events
-    def _step(self, event: Event) -> list[Output]:
-        if isinstance(event, Abort):
-            return self._finish(Phase.ABORTED, event.reason, Cause.OPERATOR)
-        if isinstance(event, Confirm):
-            self._confirmed = True
-            return self._start() if self.phase is Phase.CONFIRM else []
-        self._clock(event)
-        if isinstance(event, Tick):
-            return self._check_time()
-        return self._on_sample(event) + self._check_time()
-
     def _on_sample(self, s: Sample) -> list[Output]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
@@ -187,22 +176,9 @@ class Excite(Phases):
                 return self._play(self._attitude)
         return []
 
-    def _precheck(self) -> list[Output]:
-        h = self._health
-        if self.phase not in (Phase.CONNECT, Phase.PRECHECK) or h is None or not h.connected:
-            return []
-        if self.phase is Phase.CONNECT:
-            return self._enter(Phase.PRECHECK, f"vehicle present (mode {h.mode})")
-        if self._t_data - self._t_phase < PRECHECK_WINDOW_S:
-            return []
-        problems = self.precheck.problems(self._t_data)
-        if problems:
-            self.reason = "waiting: " + "; ".join(problems)
-            return []
-        if self._confirmed:
-            return self._start()
-        return self._enter(Phase.CONFIRM, "ready: confirm to let trimd drive the vehicle "
-                           f"open loop for {self.signal.duration_s:g} s")
+    def _ready_text(self) -> str:
+        return (f"ready: confirm to let trimd drive the vehicle open loop for "
+                f"{self.signal.duration_s:g} s")
 
     def _start(self) -> list[Output]:
         self._depth_ref = self._depth
