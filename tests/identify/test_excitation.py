@@ -78,6 +78,22 @@ def test_no_command_before_confirmation_then_inputs(sabertooth: Profile) -> None
     assert started[-1].axes == sig.at(0.0)
 
 
+def test_confirm_checks_the_vehicle_again(sabertooth: Profile) -> None:
+    """As the trim's (the machines' one base, trimd.core.phases): the go given in CONFIRM
+    runs the precheck again, and a vehicle put in AUTO while the operator looked away is
+    not taken over; back in MANUAL, the experiment asks again."""
+    sig = design_signal(sabertooth, "uvr", duration_s=10.0, seed=0)
+    e = Excite(sabertooth, sig)
+    out = _ready(e)
+    assert e.phase is Phase.CONFIRM
+    out += _ready(e, 6.0, "AUTO", ModeClass.AUTONOMOUS)
+    out += e.step(Confirm())
+    assert e.phase is Phase.PRECHECK and "cannot start: vehicle in AUTO" in e.reason
+    out += _ready(e, 12.0) + _ready(e, 18.0)
+    assert e.phase is Phase.CONFIRM
+    assert not [o for o in out if isinstance(o, OpenLoop | Release)]
+
+
 @pytest.mark.parametrize(("mode", "mode_class"), [
     ("AUTO", ModeClass.AUTONOMOUS), ("GUIDED", ModeClass.AUTONOMOUS),
     ("SURFACE", ModeClass.FAILSAFE), ("MOTOR_DETECT", ModeClass.SERVICE),
