@@ -86,7 +86,8 @@ def format_proposal(p: Proposal) -> str:
     if t.stable and p.level_tol_deg > 0 and known > p.level_tol_deg:
         lines.append(f"undecided: the passive roll and pitch are known to ±{known:.2f}° at 95 %,"
                      f" wider than the level tolerance ±{p.level_tol_deg:g}°: after "
-                     "ballasting, verify (trimd run --verify) to measure what is left")
+                     "ballasting, float (trimd float --correct) or verify (trimd run "
+                     "--verify) to measure what is left")
     return "\n".join(lines)
 
 
