@@ -33,15 +33,22 @@ from __future__ import annotations
 import asyncio
 import os
 import tempfile
-import time
 from collections.abc import Awaitable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from bench.bench_sim_coverage import CASES, NAMES, Run, coverage, judge, rms_errors
+from bench.bench_sim_coverage import (
+    CASES,
+    NAMES,
+    Run,
+    coverage,
+    judge,
+    picked,
+    rms_errors,
+    run_seeds,
+)
 from bench.size import size
 from tests.helpers import sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
@@ -223,16 +230,10 @@ def main() -> None:
     options = os.environ.get("TRIMD_CALIB_OPTIONS", OPTIONS)
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
     wanted = os.environ.get("TRIMD_CALIB_CASES", "")
-    for name, payload in size(CASES, CASES[:1]):
-        if wanted and not any(w in f"{name} {payload}" for w in wanted.split(",")):
-            continue
-        t0 = time.perf_counter()
-        with ProcessPoolExecutor(processes) as pool:
-            runs = list(pool.map(run, [name] * seeds, [payload] * seeds, range(seeds),
-                                 [options] * seeds))
-        wall = time.perf_counter() - t0
+    for name, payload in picked(size(CASES, CASES[:1]), wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, processes)
         print(f"{name}, {payload}, sim:{options}, calibration "
               f"{known_weight(load_profile(name)).kg:.3f} kg at "
-              f"{WEIGHTS[name][2]}: {seeds} seeds, {wall / seeds:.1f} s wall per seed")
+              f"{WEIGHTS[name][2]}: {seeds} seeds, {wall:.1f} s wall per seed")
         for line in report(runs, load_profile(name)):
             print(f"  {line}")

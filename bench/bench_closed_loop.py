@@ -36,14 +36,12 @@ from __future__ import annotations
 
 import os
 import tempfile
-import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from bench.bench_sim_coverage import CASES
+from bench.bench_sim_coverage import CASES, picked, run_seeds
 from bench.size import size
 from tests.helpers import carried, sim_trim, sim_verify
 from trimd.app.apply import apply_ballast
@@ -215,16 +213,11 @@ def main() -> None:
     second = int(os.environ.get("TRIMD_LOOP_SECOND_TRIMS", size(20, 1)))
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
     wanted = os.environ.get("TRIMD_LOOP_CASES", "")
-    for name, payload in size(CASES, CASES[:1]):
-        if wanted and not any(w in f"{name} {payload}" for w in wanted.split(",")):
-            continue
-        t0 = time.perf_counter()
-        with ProcessPoolExecutor(processes) as pool:
-            runs = list(pool.map(run, [name] * seeds, [payload] * seeds, range(seeds),
-                                 [options] * seeds, [s < second for s in range(seeds)]))
-        wall = time.perf_counter() - t0
+    for name, payload in picked(size(CASES, CASES[:1]), wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, processes,
+                               [s < second for s in range(seeds)])
         print(f"{name}, {payload}, sim:{options}: "
               f"{sum(r.outcome == 'done' for r in runs)}/{seeds} loops done, "
-              f"{wall / seeds:.1f} s wall per seed")
+              f"{wall:.1f} s wall per seed")
         for line in report(runs, load_profile(name).level_tol_deg):
             print(f"  {line}")

@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +37,7 @@ from trimd.core.profile_yaml import load_profile
 CASES = (("bluerov2-heavy", "0.4@W-aft-stbd"), ("bluerov2-heavy", "0.48@0.08,-0.1,0.06"),
          ("sabertooth-dh2", "10@AftSB"))
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
 NAMES = ("W − B", "x net", "y net", "z net", "m_ext", "x_g", "y_g", "z_g")
 Z95 = 1.959964
 
@@ -125,22 +128,35 @@ def rms_errors(runs: list[Run], weight_N: float) -> FloatArray:
     return np.r_[rms[0], 1e3 * rms[1:] / weight_N]
 
 
+def picked(cases: Sequence[tuple[str, str]], wanted: str) -> list[tuple[str, str]]:
+    """The (profile, payload) ``cases`` whose "profile payload" holds one of the
+    comma-separated words of ``wanted`` (every case when it is empty)."""
+    return [(name, payload) for name, payload in cases
+            if not wanted or any(w in f"{name} {payload}" for w in wanted.split(","))]
+
+
+def run_seeds(fn: Callable[..., T], name: str, payload: str, seeds: int, options: str,
+              processes: int, *extra: Iterable[object]) -> tuple[list[T], float]:
+    """``fn(name, payload, seed, options, *extra)`` for seeds 0 … ``seeds`` − 1 in
+    ``processes`` worker processes (``extra``: one more argument per seed each); the
+    results and the wall time per seed [s]."""
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(processes) as pool:
+        runs = list(pool.map(fn, [name] * seeds, [payload] * seeds, range(seeds),
+                             [options] * seeds, *extra))
+    return runs, (time.perf_counter() - t0) / seeds
+
+
 def main() -> None:
     seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", size(200, 1)))
     options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real,truth=perturbed")
     processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
     wanted = os.environ.get("TRIMD_COVERAGE_CASES", "")
-    for name, payload in CASES:
-        if wanted and not any(w in f"{name} {payload}" for w in wanted.split(",")):
-            continue
-        t0 = time.perf_counter()
-        with ProcessPoolExecutor(processes) as pool:
-            runs = list(pool.map(run, [name] * seeds, [payload] * seeds, range(seeds),
-                                 [options] * seeds))
-        wall = time.perf_counter() - t0
+    for name, payload in picked(CASES, wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, processes)
         covered, rms, n_done = coverage(runs)
         print(f"{name}, {payload}, sim:{options}: {n_done}/{seeds} runs done, "
-              f"{wall / seeds:.1f} s wall and {np.mean([r.sim_s for r in runs]):.0f} s "
+              f"{wall:.1f} s wall and {np.mean([r.sim_s for r in runs]):.0f} s "
               f"simulated per run")
         print("  " + " ".join(f"{n:>7s}" for n in ("", *NAMES)))
         print("  " + f"{'cover':>7s} " + " ".join(f"{c:7.0%}" for c in covered))

@@ -20,7 +20,7 @@ from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
 from tests.helpers import carried, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
-from trimd.app.calibrate import KnownWeight, calibrate_with_weight
+from trimd.app.calibrate import KnownWeight, calibrate_with_weight, hold_from_record, hold_record
 from trimd.app.connect import open_link
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History
@@ -188,3 +188,17 @@ def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: P
                                               db=None, vehicle="rov", wall_clock=False))
     assert not never.outcome.accepted
     assert "the known weight 0.5 kg" in never.outcome.message
+
+
+def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
+    """What a calibration hold's recording says of itself reads back, and a record that is
+    not one (an unknown hold, a slot that is no name, a weight that is no finite number)
+    is a DataError naming its source."""
+    weight = KnownWeight(0.5, "W-front-stbd", 2.0)
+    assert hold_from_record(hold_record("after", weight), "x") == ("after", weight)
+    for bad in ({**hold_record("before", weight), "hold": "during"},
+                {**hold_record("before", weight), "slot": 3},
+                {**hold_record("before", weight), "kg": float("nan")},
+                {"hold": "before"}):
+        with pytest.raises(DataError, match="x: the recorded calibration hold is malformed"):
+            hold_from_record(bad, "x")
