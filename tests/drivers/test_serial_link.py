@@ -531,26 +531,35 @@ class Relay:
     pseudo-terminal of its own: forwards both ways, and once trimd has spoken replaces
     every 10th vehicle line with a bad one, ``count`` times (``injected`` by counter)."""
 
-    def __init__(self, vehicle_path: str, count: int) -> None:
+    def __init__(self, vehicle_path: str, count: int, stop: threading.Event) -> None:
         self.vehicle = os.open(vehicle_path, os.O_RDWR | os.O_NOCTTY)
         self.master, self._slave = os.openpty()
         tty.setraw(self._slave)
         self.path = os.ttyname(self._slave)
         self.count = count
         self.injected: Counter[str] = Counter()
-        self.stop = threading.Event()
+        self.stop = stop
         self._lines = 0
 
     def run(self) -> None:
+        """Relay until ``stop`` is set or a side closes (an empty read: end of file, which
+        select reports ready for ever: a relay left spinning on it took a core's worth
+        of the test runner's CPU for the rest of the run)."""
         buffer, heard = b"", False
         try:
             while not self.stop.is_set():
                 ready, _, _ = select.select([self.vehicle, self.master], [], [], 0.1)
                 if self.master in ready:
-                    os.write(self.vehicle, os.read(self.master, 4096))
+                    data = os.read(self.master, 4096)
+                    if not data:
+                        break
+                    os.write(self.vehicle, data)
                     heard = True
                 if self.vehicle in ready:
-                    buffer += os.read(self.vehicle, 65536)
+                    data = os.read(self.vehicle, 65536)
+                    if not data:
+                        break
+                    buffer += data
                     *lines, buffer = buffer.split(b"\n")
                     if heard:
                         os.write(self.master, b"".join(self._mangle(x + b"\n") for x in lines))
@@ -584,13 +593,15 @@ def test_trimd_run_over_serial_against_trimd_sim(
          "--payload", payload, "--serve", "serial:pty", "--rate", "20",
          "--options", "armed=1,mode=ALT_HOLD"], stdout=subprocess.PIPE, text=True,
         cwd=REPO)
+    stop_relay, relaying = threading.Event(), list[threading.Thread]()
     try:
         assert sim.stdout is not None
         banner = sim.stdout.readline()
         match = re.search(r" on (/dev/\S+) at 20× real time", banner)
         assert match, banner
-        relay = Relay(match.group(1), count=120)
-        threading.Thread(target=relay.run, daemon=True).start()
+        relay = Relay(match.group(1), count=120, stop=stop_relay)
+        relaying.append(threading.Thread(target=relay.run, daemon=True))
+        relaying[0].start()
         links: list[SerialLink] = []
 
         async def capture(url: str, profile: Profile) -> object:
@@ -603,6 +614,10 @@ def test_trimd_run_over_serial_against_trimd_sim(
     finally:
         sim.terminate()
         sim.wait(timeout=10)
+        stop_relay.set()
+        for t in relaying:
+            t.join(timeout=10)
+            assert not t.is_alive(), "the relay did not stop"
     out = capsys.readouterr().out.splitlines()
     assert code == 0, out[-3:]
     result = json.loads(out[-1])

@@ -76,4 +76,4 @@ class LinkPanel(Static):
         text.append(f"  bad {h.bad_frames if h else 0}")
         if s.battery is not None:
             text.append(f"  {s.battery.voltage_V:.1f} V")
-        self.update(text)
+        self.update(text, layout=False)  # a fixed height (trimd.tcss): no layout pass
