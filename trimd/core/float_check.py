@@ -232,10 +232,15 @@ class FloatCheck(Phases):
             return []
         why = (f"depth {change:+.2f} m from the start ({DEPTH_STOP_SHARE:.0%} of the "
                f"±{self.depth_excursion_m:g} m envelope)")
+        t = self._times
+        if self.phase is Phase.SETTLE and t and t[-1] - t[0] >= 2 * self.timing.window_s:
+            # judged, not yet settled: the last window is the result, and the transient
+            # still to come counts in its ± through the window's trend, as in collecting
+            self._first = int(np.searchsorted(t, t[-1] - self.timing.window_s, side="left"))
+            return self._done(self._result(f"{why} before the attitude settled"))
         if self.phase is Phase.COLLECT:
             # too short for two batches: the settled windows before count too (what they
             # still hold of the transient shows in the trend, which the ± counts)
-            t = self._times
             start = t[-1] - 2 * self.timing.batch_s
             if t[self._first] > start:
                 self._first = max(0, int(np.searchsorted(t, start, side="left")) - 1)
