@@ -15,7 +15,9 @@ window then being collected already. Collect: until roll and pitch are known to
 :data:`~trimd.core.floating.STOP_SHARE` of the level tolerance, or ``collect_max_s``, or the
 depth has used :data:`DEPTH_STOP_SHARE` of its envelope (a vehicle that is not neutrally
 buoyant sinks or rises all the while; the result then takes at least two batches,
-reaching back into the settled windows, or there is none): then the vehicle is released
+reaching back into the settled windows, or, still settling once two windows have been
+seen, the last window, whose trend counts the transient still to come in the ±; before
+that there is none): then the vehicle is released
 and the result (:class:`~trimd.core.floating.FloatResult`) rides on the result notice, in
 ``verification``. Settling and collecting are timed and decided on the samples alone, so
 a replay reproduces the live result exactly.
