@@ -184,6 +184,22 @@ def test_a_riser_released_before_it_settled_gives_what_the_last_window_shows(
     assert commands(log) == [NEUTRAL, Release()]
 
 
+def test_released_while_settling_the_result_takes_two_batches(bluerov: Profile) -> None:
+    """The Heavy's window is one batch (its roll period): stopped by the depth just after
+    two windows, still settling, the result reaches back two batches, so its ± is finite
+    (one batch has no batch-means σ) and holds the trim."""
+    v = Floater((1.0, -0.6), period_s=3.6, zeta=0.02, sink_m_s=0.053)
+    check = FloatCheck(bluerov, confirmed=True)
+    run(check, v)
+    r = check.verification
+    assert check.phase is Phase.DONE and r is not None, check.reason
+    assert "before the attitude settled" in r.stopped, r
+    assert r.t_end_s - r.t_start_s >= 2 * float_timing(bluerov).batch_s - 0.2
+    for got, std, want in ((r.roll_deg, r.roll_std_deg, 1.0), (r.pitch_deg, r.pitch_std_deg,
+                                                               -0.6)):
+        assert math.isfinite(std) and abs(got - want) <= Z95 * std, r
+
+
 def test_more_depth_change_when_the_operator_allows_it(bluerov: Profile) -> None:
     v = Floater((1.0, 1.0), sink_m_s=0.2)
     check = FloatCheck(bluerov, confirmed=True, depth_excursion_m=20.0)

@@ -235,10 +235,12 @@ class FloatCheck(Phases):
         why = (f"depth {change:+.2f} m from the start ({DEPTH_STOP_SHARE:.0%} of the "
                f"±{self.depth_excursion_m:g} m envelope)")
         t = self._times
-        if self.phase is Phase.SETTLE and t and t[-1] - t[0] >= 2 * self.timing.window_s:
-            # judged, not yet settled: the last window is the result, and the transient
-            # still to come counts in its ± through the window's trend, as in collecting
-            self._first = int(np.searchsorted(t, t[-1] - self.timing.window_s, side="left"))
+        w = self.timing
+        if self.phase is Phase.SETTLE and t and t[-1] - t[0] >= 2 * w.window_s:
+            # judged, not yet settled: the last window (at least two batches) is the
+            # result, the transient still to come counted in its ± through the trend
+            span = max(w.window_s, 2 * w.batch_s)
+            self._first = max(0, int(np.searchsorted(t, t[-1] - span, side="left")) - 1)
             return self._done(self._result(f"{why} before the attitude settled"))
         if self.phase is Phase.COLLECT:
             # too short for two batches: the settled windows before count too (what they
