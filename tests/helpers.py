@@ -21,11 +21,13 @@ import numpy as np
 from scipy.signal import lfilter
 
 from trimd.app.connect import open_link
+from trimd.app.float_check import FloatRequest, float_session
 from trimd.app.session import Session, SessionResult
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.ballast.verify import verify_hold
 from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.floating import FloatResult
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
@@ -327,6 +329,45 @@ def sim_verify(profile: Profile, payload: str, seed: int, options: str,
             result = await Session(link, profile, recorder=None, presenters=[],
                                    procedure=procedure, wall_clock=False).run()
             return SimVerify(result, link.vehicle.t_s)
+        finally:
+            await link.close()
+    return asyncio.run(go())
+
+
+@dataclass(frozen=True)
+class SimFloat:
+    """One float check on the simulated vehicle: the session's result, the TRUE passive
+    roll and pitch of the vehicle it floated [deg] and the simulated time it took [s]
+    (the dive's, from the start)."""
+
+    result: SessionResult
+    truth_deg: tuple[float, float]
+    t_s: float
+
+    @property
+    def floated(self) -> FloatResult | None:
+        """The float's result; None when it gave none (``result.reason`` says why)."""
+        r = self.result.verification
+        return r if isinstance(r, FloatResult) else None
+
+
+def sim_float(profile: Profile, payload: str, seed: int, options: str,
+              depth_excursion_m: float | None = None) -> SimFloat:
+    """The float check (:class:`trimd.core.float_check.FloatCheck`), confirmed, on the
+    in-process simulated vehicle ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` in a depth
+    envelope of ``depth_excursion_m`` [m] (default: the profile's). Same seed, same true
+    vehicle as the trim's."""
+    async def go() -> SimFloat:
+        url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
+        link = await open_link(url, profile)
+        assert isinstance(link, SimLink)
+        session = float_session(link, profile, [], FloatRequest(
+            profile.name, confirmed=True, depth_excursion_m=depth_excursion_m),
+            wall_clock=False)
+        try:
+            result = await session.run()
+            return SimFloat(result, passive_trim_deg(link.vehicle.truth.mass.net),
+                            link.vehicle.t_s)
         finally:
             await link.close()
     return asyncio.run(go())

@@ -159,6 +159,47 @@ def test_a_slow_sinker_ends_with_what_was_collected(bluerov: Profile) -> None:
     assert r.depth_rate_m_s == pytest.approx(0.018, abs=0.003)
 
 
+def test_a_riser_released_before_it_settled_gives_what_the_last_window_shows(
+        sabertooth: Profile) -> None:
+    """The Sabertooth's pitch relaxes in ≈ 21 s (over-damped), and rising 0.15 m/s it
+    reaches 80 % of a 10 m envelope after ≈ 53 s: two windows seen, but 0.12° of its
+    1.5° approach still to come. The float ends with the last window's attitude, the
+    transient still to come counted in its ± through the window's trend: the trim within
+    the 95 % interval, NOT level; released; the reason says why it stopped."""
+    w = 2 * math.pi / float_timing(sabertooth).period_s[1]
+    slow = 1 / float_timing(sabertooth).relax_s[1]   # the slow pole ω·(ζ − √(ζ² − 1))
+    zeta = (slow / w + w / slow) / 2
+    v = Floater((0.2, 1.5), period_s=2 * math.pi / w, zeta=zeta, sink_m_s=-0.15)
+    check = FloatCheck(sabertooth, confirmed=True, depth_excursion_m=10.0)
+    log = run(check, v)
+    assert check.phase is Phase.DONE, check.reason
+    r = check.verification
+    assert r is not None and "before the attitude settled" in r.stopped, r
+    assert r.stopped.startswith("depth -8.0")
+    assert abs(r.pitch_deg - 1.5) > 0.05          # not over: the approach shows
+    for got, std, want in ((r.roll_deg, r.roll_std_deg, 0.2),
+                           (r.pitch_deg, r.pitch_std_deg, 1.5)):
+        assert abs(got - want) <= Z95 * std, r
+    assert r.transient_deg[1] > 0.05 and r.verdict is Verdict.NOT_LEVEL
+    assert commands(log) == [NEUTRAL, Release()]
+
+
+def test_released_while_settling_the_result_takes_two_batches(bluerov: Profile) -> None:
+    """The Heavy's window is one batch (its roll period): stopped by the depth just after
+    two windows, still settling, the result reaches back two batches, so its ± is finite
+    (one batch has no batch-means σ) and holds the trim."""
+    v = Floater((1.0, -0.6), period_s=3.6, zeta=0.02, sink_m_s=0.053)
+    check = FloatCheck(bluerov, confirmed=True)
+    run(check, v)
+    r = check.verification
+    assert check.phase is Phase.DONE and r is not None, check.reason
+    assert "before the attitude settled" in r.stopped, r
+    assert r.t_end_s - r.t_start_s >= 2 * float_timing(bluerov).batch_s - 0.2
+    for got, std, want in ((r.roll_deg, r.roll_std_deg, 1.0), (r.pitch_deg, r.pitch_std_deg,
+                                                               -0.6)):
+        assert math.isfinite(std) and abs(got - want) <= Z95 * std, r
+
+
 def test_more_depth_change_when_the_operator_allows_it(bluerov: Profile) -> None:
     v = Floater((1.0, 1.0), sink_m_s=0.2)
     check = FloatCheck(bluerov, confirmed=True, depth_excursion_m=20.0)

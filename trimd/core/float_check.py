@@ -15,7 +15,9 @@ window then being collected already. Collect: until roll and pitch are known to
 :data:`~trimd.core.floating.STOP_SHARE` of the level tolerance, or ``collect_max_s``, or the
 depth has used :data:`DEPTH_STOP_SHARE` of its envelope (a vehicle that is not neutrally
 buoyant sinks or rises all the while; the result then takes at least two batches,
-reaching back into the settled windows, or there is none): then the vehicle is released
+reaching back into the settled windows, or, still settling once two windows have been
+seen, the last window, whose trend counts the transient still to come in the ±; before
+that there is none): then the vehicle is released
 and the result (:class:`~trimd.core.floating.FloatResult`) rides on the result notice, in
 ``verification``. Settling and collecting are timed and decided on the samples alone, so
 a replay reproduces the live result exactly.
@@ -232,10 +234,17 @@ class FloatCheck(Phases):
             return []
         why = (f"depth {change:+.2f} m from the start ({DEPTH_STOP_SHARE:.0%} of the "
                f"±{self.depth_excursion_m:g} m envelope)")
+        t = self._times
+        w = self.timing
+        if self.phase is Phase.SETTLE and t and t[-1] - t[0] >= 2 * w.window_s:
+            # judged, not yet settled: the last window (at least two batches) is the
+            # result, the transient still to come counted in its ± through the trend
+            span = max(w.window_s, 2 * w.batch_s)
+            self._first = max(0, int(np.searchsorted(t, t[-1] - span, side="left")) - 1)
+            return self._done(self._result(f"{why} before the attitude settled"))
         if self.phase is Phase.COLLECT:
             # too short for two batches: the settled windows before count too (what they
             # still hold of the transient shows in the trend, which the ± counts)
-            t = self._times
             start = t[-1] - 2 * self.timing.batch_s
             if t[self._first] > start:
                 self._first = max(0, int(np.searchsorted(t, start, side="left")) - 1)
