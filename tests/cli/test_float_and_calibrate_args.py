@@ -1,0 +1,45 @@
+"""``trimd float --correct`` and ``trimd calibrate``: input that cannot be used ends with
+exit 2 and a message that says what is wrong and what to give, before any link opens (so
+nothing is commanded and no session log is written)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from trimd.cli.main import main
+
+
+def test_float_correct_with_a_missing_trim_file_commands_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "float.tlog"
+    code = main(["float", "--link", "sim:", "--profile", "bluerov2-heavy", "--yes",
+                 "--record", str(log), "--correct", str(tmp_path / "nope.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "nope.json" in err, err
+    assert "Traceback" not in err and not log.exists()
+
+
+def test_float_correct_without_a_trim_in_the_history_says_to_give_one(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "float.tlog"
+    code = main(["float", "--link", "sim:", "--profile", "bluerov2-heavy", "--yes",
+                 "--record", str(log), "--db", str(tmp_path / "trimd.db"), "--vehicle",
+                 "rov", "--correct"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no trim with a proposal for vehicle rov" in err, err
+    assert "give the trim (TRIM.json)" in err and not log.exists()
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    ([], "--link, --mass required (or --replay BEFORE AFTER)"),
+    (["--link", "sim:"], "--mass required (or --replay BEFORE AFTER)"),
+    (["--link", "sim:", "--mass", "0.5"], "expected KG@SLOT, e.g. 0.5@W-front-stbd"),
+])
+def test_calibrate_says_what_it_needs(args: list[str], said: str, tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["calibrate", "--profile", "bluerov2-heavy", "--yes", "--no-record",
+                 "--db", str(tmp_path / "trimd.db"), *args])
+    err = capsys.readouterr().err
+    assert code == 2 and said in err and "Traceback" not in err, err
