@@ -31,7 +31,6 @@ and ≈ 25 s (Sabertooth) of one core: two trims and four level holds of ``colle
 from __future__ import annotations
 
 import asyncio
-import os
 import tempfile
 from collections.abc import Awaitable
 from dataclasses import dataclass, replace
@@ -48,6 +47,7 @@ from bench.bench_sim_coverage import (
     picked,
     rms_errors,
     run_seeds,
+    seeding,
 )
 from bench.size import size
 from tests.helpers import sim_trim
@@ -226,12 +226,10 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_CALIB_SEEDS", size(60, 1)))
-    options = os.environ.get("TRIMD_CALIB_OPTIONS", OPTIONS)
-    processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
-    wanted = os.environ.get("TRIMD_CALIB_CASES", "")
-    for name, payload in picked(size(CASES, CASES[:1]), wanted):
-        runs, wall = run_seeds(run, name, payload, seeds, options, processes)
+    cfg = seeding("CALIB", size(60, 1), OPTIONS)
+    seeds, options = cfg.seeds, cfg.options
+    for name, payload in picked(size(CASES, CASES[:1]), cfg.wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes)
         print(f"{name}, {payload}, sim:{options}, calibration "
               f"{known_weight(load_profile(name)).kg:.3f} kg at "
               f"{WEIGHTS[name][2]}: {seeds} seeds, {wall:.1f} s wall per seed")

@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.bench_float import WIDE_ENVELOPE_M
-from bench.bench_sim_coverage import CASES, picked, run_seeds
+from bench.bench_sim_coverage import CASES, picked, run_seeds, seeding
 from bench.size import size
 from tests.helpers import carried, sim_float, sim_trim, sim_verify
 from trimd.app.apply import apply_ballast
@@ -325,17 +325,15 @@ def report(runs: list[Loop], tol_deg: float, what: str) -> list[str]:
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_LOOP_SEEDS", size(200, 1)))
-    options = os.environ.get("TRIMD_LOOP_OPTIONS", OPTIONS)
+    cfg = seeding("LOOP", size(200, 1), OPTIONS)
+    seeds, options = cfg.seeds, cfg.options
     second = int(os.environ.get("TRIMD_LOOP_SECOND_TRIMS", size(20, 1)))
-    processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
-    wanted = os.environ.get("TRIMD_LOOP_CASES", "")
     checks = tuple(os.environ.get("TRIMD_LOOP_CHECK", "verify,float").split(","))
     if unknown := set(checks) - set(CHECKS):
         raise SystemExit(f"TRIMD_LOOP_CHECK: unknown {', '.join(sorted(unknown))} "
                          f"(known: {', '.join(CHECKS)})")
-    for name, payload in picked(size(CASES, CASES[:1]), wanted):
-        runs, wall = run_seeds(run, name, payload, seeds, options, processes,
+    for name, payload in picked(size(CASES, CASES[:1]), cfg.wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes,
                                [s < second for s in range(seeds)], [checks] * seeds)
         profile = load_profile(name)
         print(f"{name}, {payload}, sim:{options}: {wall:.1f} s wall per seed "

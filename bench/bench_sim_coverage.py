@@ -128,6 +128,27 @@ def rms_errors(runs: list[Run], weight_N: float) -> FloatArray:
     return np.r_[rms[0], 1e3 * rms[1:] / weight_N]
 
 
+@dataclass(frozen=True)
+class Seeding:
+    """How a seeded bench runs: seeds 0 … ``seeds`` − 1 per case, the sim ``options``, the
+    worker ``processes``, the words that pick cases (``wanted``, :func:`picked`)."""
+
+    seeds: int
+    options: str
+    processes: int
+    wanted: str
+
+
+def seeding(prefix: str, seeds: int, options: str) -> Seeding:
+    """The :class:`Seeding` of ``TRIMD_<prefix>_SEEDS`` (default ``seeds``),
+    ``TRIMD_<prefix>_OPTIONS`` (default ``options``), ``TRIMD_<prefix>_CASES`` (default:
+    every case) and ``TRIMD_COVERAGE_PROCESSES`` (default 1)."""
+    env = os.environ.get
+    return Seeding(int(env(f"TRIMD_{prefix}_SEEDS", seeds)),
+                   env(f"TRIMD_{prefix}_OPTIONS", options),
+                   int(env("TRIMD_COVERAGE_PROCESSES", "1")), env(f"TRIMD_{prefix}_CASES", ""))
+
+
 def picked(cases: Sequence[tuple[str, str]], wanted: str) -> list[tuple[str, str]]:
     """The (profile, payload) ``cases`` whose "profile payload" holds one of the
     comma-separated words of ``wanted`` (every case when it is empty)."""
@@ -148,12 +169,10 @@ def run_seeds(fn: Callable[..., T], name: str, payload: str, seeds: int, options
 
 
 def main() -> None:
-    seeds = int(os.environ.get("TRIMD_COVERAGE_SEEDS", size(200, 1)))
-    options = os.environ.get("TRIMD_COVERAGE_OPTIONS", "disturb=real,truth=perturbed")
-    processes = int(os.environ.get("TRIMD_COVERAGE_PROCESSES", "1"))
-    wanted = os.environ.get("TRIMD_COVERAGE_CASES", "")
-    for name, payload in picked(CASES, wanted):
-        runs, wall = run_seeds(run, name, payload, seeds, options, processes)
+    cfg = seeding("COVERAGE", size(200, 1), "disturb=real,truth=perturbed")
+    seeds, options = cfg.seeds, cfg.options
+    for name, payload in picked(CASES, cfg.wanted):
+        runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes)
         covered, rms, n_done = coverage(runs)
         print(f"{name}, {payload}, sim:{options}: {n_done}/{seeds} runs done, "
               f"{wall:.1f} s wall and {np.mean([r.sim_s for r in runs]):.0f} s "

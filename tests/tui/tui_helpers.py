@@ -131,8 +131,8 @@ HANG_GUARD_S = 300.0
 async def until(pilot: Pilot[object], cond: Callable[[], bool]) -> None:
     """Let the app run until ``cond()`` holds, then let its screen catch up; fail only if
     it looks hung (HANG_GUARD_S). Polled by sleeping, not by ``pilot.pause``: each pause
-    messages every widget and renders the screen, so a poll every 20 ms made a test's
-    CPU grow with its wall time on a busy machine (three to five times a quiet one's)."""
+    messages every widget and renders the screen, work that grows with the wall time a
+    test waits."""
     hung_at = time.monotonic() + HANG_GUARD_S
     while not cond():
         if time.monotonic() > hung_at:

@@ -227,6 +227,10 @@ class FloatCheck(Phases):
                                            "reached"))
         return []
 
+    def _reach_back(self, start_s: float) -> None:
+        """Let the result begin with the last sample before ``start_s`` [s]."""
+        self._first = max(0, int(np.searchsorted(self._times, start_s, side="left")) - 1)
+
     def _depth_check(self, d: Depth) -> list[Output]:
         change = d.depth_m - self.start_depth_m
         limit = DEPTH_STOP_SHARE * self.depth_excursion_m
@@ -234,22 +238,20 @@ class FloatCheck(Phases):
             return []
         why = (f"depth {change:+.2f} m from the start ({DEPTH_STOP_SHARE:.0%} of the "
                f"±{self.depth_excursion_m:g} m envelope)")
-        t = self._times
-        w = self.timing
+        t, w = self._times, self.timing
         if self.phase is Phase.SETTLE and t and t[-1] - t[0] >= 2 * w.window_s:
             # judged, not yet settled: the last window (at least two batches) is the
             # result, the transient still to come counted in its ± through the trend
-            span = max(w.window_s, 2 * w.batch_s)
-            self._first = max(0, int(np.searchsorted(t, t[-1] - span, side="left")) - 1)
+            self._reach_back(t[-1] - max(w.window_s, 2 * w.batch_s))
             return self._done(self._result(f"{why} before the attitude settled"))
         if self.phase is Phase.COLLECT:
             # too short for two batches: the settled windows before count too (what they
             # still hold of the transient shows in the trend, which the ± counts)
-            start = t[-1] - 2 * self.timing.batch_s
+            start = t[-1] - 2 * w.batch_s
             if t[self._first] > start:
-                self._first = max(0, int(np.searchsorted(t, start, side="left")) - 1)
+                self._reach_back(start)
             result = self._result(why)
-            if result.t_end_s - result.t_start_s >= 2 * self.timing.batch_s:
+            if result.t_end_s - result.t_start_s >= 2 * w.batch_s:
                 return self._done(result)
         what = "settled" if self.phase is Phase.SETTLE else "was known"
         rate = change / max(d.t_s - self._t_float, 1e-9)

@@ -158,7 +158,7 @@ class Procedure(Phases):
         if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
             return []
         if self.phase is Phase.COLLECT and self._time_left(self._t_data) < 0:
-            return self._end_hold(self.collect_s is not None or self._decided())
+            return self._end_hold(self._decided())
         return self._heading_leash(a) + self._hold_sample(a, self._settling)
 
     def _heading_leash(self, a: Attitude) -> list[Output]:
@@ -220,7 +220,7 @@ class Procedure(Phases):
         if self._look >= len(looks) or self._t_data - self._t_phase < looks[self._look]:
             return []
         self._look += 1
-        decided = self.collect_s is not None or self._decided()
+        decided = self._decided()
         if not decided and self._look < len(looks):
             return []
         return self._end_hold(decided)
@@ -268,7 +268,10 @@ class Procedure(Phases):
     def _decided(self) -> bool:
         """Is what the operator acts on known well enough (:class:`StopRule`)? Before the
         last hold: this hold's mean effort on the rows that carry information at its
-        attitude (at level: Z, K and M); at the last: the estimate."""
+        attitude (at level: Z, K and M); at the last: the estimate. With ``collect_s``
+        the hold's length is the decision: yes once it is over."""
+        if self.collect_s is not None:
+            return True
         if len(self._holds) < len(self.holds) or self.verify:
             hold = self._holds[-1]
             return self.rule.hold_decided(hold.samples(""), hold.phi, hold.theta)
