@@ -18,7 +18,7 @@ import contextlib
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Never
 
 from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
@@ -26,7 +26,8 @@ from trimd.app.history import History
 from trimd.app.history.calibration import record_level_hold
 from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
-from trimd.app.session import Presenter, Recorder, Session, SessionResult
+from trimd.app.results import AnyPresenter, AnyResult
+from trimd.app.session import Recorder, Session
 from trimd.app.verify import read_target, verify_procedure
 from trimd.ballast.correct import Correction, needs_correction, propose_correction
 from trimd.ballast.propose import Proposal
@@ -61,7 +62,7 @@ class AfterTrim:
     open_link: Callable[[], Awaitable[Link]]
     recorder: Callable[[dict[str, Any]], Recorder | None]
 
-    def store(self, result: SessionResult, correction: Correction | None = None
+    def store(self, result: AnyResult, correction: Correction | None = None
               ) -> str | None:
         """Store a session's estimate and proposal, or its verification (with its
         ``correction``), in the history, with its level hold and, after a recorded ballast
@@ -101,7 +102,7 @@ class AfterTrim:
                              proposal=proposal)
 
     async def verify_session(self, target: dict[str, Any],
-                             presenters: list[Presenter]) -> Session:
+                             presenters: list[AnyPresenter]) -> Session[Never, Verification]:
         """A verify hold of ``target`` on the link opened again (not started). DataError
         for a target that does not fit the profile, LinkError when the link does not open,
         OSError when the recording cannot be created (the link is closed again)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-from trimd.app.session import Presenter
+from trimd.app.results import AnyPresenter, Finding
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
 from trimd.core.announce import Announcement, Severity, Text, Values
@@ -116,13 +116,13 @@ class WatchAnnouncer:
             self.announce(Text(Severity.INFO, f"TRIMD watch baseline W-B {_pm(q, sd)}N"))
 
 
-def _verdict(notice: Notice) -> str | None:
+def _verdict(notice: Notice[Proposal, Finding]) -> str | None:
     """The end of a trim or verify hold in a few words (None: not a result)."""
     if notice.result is not None:
         est, proposal = notice.result.estimate, notice.result.proposal
         text = (f"TRIMD trim done: W-B {_pm(float(est.q[0]), float(math.sqrt(est.q_cov[0, 0])))}"
                 f"N, m_ext {_pm(est.m_ext_kg, est.m_ext_std_kg)}kg")
-        if isinstance(proposal, Proposal):
+        if proposal is not None:
             text += ", ballast proposed" if proposal.feasible else ", no feasible ballast"
         return text
     v = notice.verification
@@ -139,7 +139,7 @@ class RunAnnouncer:
     def __init__(self, announce: Announce) -> None:
         self.announce = announce
 
-    def output(self, out: Output, progress: Progress) -> None:
+    def output(self, out: Output[Proposal, Finding], progress: Progress) -> None:
         if not isinstance(out, Notice):
             return
         verdict = _verdict(out)
@@ -154,7 +154,7 @@ class RunAnnouncer:
         return None
 
 
-def announce_run(link: Link, presenters: list[Presenter]) -> None:
+def announce_run(link: Link, presenters: list[AnyPresenter]) -> None:
     """Add a :class:`RunAnnouncer` to a session's ``presenters`` when ``link`` announces."""
     if isinstance(link, Announces):
         presenters.append(RunAnnouncer(link.announce))

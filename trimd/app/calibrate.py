@@ -18,9 +18,10 @@ the simulated Sabertooth a level hold's mean Z ± 2.6–18 N after 10 s, ≈ 0.9
 from __future__ import annotations
 
 import math
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Never
 
 from trimd.app.history import History
 from trimd.app.history.calibration import store_experiment
@@ -75,7 +76,7 @@ class CalibrationRun:
     profile: Profile
 
 
-def level_hold_procedure(profile: Profile, *, confirmed: bool) -> Procedure:
+def level_hold_procedure(profile: Profile, *, confirmed: bool) -> Procedure[Never, HoldSamples]:
     """A calibration's level hold: the verify hold's procedure (the profile's first hold,
     level) collected for the profile's whole ``collect_max_s`` (module docstring), whose
     result is the hold's samples."""
@@ -104,15 +105,17 @@ def hold_from_record(d: dict[str, object], source: str) -> tuple[str, KnownWeigh
 
 
 async def _level_hold(open_link: Callable[[], Awaitable[Link]], profile: Profile,
-                      presenters: list[Presenter], wall_clock: bool, what: str,
+                      presenters: Sequence[Presenter[Never, HoldSamples]], wall_clock: bool,
+                      what: str,
                       recorder: Recorder | None) -> HoldSamples:
     """One level hold on the link opened again; EstimationError naming ``what`` when it
     does not end with a steady hold."""
     link = await open_link()
-    result = await Session(link, profile, recorder=recorder, presenters=presenters,
-                           procedure=level_hold_procedure(profile, confirmed=True),
-                           wall_clock=wall_clock).run()
-    if result.phase is not Phase.DONE or not isinstance(result.verification, HoldSamples):
+    session: Session[Never, HoldSamples] = Session(
+        link, profile, recorder=recorder, presenters=presenters,
+        procedure=level_hold_procedure(profile, confirmed=True), wall_clock=wall_clock)
+    result = await session.run()
+    if result.phase is not Phase.DONE or result.verification is None:
         raise EstimationError(f"{what}: {result.reason}")
     return result.verification
 
@@ -142,7 +145,7 @@ def check_against_profile(exp: Experiment, profile: Profile) -> CalibrationRun:
 async def calibrate_with_weight(open_link: Callable[[], Awaitable[Link]], profile: Profile,
                                 weight: KnownWeight, hung: Callable[[str], bool], *,
                                 db: Path | None, vehicle: str,
-                                presenters: list[Presenter] | None = None,
+                                presenters: Sequence[Presenter[Never, HoldSamples]] | None = None,
                                 wall_clock: bool = True,
                                 record: Callable[[dict[str, object]], Recorder | None]
                                 | None = None) -> CalibrationRun:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import signal
+from typing import Never
 
 from trimd.app.session import Recorder, Session, SessionResult
 from trimd.core.events import Notice, Output, Progress
@@ -23,7 +24,7 @@ class SampleCollector:
         self.samples: list[Sample] = []
         self.quiet = quiet
 
-    def output(self, out: Output, progress: Progress) -> None:
+    def output(self, out: Output[object, object], progress: Progress) -> None:
         if isinstance(out, Notice) and not self.quiet:
             print(f"[{out.t_s:8.1f} s] {out.text}", flush=True)
 
@@ -34,12 +35,12 @@ class SampleCollector:
 async def run_experiment(link: Link, profile: Profile, excite: Excite, *,
                          recorder: Recorder | None = None, quiet: bool = True,
                          signals: bool = False
-                         ) -> tuple[SessionResult, list[Sample]]:
+                         ) -> tuple[SessionResult[Never, Never], list[Sample]]:
     """Run ``excite`` over ``link`` in a :class:`Session`; the result and every sample.
     With ``signals``, SIGINT and SIGTERM abort the session (it releases the vehicle)."""
     collector = SampleCollector(quiet)
-    session = Session(link, profile, recorder=recorder, presenters=[collector],
-                      procedure=excite)
+    session: Session[Never, Never] = Session(link, profile, recorder=recorder,
+                                             presenters=[collector], procedure=excite)
     if signals:
         loop = asyncio.get_running_loop()
         for sig_no in (signal.SIGINT, signal.SIGTERM):

@@ -12,14 +12,15 @@ the command line's arguments.
 from __future__ import annotations
 
 import math
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Never
 
 from trimd.app.headless import StdinConfirm, stop_on_signals
 from trimd.app.history.installed import current_installed
-from trimd.app.session import Presenter, Session, SessionResult
+from trimd.app.results import AnyPresenter
+from trimd.app.session import Session, SessionResult
 from trimd.app.verify import read_target
 from trimd.ballast.correct import Correction, propose_float_correction
 from trimd.core.errors import DataError
@@ -69,8 +70,9 @@ def float_from_settings(profile: Profile, settings: dict[str, Any], source: str,
     return FloatCheck(profile, confirmed=confirmed, depth_excursion_m=float(limit))
 
 
-def float_session(link: Link, profile: Profile, presenters: list[Presenter],
-                  request: FloatRequest, *, wall_clock: bool = True) -> Session:
+def float_session(link: Link, profile: Profile, presenters: Sequence[AnyPresenter],
+                  request: FloatRequest, *, wall_clock: bool = True
+                  ) -> Session[Never, FloatResult]:
     """The float check's session on ``link``, recorded where ``request`` says."""
     check = FloatCheck(profile, confirmed=request.confirmed,
                        depth_excursion_m=request.depth_excursion_m)
@@ -84,16 +86,15 @@ def float_session(link: Link, profile: Profile, presenters: list[Presenter],
 
 
 async def run_float_check(open_link: Callable[[], Awaitable[Link]], profile: Profile,
-                          request: FloatRequest, presenters: list[Presenter], *,
-                          signals: bool = True) -> SessionResult:
+                          request: FloatRequest, presenters: Sequence[AnyPresenter], *,
+                          signals: bool = True) -> SessionResult[Never, FloatResult]:
     """``trimd float``: the float check on the link ``open_link`` opens, asking the
     operator at the terminal unless ``request.confirmed``; with ``signals``, SIGINT,
     SIGTERM and SIGHUP abort it (the vehicle is released, the log closed)."""
     link = await open_link()
-    shown = list(presenters)
-    session = float_session(link, profile, shown, request)
+    session = float_session(link, profile, presenters, request)
     if not request.confirmed:
-        shown.append(StdinConfirm(session))
+        session.add_presenter(StdinConfirm(session))
     if signals:
         stop_on_signals(session.abort)
     return await session.run()

@@ -9,7 +9,7 @@ import os
 import signal
 import sys
 from collections.abc import Callable
-from typing import Any, TextIO
+from typing import Any, Protocol, TextIO
 
 from trimd.app.jsonlines import print_json
 from trimd.app.report import (
@@ -21,7 +21,7 @@ from trimd.app.report import (
     format_proposal,
     format_verification,
 )
-from trimd.app.session import Session
+from trimd.app.results import Finding
 from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import HoldSamples, StaticEstimate
@@ -34,10 +34,10 @@ __all__ = ["STOP_SIGNALS", "HeadlessPresenter", "StdinConfirm", "result_to_dict"
            "stop_on_signals"]
 
 
-def result_to_dict(estimate: StaticEstimate, proposal: object | None) -> dict[str, Any]:
+def result_to_dict(estimate: StaticEstimate, proposal: Proposal | None) -> dict[str, Any]:
     """The ``result`` line: the estimate and the ballast proposal (null without one)."""
     return {"type": "result", "estimate": estimate_to_dict(estimate),
-            "proposal": proposal_to_dict(proposal) if isinstance(proposal, Proposal) else None}
+            "proposal": None if proposal is None else proposal_to_dict(proposal)}
 
 
 class HeadlessPresenter:
@@ -62,7 +62,7 @@ class HeadlessPresenter:
         else:
             print(text, file=self.stream or sys.stdout, flush=True)
 
-    def output(self, out: Output, progress: Progress) -> None:
+    def output(self, out: Output[Proposal, Finding], progress: Progress) -> None:
         t = out.t_s if isinstance(out, Notice) else progress.t_s
         if isinstance(out, Notice):
             if out.result is not None:
@@ -114,13 +114,13 @@ class HeadlessPresenter:
                           "settled_fraction": p.settled_fraction, "samples": p.samples,
                           "time_left_s": p.time_left_s})
 
-    def result(self, estimate: StaticEstimate, proposal: object | None) -> None:
+    def result(self, estimate: StaticEstimate, proposal: Proposal | None) -> None:
         """The estimate and the proposal: a ``result`` line, or their tables."""
         if self.json_lines:
             self._emit("", result_to_dict(estimate, proposal))
             return
         text = format_estimate(estimate)
-        if isinstance(proposal, Proposal):
+        if proposal is not None:
             text += "\n\n" + format_proposal(proposal)
         self._emit(text, {})
 
@@ -129,13 +129,21 @@ class HeadlessPresenter:
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
+class Operated(Protocol):
+    """What the operator's answer goes to (a :class:`trimd.app.session.Session`)."""
+
+    def confirm(self) -> None: ...
+
+    def abort(self, reason: str = ...) -> None: ...
+
+
 class StdinConfirm:
     """Headless confirmation at a terminal: ask once when the procedure is ready."""
 
-    def __init__(self, session: Session) -> None:
+    def __init__(self, session: Operated) -> None:
         self.session = session
 
-    def output(self, out: Output, progress: Progress) -> None:
+    def output(self, out: Output[object, object], progress: Progress) -> None:
         if isinstance(out, Notice) and out.phase is Phase.CONFIRM:
             asyncio.get_running_loop().create_task(self._ask())
 

@@ -8,6 +8,7 @@ exactly.
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 
 import yaml
 
@@ -20,7 +21,8 @@ from trimd.app.calibrate import (
     level_hold_procedure,
 )
 from trimd.app.float_check import float_from_settings
-from trimd.app.session import Machine, Presenter, Session, SessionResult
+from trimd.app.results import AnyPresenter, AnyResult, Finding
+from trimd.app.session import Machine, Session
 from trimd.app.verify import verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
@@ -67,14 +69,15 @@ def _profile(path: str, name: str | None) -> tuple[Profile, bool]:
 
 
 def replay_session_of(link: Link, path: str, profile: Profile, *,
-                      presenters: list[Presenter], method: str) -> Session:
+                      presenters: Sequence[AnyPresenter], method: str
+                      ) -> Session[Proposal, Finding]:
     """The replay's session over ``link`` (the recording ``path``): a verify hold when
     the recording carries a verify target, a calibration's level hold when it says it is
     one, a float check when it carries one's settings, else the trim, proposing by
     ``method``; confirmed where the live session was (the recording's
     :class:`Confirmed`)."""
     target = recorded_verify_target(path)
-    procedure: Machine | None = None if target is None else verify_procedure(
+    procedure: Machine[Proposal, Finding] | None = None if target is None else verify_procedure(
         profile, target, confirmed=False, source=f"{path} (recorded verify target)")
     if recorded_calibration_hold(path) is not None:
         procedure = level_hold_procedure(profile, confirmed=False)
@@ -90,8 +93,8 @@ def replay_session_of(link: Link, path: str, profile: Profile, *,
 
 
 async def replay_session(path: str, profile: Profile, *, speed: float | None,
-                         presenters: list[Presenter], method: str
-                         ) -> tuple[SessionResult, ReplayLink]:
+                         presenters: Sequence[AnyPresenter], method: str
+                         ) -> tuple[AnyResult, ReplayLink]:
     """Run the recorded procedure (trim or verify hold) over a recording; return its result
     and the link."""
     link = ReplayLink(path, profile, speed=speed)

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from trimd.app.apply import Applied
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult
 from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import VERIFIED, Verification
@@ -156,7 +156,7 @@ def format_correction(c: Correction | None, source: str = "the verify hold") -> 
             "installed now):\n" + format_proposal(c.proposal))
 
 
-def format_result(result: SessionResult) -> str | None:
+def format_result(result: AnyResult) -> str | None:
     """The estimate and proposal, or a verify hold's verification (a calibration's level
     hold, a float check's result), as the headless daemon prints them (None: none)."""
     if isinstance(result.verification, Verification):
@@ -169,7 +169,7 @@ def format_result(result: SessionResult) -> str | None:
         return None
     text = format_estimate(result.estimate)
     proposal = result.proposal
-    return text + "\n\n" + format_proposal(proposal) if isinstance(proposal, Proposal) else text
+    return text if proposal is None else text + "\n\n" + format_proposal(proposal)
 
 
 def describe_command(command: Command) -> str:

@@ -27,9 +27,9 @@ import contextlib
 import dataclasses
 import logging
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Generic, Protocol, TypeVar
 
 from trimd.core.errors import LinkError
 from trimd.core.estimate import HoldSamples, StaticEstimate, is_level
@@ -40,9 +40,11 @@ from trimd.core.events import (
     Event,
     Notice,
     Output,
+    P,
     Phase,
     Progress,
     Tick,
+    V,
 )
 from trimd.core.link import Link, RawPackets
 from trimd.core.procedure import Procedure
@@ -52,6 +54,13 @@ from trimd.core.samples import Command, Confirmed, Health, PilotInput, Release, 
 __all__ = ["Machine", "Presenter", "Recorder", "Session", "SessionResult"]
 
 log = logging.getLogger(__name__)
+
+#: What a presenter can take: a result's proposal and finding (contravariant).
+P_in = TypeVar("P_in", contravariant=True)
+V_in = TypeVar("V_in", contravariant=True)
+#: A session's proposal and finding: its machine's result types, its presenters' at least.
+PT = TypeVar("PT")
+VT = TypeVar("VT")
 
 #: With no sample for this long [s, wall clock], the session ticks the procedure: a link
 #: silent for the profile's ``link_timeout_s`` is released at most this much later.
@@ -73,7 +82,7 @@ class Recorder(Protocol):
 
     def command(self, t_s: float, command: Command) -> None: ...
 
-    def notice(self, notice: Notice) -> None: ...
+    def notice(self, notice: Notice[object, object]) -> None: ...
 
     def flush_due(self) -> None:
         """Push what is written to the disk if it has waited a second or more."""
@@ -82,15 +91,15 @@ class Recorder(Protocol):
     def close(self) -> None: ...
 
 
-class Presenter(Protocol):
+class Presenter(Protocol[P_in, V_in]):
     """A consumer of the session's outputs (headless printer, TUI)."""
 
-    def output(self, out: Output, progress: Progress) -> None: ...
+    def output(self, out: Output[P_in, V_in], progress: Progress) -> None: ...
 
     def sample(self, sample: Sample, progress: Progress) -> None: ...
 
 
-class Machine(Protocol):
+class Machine(Protocol[P, V]):
     """A state machine a session runs: the trim :class:`Procedure`, or an excitation
     experiment (:class:`trimd.identify.experiment.Excite`)."""
 
@@ -103,19 +112,19 @@ class Machine(Protocol):
     def estimate(self) -> StaticEstimate | None: ...
 
     @property
-    def proposal(self) -> object | None: ...
+    def proposal(self) -> P | None: ...
 
     @property
-    def verification(self) -> object | None: ...
+    def verification(self) -> V | None: ...
 
     @property
     def progress(self) -> Progress: ...
 
-    def step(self, event: Event) -> list[Output]: ...
+    def step(self, event: Event) -> Sequence[Output[P, V]]: ...
 
 
 @dataclass(frozen=True)
-class SessionResult:
+class SessionResult(Generic[P, V]):
     """How the session ended (``cause`` as :attr:`Procedure.cause`), its estimate and
     proposal (when done), the log path, a verify hold's verification, and the samples of
     its first hold when that was level (a calibration experiment's half:
@@ -125,19 +134,19 @@ class SessionResult:
     reason: str
     cause: Cause
     estimate: StaticEstimate | None
-    proposal: object | None
+    proposal: P | None
     log_path: str | None
-    verification: object | None = None
+    verification: V | None = None
     level_hold: HoldSamples | None = None
 
 
-class Session:
+class Session(Generic[PT, VT]):
     """Run the trim procedure over ``link`` until it is done, fails or is aborted."""
 
     def __init__(self, link: Link, profile: Profile, *, recorder: Recorder | None,
-                 presenters: list[Presenter], confirmed: bool = False,
-                 propose: Callable[[StaticEstimate], object] | None = None,
-                 procedure: Machine | None = None, wall_clock: bool = True) -> None:
+                 presenters: Sequence[Presenter[PT, VT]], confirmed: bool = False,
+                 propose: Callable[[StaticEstimate], PT] | None = None,
+                 procedure: Machine[PT, VT] | None = None, wall_clock: bool = True) -> None:
         """``procedure`` defaults to the trim :class:`Procedure`; any object with the same
         ``step``/``progress``/``phase``/``reason``/``cause``/``estimate``/``proposal``
         (e.g. an excitation experiment) runs the same way.
@@ -149,8 +158,8 @@ class Session:
         self.link = link
         self.wall_clock = wall_clock
         self.recorder = recorder
-        self.presenters = presenters
-        self.procedure: Machine = procedure or Procedure(profile, confirmed=confirmed,
+        self.presenters: list[Presenter[PT, VT]] = list(presenters)
+        self.procedure: Machine[PT, VT] = procedure or Procedure(profile, confirmed=confirmed,
                                                          propose=propose)
         self._operator: asyncio.Queue[Event] = asyncio.Queue()
         self._t0: float | None = None
@@ -165,6 +174,11 @@ class Session:
         if isinstance(link, RawPackets) and recorder is not None:
             link.on_raw = self._on_raw
 
+    def add_presenter(self, presenter: Presenter[PT, VT]) -> None:
+        """Hand the outputs from now on to ``presenter`` too (e.g. one that needs the
+        session: :class:`trimd.app.headless.StdinConfirm`)."""
+        self.presenters.append(presenter)
+
     def confirm(self) -> None:
         """The operator allows commanding the vehicle."""
         self._operator.put_nowait(Confirm())
@@ -173,7 +187,7 @@ class Session:
         """Stop: the procedure releases the vehicle at once."""
         self._operator.put_nowait(Abort(reason))
 
-    async def run(self) -> SessionResult:
+    async def run(self) -> SessionResult[PT, VT]:
         try:
             await self._loop()
         except Exception as exc:
@@ -282,7 +296,7 @@ class Session:
                 for presenter in self.presenters:
                     self._safely(presenter.output, out, self.procedure.progress)
 
-    def _say(self, notice: Notice) -> None:
+    def _say(self, notice: Notice[PT, VT]) -> None:
         """Record ``notice`` and hand it to the presenters."""
         if self.recorder:
             self.recorder.notice(notice)

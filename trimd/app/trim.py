@@ -9,10 +9,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from trimd.app.announce import announce_run
-from trimd.app.session import Presenter, Session
+from trimd.app.results import AnyPresenter
+from trimd.app.session import Session
 from trimd.app.verify import verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
+from trimd.ballast.verify import Verification
 from trimd.core.estimate import StaticEstimate
 from trimd.core.link import Link
 from trimd.core.profile import Profile
@@ -47,8 +49,8 @@ class TrimRequest:
     target_source: str | None = None
 
 
-def trim_session(link: Link, profile: Profile, presenters: list[Presenter],
-                 request: TrimRequest) -> Session:
+def trim_session(link: Link, profile: Profile, presenters: list[AnyPresenter],
+                 request: TrimRequest) -> Session[Proposal, Verification]:
     """The trim's session on ``link``, or the verify hold of ``request.target``."""
     target = request.target
     recorder = None

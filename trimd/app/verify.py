@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Never
 
 from trimd.app.files import installed_from_json, read_estimate, read_installed
 from trimd.app.history import History
@@ -21,7 +21,7 @@ from trimd.app.history.chain import installed_since_trim, proposal_on_vehicle
 from trimd.ballast.changes import change_loads
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.proposal import slot_to_dict
-from trimd.ballast.verify import verify_hold
+from trimd.ballast.verify import Verification, verify_hold
 from trimd.core.errors import DataError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
@@ -88,7 +88,7 @@ def read_target(target: object, source: str, profile: Profile
 
 
 def verify_procedure(profile: Profile, target: dict[str, Any], *, confirmed: bool,
-                     source: str = "the verify target") -> Procedure:
+                     source: str = "the verify target") -> Procedure[Never, Verification]:
     """The verify hold of ``target`` (:func:`trimd.ballast.verify.verify_hold`), built from
     the target as its JSON reads back (what a recording carries)."""
     estimate, loads = read_target(json.loads(json.dumps(target)), source, profile)

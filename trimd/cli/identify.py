@@ -29,6 +29,7 @@ import json
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Never
 
 from trimd.app.files import read_statics
 from trimd.app.jsonlines import print_result
@@ -117,7 +118,7 @@ def run_excite(args: argparse.Namespace) -> int:
     excite = Excite(profile, sig, confirmed=True, depth_excursion_m=args.max_depth_excursion,
                     stage=args.stage)
 
-    async def go() -> SessionResult:
+    async def go() -> SessionResult[Never, Never]:
         link = await open_link(args.link, profile, stream_hz=STREAM_HZ)
         recorder = None
         if not args.no_record:

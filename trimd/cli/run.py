@@ -26,10 +26,12 @@ from trimd.app.history.calibration import calibrated_profile
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction, format_result
-from trimd.app.session import Presenter, Session, SessionResult
+from trimd.app.results import AnyPresenter, AnyResult
+from trimd.app.session import Session
 from trimd.app.trim import TrimRequest, trim_session
 from trimd.app.verify import trim_target
 from trimd.ballast.correct import Correction, correction_to_dict
+from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import METHODS
 from trimd.ballast.verify import Verification
 from trimd.cli.argtypes import Subcommands, integer, wants_tui
@@ -92,14 +94,14 @@ def _common(p: argparse.ArgumentParser) -> None:
     add_history_args(p)
 
 
-def _exit_code(result: SessionResult) -> int:
+def _exit_code(result: AnyResult) -> int:
     if result.phase is Phase.DONE:
         return 0
     return 3 if result.cause == "link" else 1
 
 
 def _make_session(args: argparse.Namespace, profile: Profile, link: Link,
-                  presenters: list[Presenter]) -> Session:
+                  presenters: list[AnyPresenter]) -> Session[Proposal, Verification]:
     """The trim's session, or with ``--verify`` the verify hold of ``args.target``."""
     record = None
     if not args.no_record:
@@ -126,19 +128,19 @@ def _truth(link: Link, wanted: bool) -> str | None:
 
 
 async def _headless(args: argparse.Namespace, profile: Profile, *, truth: bool
-                    ) -> tuple[SessionResult, str | None]:
+                    ) -> tuple[AnyResult, str | None]:
     link = await connect.open_link(args.link, profile)
-    presenters: list[Presenter] = [HeadlessPresenter(json_lines=args.json)]
+    presenters: list[AnyPresenter] = [HeadlessPresenter(json_lines=args.json)]
     session = _make_session(args, profile, link, presenters)
     if not args.yes:
-        presenters.append(StdinConfirm(session))
+        session.add_presenter(StdinConfirm(session))
     stop_on_signals(session.abort)
     result = await session.run()
     return result, _truth(link, truth)
 
 
 async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
-               ) -> tuple[list[SessionResult], str | None]:
+               ) -> tuple[list[AnyResult], str | None]:
     from trimd.tui import make_app
     from trimd.tui.run import run_in_tui
 
@@ -205,7 +207,7 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
     return _exit_code(results[-1])
 
 
-def _correction(args: argparse.Namespace, after: AfterTrim, result: SessionResult
+def _correction(args: argparse.Namespace, after: AfterTrim, result: AnyResult
                 ) -> Correction | None:
     """After a verify hold: its correction (:meth:`AfterTrim.correct`) printed, or that
     none is needed; None for a trim, or (with a warning) when it cannot be proposed."""
@@ -221,7 +223,7 @@ def _correction(args: argparse.Namespace, after: AfterTrim, result: SessionResul
     return correction
 
 
-def _store(after: AfterTrim, result: SessionResult, correction: Correction | None = None
+def _store(after: AfterTrim, result: AnyResult, correction: Correction | None = None
            ) -> None:
     """Store the result (a verify hold's with its ``correction``) in the trim history; a
     file that cannot take it is a warning (the session itself succeeded and was

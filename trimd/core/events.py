@@ -7,12 +7,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum, StrEnum
+from typing import Generic, TypeAlias, TypeVar
 
 from trimd.core.estimate import StaticEstimate
 from trimd.core.samples import Command, Sample
 
-__all__ = ["Abort", "Cause", "Confirm", "Event", "Notice", "Output", "Phase", "Progress",
-           "Tick", "TrimResult"]
+__all__ = ["Abort", "Cause", "Confirm", "Event", "Notice", "Output", "P", "Phase", "Progress",
+           "Tick", "TrimResult", "V"]
+
+#: What a trim's proposer made of its estimate (the application's ballast proposal).
+P = TypeVar("P", covariant=True)
+#: What a machine's check found (the application's verification, a float check's result, a
+#: calibration's level hold).
+V = TypeVar("V", covariant=True)
 
 
 class Phase(Enum):
@@ -67,29 +74,29 @@ Event = Sample | Tick | Confirm | Abort
 
 
 @dataclass(frozen=True, slots=True)
-class TrimResult:
+class TrimResult(Generic[P]):
     """The estimate, and the ballast proposal made from it (the proposer's value: a
-    :class:`trimd.ballast.propose.Proposal` in the application, None without one)."""
+    :class:`trimd.ballast.proposal.Proposal` in the application, None without one)."""
 
     estimate: StaticEstimate
-    proposal: object | None
+    proposal: P | None
 
 
 @dataclass(frozen=True, slots=True)
-class Notice:
+class Notice(Generic[P, V]):
     """Something for the presenters: ``kind`` is state, info, warning or result.
 
     ``phase`` is the phase a state notice enters; ``result`` rides on the result notice
-    of a trim, ``verification`` on that of a verify hold (the verifier's value: a
-    :class:`trimd.ballast.verify.Verification` in the application).
+    of a trim, ``verification`` on that of a machine's check (the checker's value: a
+    :class:`trimd.ballast.verify.Verification` after a verify hold in the application).
     """
 
     t_s: float
     kind: str
     text: str
     phase: Phase | None = None
-    result: TrimResult | None = None
-    verification: object | None = None
+    result: TrimResult[P] | None = None
+    verification: V | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,4 +114,6 @@ class Progress:
     message: str
 
 
-Output = Command | Notice
+#: What a machine gives out: commands for the vehicle, notices for the presenters (with its
+#: result's types).
+Output: TypeAlias = Command | Notice[P, V]

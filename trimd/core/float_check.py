@@ -36,6 +36,7 @@ vehicle floats beyond ``max_tilt_deg`` itself (it is far out of trim: a trim com
 from __future__ import annotations
 
 import math
+from typing import Never
 
 import numpy as np
 
@@ -71,7 +72,7 @@ FLOAT_DONE = "float check done"
 _RATES = {k: v for k, v in MIN_RATES_HZ.items() if k != "thrusters"}
 
 
-class FloatCheck(Phases):
+class FloatCheck(Phases[Never, FloatResult]):
     """A float check of the vehicle described by ``profile``.
 
     Parameters
@@ -141,7 +142,7 @@ class FloatCheck(Phases):
         return self.phase in (Phase.SETTLE, Phase.COLLECT)
 
     # ---------------------------------------------------------------- events
-    def _on_sample(self, s: Sample) -> list[Output]:
+    def _on_sample(self, s: Sample) -> list[Output[Never, FloatResult]]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
         if stop is not None and (self.phase is not Phase.CONNECT or stop.cause != Cause.LINK):
@@ -165,21 +166,21 @@ class FloatCheck(Phases):
         return ("ready: confirm to let go of the vehicle (thrusters at neutral) and measure "
                 "how it floats")
 
-    def _start(self) -> list[Output]:
+    def _start(self) -> list[Output[Never, FloatResult]]:
         now = self._now_data()
         self._t_float = now
         self.start_depth_m = self._depth.depth_m if self._depth is not None else math.nan
         self._next_look = now + LOOK_EVERY_S
         self.guard.start(now, self.start_depth_m, "the float's start depth")
         w = self.timing
-        out: list[Output] = [NEUTRAL]
+        out: list[Output[Never, FloatResult]] = [NEUTRAL]
         return out + self._enter(Phase.SETTLE, (
             f"floating: thrusters at neutral, open loop; settling (periods roll "
             f"{w.period_s[0]:.1f} s, pitch {w.period_s[1]:.1f} s; judged on two windows of "
             f"{w.window_s:.1f} s); depth envelope ±{self.depth_excursion_m:g} m"))
 
     # ---------------------------------------------------------------- floating
-    def _on_float(self, a: Attitude) -> list[Output]:
+    def _on_float(self, a: Attitude) -> list[Output[Never, FloatResult]]:
         roll, pitch = math.degrees(a.phi), math.degrees(a.theta)
         self._times.append(a.t_s)
         self._angles.append((roll, pitch))
@@ -197,7 +198,7 @@ class FloatCheck(Phases):
             return self._settle(elapsed)
         return self._collect(elapsed)
 
-    def _settle(self, elapsed: float) -> list[Output]:
+    def _settle(self, elapsed: float) -> list[Output[Never, FloatResult]]:
         t = np.asarray(self._times)
         rem = remaining_transient_deg(t, np.asarray(self._angles), self.timing)
         if rem is not None:
@@ -216,7 +217,7 @@ class FloatCheck(Phases):
         self._t_phase = float(t[self._first])   # the last window is collected already
         return out + self._collect(self._times[-1] - self._t_phase)
 
-    def _collect(self, elapsed: float) -> list[Output]:
+    def _collect(self, elapsed: float) -> list[Output[Never, FloatResult]]:
         result = self._result("")
         enough = (result.t_end_s - result.t_start_s >= MIN_BATCHES * self.timing.batch_s
                   and known_well_enough(result))
@@ -231,7 +232,7 @@ class FloatCheck(Phases):
         """Let the result begin with the last sample before ``start_s`` [s]."""
         self._first = max(0, int(np.searchsorted(self._times, start_s, side="left")) - 1)
 
-    def _depth_check(self, d: Depth) -> list[Output]:
+    def _depth_check(self, d: Depth) -> list[Output[Never, FloatResult]]:
         change = d.depth_m - self.start_depth_m
         limit = DEPTH_STOP_SHARE * self.depth_excursion_m
         if not abs(change) >= limit:
@@ -271,7 +272,7 @@ class FloatCheck(Phases):
                             settle_s=t[0] - self._t_float, depth_change_m=change,
                             stopped=stopped)
 
-    def _done(self, result: FloatResult) -> list[Output]:
+    def _done(self, result: FloatResult) -> list[Output[Never, FloatResult]]:
         self.verification = result
         out = self._finish(Phase.DONE, f"{FLOAT_DONE}: {result.verdict.value}")
         out.append(Notice(self._t, "result", result.message, verification=result))
@@ -286,7 +287,7 @@ class FloatCheck(Phases):
         return (f" (after {self._times[-1] - self._t_float:.1f} s of floating: roll "
                 f"{roll:+.2f}°, pitch {pitch:+.2f}°, depth {change:+.2f} m)")
 
-    def _check_time(self) -> list[Output]:
+    def _check_time(self) -> list[Output[Never, FloatResult]]:
         if self.phase.final:
             return []
         stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None

@@ -8,8 +8,9 @@ float check :class:`~trimd.core.float_check.FloatCheck` and the excitation exper
 from __future__ import annotations
 
 import math
+from typing import Generic
 
-from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, Phase, Tick
+from trimd.core.events import Abort, Cause, Confirm, Event, Notice, Output, P, Phase, Tick, V
 from trimd.core.guards import Guard
 from trimd.core.precheck import PRECHECK_WINDOW_S, Precheck
 from trimd.core.samples import Health, Release, Sample
@@ -17,7 +18,7 @@ from trimd.core.samples import Health, Release, Sample
 __all__ = ["Phases"]
 
 
-class Phases:
+class Phases(Generic[P, V]):
     """A phase with its reason. Two clocks [s]: ``_t``, the latest event's time, Ticks
     included (timeouts run on it, so a silent link still ends the machine), and
     ``_t_data``, the latest sample's time: a phase begins, and everything the samples
@@ -39,7 +40,7 @@ class Phases:
     _t_data: float
     _t_phase: float
 
-    def step(self, event: Event) -> list[Output]:
+    def step(self, event: Event) -> list[Output[P, V]]:
         """Advance on one event; return the commands to send and notices to show. Any
         internal error ends the machine FAILED, releasing the vehicle first."""
         if self.phase.final:
@@ -50,7 +51,7 @@ class Phases:
             return self._finish(Phase.FAILED, f"internal error: {type(exc).__name__}: {exc}",
                                 cause=Cause.INTERNAL)
 
-    def _step(self, event: Event) -> list[Output]:
+    def _step(self, event: Event) -> list[Output[P, V]]:
         """One event: an Abort ends the machine (releasing the vehicle), a Confirm is the
         operator's go (:meth:`_on_confirm`); a sample (:meth:`_on_sample`) or a Tick
         advances the clocks, then the timeouts are checked (:meth:`_check_time`)."""
@@ -62,15 +63,15 @@ class Phases:
         out = [] if isinstance(event, Tick) else self._on_sample(event)
         return out if self.phase.final else out + self._check_time()
 
-    def _on_sample(self, s: Sample) -> list[Output]:
+    def _on_sample(self, s: Sample) -> list[Output[P, V]]:
         """One sample, the machine's own way."""
         raise NotImplementedError
 
-    def _check_time(self) -> list[Output]:
+    def _check_time(self) -> list[Output[P, V]]:
         """The timeouts at the latest event's time, the machine's own way."""
         raise NotImplementedError
 
-    def _start(self) -> list[Output]:
+    def _start(self) -> list[Output[P, V]]:
         """Begin commanding (the precheck passed, the operator confirmed)."""
         raise NotImplementedError
 
@@ -81,7 +82,7 @@ class Phases:
     def _ready(self) -> None:
         """The precheck has passed (before the confirmation): note what the start needs."""
 
-    def _precheck(self) -> list[Output]:
+    def _precheck(self) -> list[Output[P, V]]:
         """Before commanding: CONNECT → PRECHECK once the vehicle is present; then, once
         the precheck has held for :data:`PRECHECK_WINDOW_S` of the samples' time, start
         when confirmed up front, else ask (CONFIRM); until it passes, the reason says
@@ -102,7 +103,7 @@ class Phases:
             return self._start()
         return self._enter(Phase.CONFIRM, self._ready_text())
 
-    def _on_confirm(self) -> list[Output]:
+    def _on_confirm(self) -> list[Output[P, V]]:
         """The operator's go. Given in the confirm phase, the precheck is run again (the
         vehicle may have changed while the operator thought); given earlier, it stands
         for the moment the precheck passes."""
@@ -130,14 +131,14 @@ class Phases:
         """The latest sample's time, or the latest event's before any sample [s]."""
         return self._t if math.isnan(self._t_data) else self._t_data
 
-    def _enter(self, phase: Phase, text: str) -> list[Output]:
+    def _enter(self, phase: Phase, text: str) -> list[Output[P, V]]:
         """Enter ``phase`` at the latest sample's time, saying ``text``."""
         self.phase = phase
         self._t_phase = self._now_data()
         self.reason = text
         return [Notice(self._t, "state", text, phase)]
 
-    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output]:
+    def _finish(self, phase: Phase, reason: str, cause: Cause = Cause.NONE) -> list[Output[P, V]]:
         """End in ``phase`` with a :class:`Release` first while trimd commands;
         ``cause`` lets a shell choose its exit code."""
         if math.isnan(self._t):  # ended before any sample: at session time 0
@@ -145,5 +146,5 @@ class Phases:
         self.cause = cause
         commanding = self.guard.commanding and not self.phase.final
         self.guard.commanding = False
-        out: list[Output] = [Release()] if commanding else []
+        out: list[Output[P, V]] = [Release()] if commanding else []
         return out + self._enter(phase, reason)

@@ -24,9 +24,11 @@ from trimd.core.events import (
     Cause,
     Notice,
     Output,
+    P,
     Phase,
     Progress,
     TrimResult,
+    V,
 )
 from trimd.core.guards import Guard
 from trimd.core.phases import Phases
@@ -60,7 +62,7 @@ HEADING_LEASH_DEG = 2.0
 VERIFY_DONE = "verify hold done"
 
 
-class Procedure(Phases):
+class Procedure(Phases[P, V]):
     """The trim procedure for one vehicle described by ``profile``.
 
     Parameters
@@ -80,20 +82,20 @@ class Procedure(Phases):
     """
 
     def __init__(self, profile: Profile, *, confirmed: bool = False,
-                 propose: Callable[[StaticEstimate], object] | None = None,
-                 verify: Callable[[HoldSamples], object] | None = None,
+                 propose: Callable[[StaticEstimate], P] | None = None,
+                 verify: Callable[[HoldSamples], V] | None = None,
                  collect_s: float | None = None) -> None:
         self.profile = profile
         self.proc = profile.procedure
         self.propose = propose
         self.verify = verify
         self.holds = profile.holds[:1] if verify else profile.holds
-        self.verification: object | None = None
+        self.verification: V | None = None
         self.phase = Phase.CONNECT
         self.reason = ""
         self.cause = Cause.NONE
         self.estimate: StaticEstimate | None = None
-        self.proposal: object | None = None
+        self.proposal: P | None = None
         self.guard = Guard(profile.procedure, min_rates_hz=MIN_RATES_HZ)
         self.rule = StopRule.for_profile(profile)
         self.collect_s = collect_s
@@ -130,7 +132,7 @@ class Procedure(Phases):
             time_left_s=self._time_left(self._t), message=self.reason)
 
     # ---------------------------------------------------------------- event handling
-    def _on_sample(self, s: Sample) -> list[Output]:
+    def _on_sample(self, s: Sample) -> list[Output[P, V]]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
         if stop is not None:
@@ -152,7 +154,7 @@ class Procedure(Phases):
             return self._on_attitude(s)
         return []
 
-    def _on_attitude(self, a: Attitude) -> list[Output]:
+    def _on_attitude(self, a: Attitude) -> list[Output[P, V]]:
         if self.phase in (Phase.CONNECT, Phase.PRECHECK):
             return self._precheck()
         if self._settling is None or self.phase not in (Phase.SETTLE, Phase.COLLECT):
@@ -161,7 +163,7 @@ class Procedure(Phases):
             return self._end_hold(self._decided())
         return self._heading_leash(a) + self._hold_sample(a, self._settling)
 
-    def _heading_leash(self, a: Attitude) -> list[Output]:
+    def _heading_leash(self, a: Attitude) -> list[Output[P, V]]:
         """Move the held heading towards the vehicle's when it trails by more than
         :data:`HEADING_LEASH_DEG`."""
         error = math.remainder(self._psi - a.psi, math.tau)
@@ -172,7 +174,7 @@ class Procedure(Phases):
         hold = self._holds[-1]
         return [HoldAttitude(hold.phi, hold.theta, self._psi)]
 
-    def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output]:
+    def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output[P, V]]:
         """An attitude sample during a hold: settle, collect, move on."""
         thrust = self._held.thrust(a.t_s)
         if not settling.attitude(a, thrust is not None) or thrust is None:
@@ -196,10 +198,10 @@ class Procedure(Phases):
     def _ready_text(self) -> str:
         return f"ready: confirm to let trimd command the vehicle ({len(self.holds)} holds)"
 
-    def _start(self) -> list[Output]:
+    def _start(self) -> list[Output[P, V]]:
         return self._next_hold()
 
-    def _next_hold(self) -> list[Output]:
+    def _next_hold(self) -> list[Output[P, V]]:
         k = len(self._holds)
         sp = self.holds[k]
         phi, theta = math.radians(sp.roll_deg), math.radians(sp.pitch_deg)
@@ -209,11 +211,11 @@ class Procedure(Phases):
         self._look = 0
         self.guard.start(self._now_data(), self._depth.depth_m if self._depth else math.nan,
                          "the hold's start depth")
-        out: list[Output] = [HoldAttitude(phi, theta, self._psi)]
+        out: list[Output[P, V]] = [HoldAttitude(phi, theta, self._psi)]
         return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.holds)}: roll "
                                  f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
 
-    def _maybe_next_hold(self) -> list[Output]:
+    def _maybe_next_hold(self) -> list[Output[P, V]]:
         """After a collected sample: at each look of the stop rule, move on once the
         decision is known; at the last look (``collect_max_s``), move on anyway."""
         looks = self.rule.looks_s
@@ -225,13 +227,13 @@ class Procedure(Phases):
             return []
         return self._end_hold(decided)
 
-    def _end_hold(self, confident: bool) -> list[Output]:
+    def _end_hold(self, confident: bool) -> list[Output[P, V]]:
         hold = self._holds[-1]
         if len(hold.t) < 2:
             return self._finish(Phase.FAILED, f"hold {len(self._holds)}: no steady sample "
                                               f"in {self.proc.collect_max_s:g} s of collecting",
                                 cause=Cause.TIMEOUT)
-        out: list[Output] = []
+        out: list[Output[P, V]] = []
         if not confident:
             out.append(Notice(self._t, "warning", f"hold {len(self._holds)}: the level "
                               f"tolerance ({self.profile.level_tol_deg:g}°) and the buoyancy "
@@ -247,7 +249,7 @@ class Procedure(Phases):
                 return out + self._next_hold()
         return out + self._solve()
 
-    def _weigh_extra_hold(self) -> list[Output]:
+    def _weigh_extra_hold(self) -> list[Output[P, V]]:
         """After the planned holds: when the dead band keeps the trim undecided, weigh a
         mirrored hold (:func:`trimd.core.design.plan_extra_hold`), add it when it is
         predicted to decide, and say what was chosen and why."""
@@ -281,7 +283,7 @@ class Procedure(Phases):
             return False
         return self.rule.estimate_decided(est)
 
-    def _solve(self) -> list[Output]:
+    def _solve(self) -> list[Output[P, V]]:
         if self.verify:
             return self._verify(self.verify)
         try:
@@ -294,7 +296,7 @@ class Procedure(Phases):
                           result=TrimResult(self.estimate, self.proposal)))
         return out
 
-    def _verify(self, verify: Callable[[HoldSamples], object]) -> list[Output]:
+    def _verify(self, verify: Callable[[HoldSamples], V]) -> list[Output[P, V]]:
         try:
             self.verification = verify(self.hold_samples()[0])
         except EstimationError as exc:
@@ -309,7 +311,7 @@ class Procedure(Phases):
         takes the level one, :mod:`trimd.core.calibration`)."""
         return [h.samples(f"hold {k + 1}") for k, h in enumerate(self._holds) if h.t]
 
-    def _check_time(self) -> list[Output]:
+    def _check_time(self) -> list[Output[P, V]]:
         if self.phase.final:
             return []
         stop = self.guard.time(self._t) if self.phase is not Phase.CONNECT else None

@@ -36,6 +36,7 @@ with it, the BlueROV2 Heavy's rotational inertia sums came out 10–37 % off
 from __future__ import annotations
 
 import math
+from typing import Never
 
 from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.guards import ENVELOPE_MARGIN_DEG, Guard
@@ -85,7 +86,7 @@ STREAM_HZ = 50.0
 _HELD = {2: "depth", 3: "roll", 4: "pitch"}
 
 
-class Excite(Phases):
+class Excite(Phases[Never, Never]):
     """An excitation experiment of ``signal`` on the vehicle of ``profile``.
 
     Parameters
@@ -148,7 +149,7 @@ class Excite(Phases):
         return Progress(self._t, self.phase, 0, 1, None, done, 0, left, self.reason)
 
     # ---------------------------------------------------------------- events
-    def _on_sample(self, s: Sample) -> list[Output]:
+    def _on_sample(self, s: Sample) -> list[Output[Never, Never]]:
         self.precheck.sample(s)
         stop = self.guard.sample(s)
         if stop is not None and (self.phase is not Phase.CONNECT or stop.cause != Cause.LINK):
@@ -180,7 +181,7 @@ class Excite(Phases):
         return (f"ready: confirm to let trimd drive the vehicle open loop for "
                 f"{self.signal.duration_s:g} s")
 
-    def _start(self) -> list[Output]:
+    def _start(self) -> list[Output[Never, Never]]:
         self._depth_ref = self._depth
         self._t_start = self._now_data()
         self.guard.start(self._now_data(), self._depth, "the start depth")
@@ -194,7 +195,7 @@ class Excite(Phases):
                 + " (their output is in the recorded thrust)"))
         return out + self._play(None)
 
-    def _keep(self, step: Step | None) -> list[Output]:
+    def _keep(self, step: Step | None) -> list[Output[Never, Never]]:
         """Act on what the envelope asks for: a notice of the scaled excitation, or the
         early stop (done, every sample up to here recorded)."""
         if step is None:
@@ -206,7 +207,7 @@ class Excite(Phases):
                                 f"here is kept ({self.envelope.summary()})")
         return [Notice(self._t, "warning", f"at {elapsed:.1f} s: {step.text}")]
 
-    def _play(self, attitude: Attitude | None) -> list[Output]:
+    def _play(self, attitude: Attitude | None) -> list[Output[Never, Never]]:
         """The inputs at the present time: the signal, plus the attitude hold's output on
         the held axes when ``attitude`` is a new measurement."""
         elapsed = self._now_data() - self._t_start
@@ -257,7 +258,7 @@ class Excite(Phases):
         self._depth_integral = i_term / h.ki
         self._heave = h.kp * error + i_term
 
-    def _check_time(self) -> list[Output]:
+    def _check_time(self) -> list[Output[Never, Never]]:
         if self.phase.final:
             return []
         p = self.profile.procedure

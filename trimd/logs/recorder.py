@@ -280,7 +280,7 @@ class TlogRecorder:
                 VEHICLE_SYSTEM, VEHICLE_COMPONENT, mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 0,
                 1.0 if command.armed else 0.0, 0, 0, 0, 0, 0, 0))
 
-    def notice(self, notice: Notice) -> None:
+    def notice(self, notice: Notice[object, object]) -> None:
         self._write_text(notice.t_s, notice.text, _SEVERITY.get(notice.kind, 6))
         if notice.result is not None:
             estimate = notice.result.estimate

@@ -23,8 +23,8 @@ from textual.widgets import Footer
 
 from trimd.app.after_trim import AfterTrim
 from trimd.app.report import NewCommands
-from trimd.app.session import Session, SessionResult
-from trimd.ballast.propose import METHODS, Proposal
+from trimd.app.results import AnyResult, AnySession
+from trimd.ballast.propose import METHODS
 from trimd.core.events import Phase, Progress
 from trimd.core.profile import Profile
 from trimd.tui.attitude_panel import AttitudePanel
@@ -60,7 +60,7 @@ REDRAW_HZ = 10.0
 _BEFORE_HOLDS = (Phase.CONNECT, Phase.PRECHECK, Phase.CONFIRM)
 
 
-class TrimApp(App[SessionResult]):
+class TrimApp(App[AnyResult]):
     """Runs ``session`` and shows it; ``result`` is set once the session has ended.
 
     ``replay``: the session's link when it replays a recording (pause and speed keys).
@@ -87,7 +87,7 @@ class TrimApp(App[SessionResult]):
         Binding("q,ctrl+c", "quit", "Quit", key_display="q"),
     ]
 
-    def __init__(self, session: Session, profile: Profile, *, link_description: str,
+    def __init__(self, session: AnySession, profile: Profile, *, link_description: str,
                  truth: str | None, report_dir: Path | None,
                  clock: Callable[[], float], replay: PacedReplay | None,
                  after: AfterTrim | None = None) -> None:
@@ -99,8 +99,8 @@ class TrimApp(App[SessionResult]):
         self.report_dir = report_dir
         self.replay = replay
         self.state = LiveState(clock)
-        self.result: SessionResult | None = None
-        self.results: list[SessionResult] = []
+        self.result: AnyResult | None = None
+        self.results: list[AnyResult] = []
         self.followup = Followup(self, after)
         self.confirmed = False
         self._quitting = False
@@ -130,7 +130,7 @@ class TrimApp(App[SessionResult]):
         self._show_pace()
         self.run_session(self.session)
 
-    def run_session(self, session: Session, *, verify: bool = False) -> None:
+    def run_session(self, session: AnySession, *, verify: bool = False) -> None:
         """Run ``session`` (the trim, or later a verify hold) and show it; the operator
         confirms it afresh (unless it was confirmed up front)."""
         if verify:
@@ -139,14 +139,14 @@ class TrimApp(App[SessionResult]):
             link = self.query_one(LinkPanel)
             link.link_description, link.closed = session.link.description, False
         self.session, self.result, self.confirmed = session, None, False
-        session.presenters.append(TuiPresenter(self, self.state))
+        session.add_presenter(TuiPresenter(self, self.state))
         # a task of its own, which the worker only waits on: closing the app cancels its
         # workers, and the session must still end by the procedure's abort (releasing)
         self._session_task = task = asyncio.ensure_future(session.run())
         self.run_worker(self._wait_session(task), name="session", group="session")
         self.refresh_bindings()
 
-    async def _wait_session(self, task: asyncio.Future[SessionResult]) -> None:
+    async def _wait_session(self, task: asyncio.Future[AnyResult]) -> None:
         self.post_message(SessionEnded(await asyncio.shield(task)))
 
     async def on_unmount(self) -> None:
@@ -185,8 +185,7 @@ class TrimApp(App[SessionResult]):
         if n.result is not None:
             estimate, proposal = n.result.estimate, n.result.proposal
             log.add(n.t_s, "result", f"estimate: m_ext {estimate.m_ext_kg:+.3f} kg")
-            self.query_one(ResultPanel).show_result(
-                estimate, proposal if isinstance(proposal, Proposal) else None)
+            self.query_one(ResultPanel).show_result(estimate, proposal)
             self.add_class("-result")
         else:
             log.add(n.t_s, n.kind, n.text)
@@ -353,7 +352,7 @@ class TrimApp(App[SessionResult]):
         yield SystemCommand("Help", "Keys and panels", self.action_help)
 
 
-def make_app(session: Session, profile: Profile, *, link_description: str,
+def make_app(session: AnySession, profile: Profile, *, link_description: str,
              truth: str | None = None, report_dir: Path | None = None,
              clock: Callable[[], float] = time.monotonic,
              replay: PacedReplay | None = None, after: AfterTrim | None = None) -> TrimApp:

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import Applied
 from trimd.app.report import format_applied
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult
 from trimd.app.verify import verify_target
 from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal, propose_ballast
@@ -46,7 +46,7 @@ class Followup:
     def __init__(self, app: TrimApp, after: AfterTrim | None) -> None:
         self.app = app
         self.after = after
-        self.trim: SessionResult | None = None  # the trim whose proposal is offered
+        self.trim: AnyResult | None = None  # the trim whose proposal is offered
         self.applied: Applied | None = None
         self.target: dict[str, Any] | None = None  # what a verify hold checks
         self.correction: Correction | None = None  # a verify hold's, offered to apply
@@ -55,7 +55,7 @@ class Followup:
     def _log(self, kind: str, text: str) -> None:
         self.app.query_one(EventLog).add(self.app.state.t_s, kind, text)
 
-    def ended(self, r: SessionResult) -> None:
+    def ended(self, r: AnyResult) -> None:
         """A session ended: a verify hold shows its verdict (a replayed one too); with
         ``after``, it is stored, and a trim with a proposal offers apply."""
         if isinstance(r.verification, Verification):
@@ -78,7 +78,7 @@ class Followup:
             self.correction = correction
             steps.verified(r.verification if isinstance(r.verification, Verification)
                            else None, r.reason, correction)
-        elif r.phase is Phase.DONE and isinstance(r.proposal, Proposal):
+        elif r.phase is Phase.DONE and r.proposal is not None:
             self.trim = r
             if self.after.db is None:
                 steps.unavailable("apply and verify record in the trim history: "
@@ -86,7 +86,7 @@ class Followup:
             else:
                 steps.offer(APPLIED_METHOD, self.after.vehicle)
 
-    def _correct(self, r: SessionResult) -> Correction | None:
+    def _correct(self, r: AnyResult) -> Correction | None:
         """The correction after a verify hold this offered (None: none needed, or none
         can be proposed, which the log says)."""
         if (self.after is None or self.target is None

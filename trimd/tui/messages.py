@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from textual.message import Message
 
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult, Finding
 from trimd.ballast.proposal import Proposal
 from trimd.core.events import Notice, Progress
 from trimd.core.samples import Command
@@ -33,7 +33,7 @@ class TelemetryChanged(Message):
 class NoticeReceived(Message):
     """A state change, information, warning or the result (never coalesced)."""
 
-    notice: Notice
+    notice: Notice[Proposal, Finding]
     progress: Progress
 
 
@@ -59,7 +59,7 @@ class CommandSent(Message):
 class SessionEnded(Message):
     """The session returned: the vehicle is released and the log closed."""
 
-    result: SessionResult
+    result: AnyResult
 
 
 @dataclass

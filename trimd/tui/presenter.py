@@ -9,6 +9,8 @@ from __future__ import annotations
 from textual.message_pump import MessagePump
 
 from trimd.app.report import NewWarnings
+from trimd.app.results import Finding
+from trimd.ballast.proposal import Proposal
 from trimd.core.events import Notice, Output, Progress
 from trimd.core.samples import Health, Sample, VehicleText
 from trimd.tui.messages import CommandSent, LinkMessage, NoticeReceived, TelemetryChanged
@@ -25,7 +27,7 @@ class TuiPresenter:
         self.state = state
         self._new_warnings = NewWarnings()
 
-    def output(self, out: Output, progress: Progress) -> None:
+    def output(self, out: Output[Proposal, Finding], progress: Progress) -> None:
         if isinstance(out, Notice):
             self.target.post_message(NoticeReceived(out, progress))
         else:

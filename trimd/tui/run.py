@@ -7,13 +7,13 @@ import os
 import signal
 
 from trimd.app.headless import stop_on_signals
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult
 from trimd.tui.app import TrimApp
 
 __all__ = ["run_in_tui"]
 
 
-async def run_in_tui(app: TrimApp) -> SessionResult:
+async def run_in_tui(app: TrimApp) -> AnyResult:
     """Run ``app`` until the operator quits or a signal stops it; how the session ended.
 
     The session always ends (and releases the vehicle) before this returns. On SIGHUP

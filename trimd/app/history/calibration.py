@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from trimd.app.history.store import History
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult
 from trimd.ballast.verify import Verification
 from trimd.core.calibration import (
     Calibration,
@@ -100,7 +100,7 @@ def store_experiment(history: History, vehicle: str, profile: Profile, exp: Expe
 
 
 def record_level_hold(history: History, vehicle: str, profile: Profile,
-                      result: SessionResult, record_id: int,
+                      result: AnyResult, record_id: int,
                       installed: Sequence[InstalledPiece], t_unix: float | None = None
                       ) -> Outcome | None:
     """Store ``result``'s level hold (its trim's or verify hold's record ``record_id``,

@@ -6,16 +6,16 @@ from __future__ import annotations
 import time
 
 from trimd.app.history.store import History
-from trimd.app.session import SessionResult
+from trimd.app.results import AnyResult
 from trimd.ballast.correct import Correction
-from trimd.ballast.proposal import Proposal, proposal_to_dict
+from trimd.ballast.proposal import proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate_json import estimate_to_dict
 
 __all__ = ["record_result"]
 
 
-def record_result(history: History, vehicle: str, profile: str, result: SessionResult,
+def record_result(history: History, vehicle: str, profile: str, result: AnyResult,
                   t_unix: float | None = None, correction: Correction | None = None
                   ) -> int | None:
     """Store ``result``'s estimate, proposal and session log path under ``vehicle`` (or a
@@ -29,7 +29,6 @@ def record_result(history: History, vehicle: str, profile: str, result: SessionR
                                                   "log_path": result.log_path}, linked)
     if result.estimate is None:
         return None
-    proposal = (proposal_to_dict(result.proposal) if isinstance(result.proposal, Proposal)
-                else None)
+    proposal = None if result.proposal is None else proposal_to_dict(result.proposal)
     return history.record_trim(vehicle, profile, t,
                                estimate_to_dict(result.estimate), proposal, result.log_path)
