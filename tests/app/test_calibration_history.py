@@ -29,7 +29,7 @@ from trimd.app.history.report import format_history, history_to_dict
 from trimd.app.history.schema import connect
 from trimd.app.replay import replay_calibration, replay_profile, replay_session
 from trimd.app.session import Session, SessionResult
-from trimd.app.verify import verify_procedure, verify_target
+from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.propose import Proposal
 from trimd.core.calibration import calibrate, gains
 from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
@@ -85,7 +85,7 @@ def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
                       lambda target: None)
     assert after.store(trim.result) is not None
     apply_ballast(db, "rov", bluerov, estimate=estimate, proposal=proposal)
-    target = verify_target(estimate, proposal.slots)
+    target = VerifyTarget(estimate, tuple(proposal.slots))
 
     def verify() -> SessionResult:
         async def go() -> SessionResult:

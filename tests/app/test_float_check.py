@@ -35,7 +35,7 @@ from trimd.app.float_check import (
 )
 from trimd.app.replay import replay_profile, replay_session
 from trimd.app.session import SessionResult
-from trimd.app.verify import verify_target
+from trimd.app.verify import VerifyTarget
 from trimd.ballast.changes import change_loads
 from trimd.ballast.correct import propose_float_correction
 from trimd.ballast.proposal import Proposal
@@ -337,7 +337,7 @@ def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile) -> Non
     before, after = true_trim_deg(trim, loads), true_trim_deg(trim, loads, c.proposal.slots)
     assert_levels_as_said(bluerov, after, c)
     assert np.max(np.abs(after)) < np.max(np.abs(before)), (before, after)
-    target = verify_target(estimate, loads)
+    target = VerifyTarget(estimate, tuple(loads))
     with_history = replace(bluerov, installed=proposal.installed_after)
     same = float_correction(f.r, target, with_history, None, "rov")
     assert same is not None and same.proposal.slots == c.proposal.slots

@@ -28,7 +28,7 @@ from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
 from trimd.app.results import AnyPresenter, AnyResult
 from trimd.app.session import Recorder, Session
-from trimd.app.verify import read_target, verify_procedure
+from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.correct import Correction, needs_correction, propose_correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
@@ -81,16 +81,15 @@ class AfterTrim:
         stored = f"trim history: stored for vehicle {self.vehicle} in {history.path}"
         return stored if outcome is None else f"{stored}; {outcome.message}"
 
-    def correct(self, v: Verification, target: dict[str, Any]) -> Correction | None:
+    def correct(self, v: Verification, target: VerifyTarget) -> Correction | None:
         """The correction after the verify hold ``v`` of ``target``, from the ballast
         installed now (the history's, else the profile's); None when the vehicle is level
-        and as predicted. DataError for a target or a history that does not fit the
+        and as predicted. DataError for a history that does not fit the
         profile, ProfileError for installed pieces it does not have."""
         if not needs_correction(v):
             return None
-        estimate, _ = read_target(target, "the verify target", self.profile)
         installed, _ = current_installed(self.db, self.vehicle, self.profile)
-        return propose_correction(v, estimate, self.profile, installed)
+        return propose_correction(v, target.estimate, self.profile, installed)
 
     def apply(self, estimate: StaticEstimate, proposal: Proposal) -> Applied:
         """Record ``proposal`` (for ``estimate``) as the ballast now installed.
@@ -101,7 +100,7 @@ class AfterTrim:
         return apply_ballast(self.db, self.vehicle, self.profile, estimate=estimate,
                              proposal=proposal)
 
-    async def verify_session(self, target: dict[str, Any],
+    async def verify_session(self, target: VerifyTarget,
                              presenters: list[AnyPresenter]) -> Session[Never, Verification]:
         """A verify hold of ``target`` on the link opened again (not started). DataError
         for a target that does not fit the profile, LinkError when the link does not open,
@@ -109,7 +108,7 @@ class AfterTrim:
         procedure = verify_procedure(self.profile, target, confirmed=self.confirmed)
         link = await self.open_link()
         try:
-            recorder = self.recorder(target)
+            recorder = self.recorder(target.to_dict())
         except OSError:
             with contextlib.suppress(Exception):
                 await link.close()

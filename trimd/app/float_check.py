@@ -21,7 +21,7 @@ from trimd.app.headless import StdinConfirm, stop_on_signals
 from trimd.app.history.installed import current_installed
 from trimd.app.results import AnyPresenter
 from trimd.app.session import Session, SessionResult
-from trimd.app.verify import read_target
+from trimd.app.verify import VerifyTarget
 from trimd.ballast.correct import Correction, propose_float_correction
 from trimd.core.errors import DataError
 from trimd.core.float_check import FloatCheck
@@ -100,7 +100,7 @@ async def run_float_check(open_link: Callable[[], Awaitable[Link]], profile: Pro
     return await session.run()
 
 
-def float_correction(f: FloatResult, target: dict[str, Any], profile: Profile,
+def float_correction(f: FloatResult, target: VerifyTarget, profile: Profile,
                      db: str | Path | None, vehicle: str) -> Correction | None:
     """After the float check ``f`` of the trim ``target`` (:func:`trimd.app.verify.
     trim_target`): the correction of the ballast installed now (the history ``db``'s for
@@ -110,6 +110,5 @@ def float_correction(f: FloatResult, target: dict[str, Any], profile: Profile,
     not have."""
     if f.verdict is Verdict.LEVEL:
         return None
-    estimate, loads = read_target(target, "the trim", profile)
     installed, _ = current_installed(db, vehicle, profile)
-    return propose_float_correction(f, estimate, loads, profile, installed)
+    return propose_float_correction(f, target.estimate, target.loads, profile, installed)

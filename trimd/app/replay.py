@@ -23,7 +23,7 @@ from trimd.app.calibrate import (
 from trimd.app.float_check import float_from_settings
 from trimd.app.results import AnyPresenter, AnyResult, Finding
 from trimd.app.session import Machine, Session
-from trimd.app.verify import verify_procedure
+from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
 from trimd.core.errors import DataError, EstimationError
@@ -76,9 +76,12 @@ def replay_session_of(link: Link, path: str, profile: Profile, *,
     one, a float check when it carries one's settings, else the trim, proposing by
     ``method``; confirmed where the live session was (the recording's
     :class:`Confirmed`)."""
-    target = recorded_verify_target(path)
-    procedure: Machine[Proposal, Finding] | None = None if target is None else verify_procedure(
-        profile, target, confirmed=False, source=f"{path} (recorded verify target)")
+    recorded = recorded_verify_target(path)
+    procedure: Machine[Proposal, Finding] | None = None
+    if recorded is not None:
+        source = f"{path} (recorded verify target)"
+        procedure = verify_procedure(profile, VerifyTarget.from_dict(recorded, source, profile),
+                                     confirmed=False, source=source)
     if recorded_calibration_hold(path) is not None:
         procedure = level_hold_procedure(profile, confirmed=False)
     settings = recorded_float_check(path)

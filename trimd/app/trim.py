@@ -11,7 +11,7 @@ from pathlib import Path
 from trimd.app.announce import announce_run
 from trimd.app.results import AnyPresenter
 from trimd.app.session import Session
-from trimd.app.verify import verify_procedure
+from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import propose_ballast
 from trimd.ballast.verify import Verification
@@ -19,7 +19,6 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
-from trimd.core.types import JsonObject
 from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["TrimRequest", "trim_session"]
@@ -36,7 +35,7 @@ class TrimRequest:
     confirmed : the operator confirmed up front (``--yes``).
     ballast_method : the proposal's method (:data:`trimd.ballast.propose.METHODS`).
     record : where to record the session (a ``.tlog``); None: not recorded.
-    target : the verify target (:func:`trimd.app.verify.verify_target`): a verify hold
+    target : the verify target (:class:`trimd.app.verify.VerifyTarget`): a verify hold
         of that ballast instead of a trim; None: a trim.
     target_source : where the target came from, for people.
     """
@@ -45,7 +44,7 @@ class TrimRequest:
     confirmed: bool = False
     ballast_method: str = "milp"
     record: Path | None = None
-    target: JsonObject | None = None
+    target: VerifyTarget | None = None
     target_source: str | None = None
 
 
@@ -57,7 +56,7 @@ def trim_session(link: Link, profile: Profile, presenters: list[AnyPresenter],
     if request.record is not None:
         recorder = TlogRecorder(request.record, profile,
                                 read_profile_text(request.profile_ref)[0],
-                                verify_target=target)
+                                verify_target=None if target is None else target.to_dict())
 
     def propose(estimate: StaticEstimate) -> Proposal:
         return propose_ballast(estimate, profile, method=request.ballast_method)

@@ -1,17 +1,19 @@
-"""What a verify hold checks, as one JSON document, and the procedure that checks it.
+"""What a verify hold checks (:class:`VerifyTarget`) and the procedure that checks it.
 
-The *verify target* is the trim being verified: its estimate (``estimate_to_dict``) and the
-ballast installed since, per slot (``{"proposal": {"slots": [...]}}``, the shape of a
-proposal's slots: what :func:`trimd.app.files.installed_from_json` reads). A live verify
-hold is built from the document itself, not from the objects it was written from, and the
-session recording carries the document (:class:`trimd.logs.recorder.TlogRecorder`), so a
-replay of the recording builds the very same procedure and reproduces the verdict.
+The *verify target* is the trim being verified: its estimate and the ballast installed
+since, per slot. Its JSON document (:meth:`VerifyTarget.to_dict`: ``estimate_to_dict`` and
+``{"proposal": {"slots": [...]}}``, the shape of a proposal's slots, what
+:func:`trimd.app.files.installed_from_json` reads) is what the session recording carries
+(:class:`trimd.logs.recorder.TlogRecorder`). A live verify hold is built from that document
+read back, not from the objects it was written from, so a replay of the recording builds
+the very same procedure and reproduces the verdict.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Never
 
@@ -27,16 +29,33 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
 from trimd.core.procedure import Procedure
 from trimd.core.profile import InstalledPiece, Profile
+from trimd.core.types import JsonObject
 
-__all__ = ["read_target", "recorded_target", "trim_target", "verify_procedure",
-           "verify_target"]
+__all__ = ["VerifyTarget", "recorded_target", "trim_target", "verify_procedure"]
 
 
-def verify_target(estimate: StaticEstimate, loads: Sequence[SlotLoad]) -> dict[str, Any]:
-    """The verify target of the trim ``estimate`` with ``loads`` installed since (per slot,
-    what changed: :attr:`trimd.app.apply.Applied.loads` or a proposal's slots)."""
-    return {"estimate": estimate_to_dict(estimate),
-            "proposal": {"slots": [slot_to_dict(ld) for ld in loads]}}
+@dataclass(frozen=True)
+class VerifyTarget:
+    """The trim ``estimate`` with ``loads`` installed since (per slot, what changed:
+    :attr:`trimd.app.apply.Applied.loads` or a proposal's slots)."""
+
+    estimate: StaticEstimate
+    loads: tuple[SlotLoad, ...]
+
+    def to_dict(self) -> JsonObject:
+        """The target's JSON document (module docstring)."""
+        return {"estimate": estimate_to_dict(self.estimate),
+                "proposal": {"slots": [slot_to_dict(ld) for ld in self.loads]}}
+
+    @classmethod
+    def from_dict(cls, d: object, source: str, profile: Profile) -> VerifyTarget:
+        """The target of a JSON document :meth:`to_dict` wrote (or a trim's result: its
+        proposal's slots); DataError naming ``source`` when it is malformed or its slots
+        are not ``profile``'s."""
+        if not isinstance(d, dict) or not isinstance(d.get("estimate"), dict):
+            raise DataError(f"{source}: not a verify target (no estimate in it)")
+        return cls(estimate_from_dict(d["estimate"], source),
+                   tuple(installed_from_json(json.dumps(d), source, profile)))
 
 
 def _pieces(items: object) -> list[InstalledPiece] | None:
@@ -57,7 +76,7 @@ def _counts(pieces: Sequence[InstalledPiece]) -> dict[tuple[str, str], int]:
 
 def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
                     installed: Sequence[InstalledPiece] | None, profile: Profile,
-                    source: str) -> dict[str, Any]:
+                    source: str) -> VerifyTarget:
     """The verify target of a recorded trim or correction (its ``estimate`` and
     ``proposal`` JSON) with ``installed`` on the vehicle now (what ``trimd ballast apply``
     recorded since; None: nothing recorded, the proposal taken as fitted as proposed):
@@ -71,33 +90,22 @@ def recorded_target(estimate: dict[str, Any], proposal: dict[str, Any],
     after = _pieces(proposal.get("installed_after"))
     if (installed is None or before is None or after is None
             or _counts(after) == _counts(installed)):
-        loads = installed_from_json(json.dumps({"estimate": estimate, "proposal": proposal}),
-                                    source, profile)
-        return verify_target(est, loads)
-    return verify_target(est, change_loads(profile, before, installed))
+        return VerifyTarget.from_dict({"estimate": estimate, "proposal": proposal}, source,
+                                      profile)
+    return VerifyTarget(est, tuple(change_loads(profile, before, installed)))
 
 
-def read_target(target: object, source: str, profile: Profile
-                ) -> tuple[StaticEstimate, list[SlotLoad]]:
-    """The estimate and installed loads of a verify target (DataError naming ``source``
-    when it is malformed or its slots are not ``profile``'s)."""
-    if not isinstance(target, dict) or not isinstance(target.get("estimate"), dict):
-        raise DataError(f"{source}: not a verify target (no estimate in it)")
-    estimate = estimate_from_dict(target["estimate"], source)
-    return estimate, installed_from_json(json.dumps(target), source, profile)
-
-
-def verify_procedure(profile: Profile, target: dict[str, Any], *, confirmed: bool,
+def verify_procedure(profile: Profile, target: VerifyTarget, *, confirmed: bool,
                      source: str = "the verify target") -> Procedure[Never, Verification]:
     """The verify hold of ``target`` (:func:`trimd.ballast.verify.verify_hold`), built from
-    the target as its JSON reads back (what a recording carries)."""
-    estimate, loads = read_target(json.loads(json.dumps(target)), source, profile)
+    the target's JSON document as it reads back (what a recording carries)."""
+    read = VerifyTarget.from_dict(json.loads(json.dumps(target.to_dict())), source, profile)
     return Procedure(profile, confirmed=confirmed,
-                     verify=lambda hold: verify_hold(hold, profile, estimate, loads))
+                     verify=lambda hold: verify_hold(hold, profile, read.estimate, read.loads))
 
 
 def trim_target(path: str | None, profile: Profile, db: str | Path, vehicle: str
-                ) -> dict[str, Any]:
+                ) -> VerifyTarget:
     """The verify target of the trim in ``path`` (a trim's result, or a verify hold's
     correction) or, with ``path`` None, of the vehicle's last trim in the history ``db``
     or of the correction since that was applied
@@ -105,7 +113,7 @@ def trim_target(path: str | None, profile: Profile, db: str | Path, vehicle: str
     recorded as installed since the trim, if any (:func:`recorded_target`). DataError
     when there is none or it is malformed."""
     if path is not None:
-        return verify_target(read_estimate(path), read_installed(path, profile))
+        return VerifyTarget(read_estimate(path), tuple(read_installed(path, profile)))
     with History(db) as history:
         found = proposal_on_vehicle(history, vehicle, profile.installed)
         recorded = installed_since_trim(history, vehicle)

@@ -29,7 +29,7 @@ from trimd.app.report import format_correction, format_result
 from trimd.app.results import AnyPresenter, AnyResult
 from trimd.app.session import Session
 from trimd.app.trim import TrimRequest, trim_session
-from trimd.app.verify import trim_target
+from trimd.app.verify import VerifyTarget, trim_target
 from trimd.ballast.correct import Correction, correction_to_dict
 from trimd.ballast.proposal import Proposal
 from trimd.ballast.propose import METHODS
@@ -116,7 +116,7 @@ def _target_source(args: argparse.Namespace) -> str:
     return "the vehicle's last trim" if args.verify == LAST_TRIM else str(args.verify)
 
 
-def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> dict[str, Any]:
+def _trim_to_verify(args: argparse.Namespace, profile: Profile) -> VerifyTarget:
     """The verify target of ``--verify FILE`` or (``--verify`` alone) of the vehicle's
     last trim in the history (:func:`trimd.app.verify.trim_target`)."""
     return trim_target(None if args.verify == LAST_TRIM else args.verify, profile,

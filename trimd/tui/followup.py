@@ -12,13 +12,13 @@ on the main screen as the trim did: nothing is commanded before the operator con
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import Applied
 from trimd.app.report import format_applied
 from trimd.app.results import AnyResult
-from trimd.app.verify import verify_target
+from trimd.app.verify import VerifyTarget
 from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal, propose_ballast
 from trimd.ballast.verify import Verification
@@ -48,7 +48,7 @@ class Followup:
         self.after = after
         self.trim: AnyResult | None = None  # the trim whose proposal is offered
         self.applied: Applied | None = None
-        self.target: dict[str, Any] | None = None  # what a verify hold checks
+        self.target: VerifyTarget | None = None  # what a verify hold checks
         self.correction: Correction | None = None  # a verify hold's, offered to apply
         self.opening = False
 
@@ -129,7 +129,7 @@ class Followup:
             panel.proposals[APPLIED_METHOD] = proposal
             panel.method = APPLIED_METHOD  # what was recorded is what is shown
         self.correction = None
-        self.target = verify_target(estimate, self.applied.loads)
+        self.target = VerifyTarget(estimate, tuple(self.applied.loads))
         for line in format_applied(self.applied).splitlines():
             self._log("info", line)
         self.app.query_one(NextSteps).applied(self.applied)
