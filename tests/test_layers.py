@@ -87,6 +87,50 @@ def test_the_check_catches_a_wrong_import(tmp_path: Path) -> None:
     assert {"trimd.app.session", "time"} <= _imports(bad)
 
 
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import circles of ``graph`` (module → modules it imports): its strongly
+    connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = [stack.pop()]
+            while component[-1] != v:
+                component.append(stack.pop())
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circle_above_the_core() -> None:
+    """The application's layers (app, tui, cli, …) import one way, type-checking imports
+    included: a module that needs its caller takes what it needs as arguments (the TUI's
+    follow-up takes the app's panels, state and a callable that starts a session)."""
+    names = {name for name, _ in LAYERED if name.split(".")[1] != "core"}
+    graph = {name: {m for m in _imports(path) if m in names and m != name}
+             for name, path in LAYERED if name in names}
+    assert _circles(graph) == []
+
+
+def test_the_circle_check_finds_a_circle() -> None:
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
 #: The longest a module of trimd may be [lines]: past it, split it along its seams.
 MAX_MODULE_LINES = 400
 

@@ -101,7 +101,8 @@ class TrimApp(App[AnyResult]):
         self.state = LiveState(clock)
         self.result: AnyResult | None = None
         self.results: list[AnyResult] = []
-        self.followup = Followup(self, after)
+        self.followup = Followup(self, profile, self.state,
+                                 lambda s: self.run_session(s, verify=True), after)
         self.confirmed = False
         self._quitting = False
         self._progress: Progress | None = None

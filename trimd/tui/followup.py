@@ -12,12 +12,14 @@ on the main screen as the trim did: nothing is commanded before the operator con
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+
+from textual.app import App
 
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import Applied
 from trimd.app.report import format_applied
-from trimd.app.results import AnyResult
+from trimd.app.results import AnyResult, AnySession
 from trimd.app.verify import VerifyTarget
 from trimd.ballast.correct import Correction
 from trimd.ballast.propose import Proposal, propose_ballast
@@ -25,13 +27,12 @@ from trimd.ballast.verify import Verification
 from trimd.core.errors import TrimdError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.profile import Profile
 from trimd.tui.event_log import EventLog
 from trimd.tui.next_steps import NextSteps
 from trimd.tui.result_panel import ResultPanel
+from trimd.tui.telemetry import LiveState
 from trimd.tui.verdict_panel import VerdictPanel
-
-if TYPE_CHECKING:
-    from trimd.tui.app import TrimApp
 
 __all__ = ["APPLIED_METHOD", "Followup"]
 
@@ -41,11 +42,20 @@ APPLIED_METHOD = "milp"
 
 
 class Followup:
-    """What the app does after each session; ``after`` None: nothing (a replay)."""
+    """What the app does after each session; ``after`` None: nothing (a replay).
 
-    def __init__(self, app: TrimApp, after: AfterTrim | None) -> None:
+    ``app`` is the TUI (its panels, bindings and workers), ``state`` its live state (the
+    clock of the log's lines), ``start_verify`` runs a verify hold's session on the main
+    screen (:meth:`trimd.tui.app.TrimApp.run_session`)."""
+
+    def __init__(self, app: App[AnyResult], profile: Profile, state: LiveState,
+                 start_verify: Callable[[AnySession], None], after: AfterTrim | None) -> None:
         self.app = app
+        self.profile = profile
+        self.state = state
+        self.start_verify = start_verify
         self.after = after
+        self.running = True  # a session runs (the app starts one at once)
         self.trim: AnyResult | None = None  # the trim whose proposal is offered
         self.applied: Applied | None = None
         self.target: VerifyTarget | None = None  # what a verify hold checks
@@ -53,11 +63,12 @@ class Followup:
         self.opening = False
 
     def _log(self, kind: str, text: str) -> None:
-        self.app.query_one(EventLog).add(self.app.state.t_s, kind, text)
+        self.app.query_one(EventLog).add(self.state.t_s, kind, text)
 
     def ended(self, r: AnyResult) -> None:
         """A session ended: a verify hold shows its verdict (a replayed one too); with
         ``after``, it is stored, and a trim with a proposal offers apply."""
+        self.running = False
         if isinstance(r.verification, Verification):
             self.app.query_one(VerdictPanel).show(r.verification)
             self.app.add_class("-verdict", "-result")
@@ -104,12 +115,12 @@ class Followup:
     @property
     def can_apply(self) -> bool:
         return (self.after is not None and self.after.db is not None
-                and self.app.result is not None and (self.correction is not None or (
+                and not self.running and (self.correction is not None or (
                     self.trim is not None and self.applied is None)))
 
     @property
     def can_verify(self) -> bool:
-        return self.target is not None and self.app.result is not None and not self.opening
+        return self.target is not None and not self.running and not self.opening
 
     def apply(self) -> None:
         """Record the proposal on offer as the installed ballast and show it: a verify
@@ -140,7 +151,7 @@ class Followup:
             return self.correction.vehicle, self.correction.proposal
         assert self.trim is not None and self.trim.estimate is not None
         return self.trim.estimate, panel.proposals.get(APPLIED_METHOD) or propose_ballast(
-            self.trim.estimate, self.app.profile, method=APPLIED_METHOD)
+            self.trim.estimate, self.profile, method=APPLIED_METHOD)
 
     def cancel(self) -> None:
         """The operator aborted while the link was being opened: no verify hold starts."""
@@ -172,4 +183,5 @@ class Followup:
         self.app.query_one(VerdictPanel).remove_class("-off")
         self.app.remove_class("-verdict", "-result")
         self._log("state", "verify hold: a level hold of the ballasted vehicle")
-        self.app.run_session(session, verify=True)
+        self.running = True
+        self.start_verify(session)
