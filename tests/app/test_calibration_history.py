@@ -64,7 +64,7 @@ def test_a_version_3_file_migrates_and_takes_experiments(tmp_path: Path) -> None
         assert h.vehicles() == ["rov", "rov2"]
         assert h.experiments("rov2")[0].values == {"accepted": False}
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 5
 
 
 def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(

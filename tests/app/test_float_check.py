@@ -26,21 +26,25 @@ import pytest
 from tests.app.test_correction import assert_levels_as_said, true_trim_deg
 from tests.drivers.test_mavlink_link import TRIMD, free_udp_port, wait_bound
 from tests.helpers import REPO, ballast_payload, sim_trim
+from trimd.app.apply import apply_ballast
 from trimd.app.connect import open_link
 from trimd.app.float_check import (
     FloatRequest,
     float_correction,
     float_from_settings,
     float_session,
+    store_float_check,
 )
+from trimd.app.history import History
 from trimd.app.replay import replay_profile, replay_session
 from trimd.app.session import SessionResult
-from trimd.app.verify import VerifyTarget
+from trimd.app.verify import VerifyTarget, trim_target
 from trimd.ballast.changes import change_loads
 from trimd.ballast.correct import propose_float_correction
-from trimd.ballast.proposal import Proposal
+from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.cli.main import main
 from trimd.core.errors import DataError
+from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Cause, Notice, Output, Phase, Progress
 from trimd.core.float_check import NEUTRAL, FloatCheck
 from trimd.core.floating import Z95, FloatResult, Verdict
@@ -252,6 +256,9 @@ def test_trimd_float_prints_the_verdict_and_replays(tmp_path: Path,
                  "--yes", "--json", "--max-depth-excursion", "2", "--record", str(log)])
     live = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert code == 0 and live["type"] == "float" and live["verdict"] == "level", live
+    assert main(["history", "--json"]) == 0  # stored in the history ($TRIMD_DATA_DIR)
+    (stored,) = json.loads(capsys.readouterr().out)["vehicles"][0]["float_checks"]
+    assert stored["pitch_deg"] == live["pitch_deg"] and stored["log_path"] == str(log)
     assert abs(live["roll_deg"]) < 0.2 and abs(live["pitch_deg"]) < 0.2
     assert main(["replay", str(log), "--headless", "--json"]) == 0
     assert json.loads(capsys.readouterr().out.splitlines()[-1]) == live
@@ -317,13 +324,15 @@ def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -
     assert json.loads(replayed.stdout.splitlines()[-1]) == line
 
 
-def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile) -> None:
+def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile, tmp_path: Path
+                                                        ) -> None:
     """The closed loop through the float: the Heavy's trim (seed 0) and its ballast leave
     it 1.6° rolled, which the thrust map near the dead band hid from the trim; the float
     finds it to 0.2°, and the correction from the attitude it floated at (the prediction's
     W·z_g − B·z_b, the ballast installed now) leaves the TRUE vehicle within the level
     tolerance or its own predicted trim ± 95 %, and nearer level than before; the app's
-    use case proposes the same correction."""
+    use case proposes the same correction. The history keeps the chain: trim → apply →
+    float → correction → apply, and what a verify hold then checks is the correction."""
     payload, seed = "0.4@W-aft-stbd", 0
     trim = sim_trim(bluerov, payload, seed, OPTIONS)
     proposal, estimate = trim.result.proposal, trim.result.estimate
@@ -341,3 +350,18 @@ def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile) -> Non
     with_history = replace(bluerov, installed=proposal.installed_after)
     same = float_correction(f.r, target, with_history, None, "rov")
     assert same is not None and same.proposal.slots == c.proposal.slots
+    db = tmp_path / "h.db"
+    with History(db) as h:
+        h.record_trim("rov", bluerov.name, 1.0, estimate_to_dict(estimate),
+                      proposal_to_dict(proposal))
+    apply_ballast(db, "rov", bluerov, estimate=estimate, proposal=proposal)
+    assert store_float_check(db, "rov", bluerov, f.result, same) is not None
+    apply_ballast(db, "rov", bluerov, estimate=same.vehicle, proposal=same.proposal)
+    with History(db) as h:
+        (floated,), (linked,) = h.float_checks("rov"), h.corrections("rov")
+    assert floated.values["verdict"] == "not level" and linked.float_id == floated.id
+    now = replace(bluerov, installed=same.proposal.installed_after)
+    checked = trim_target(None, now, db, "rov")
+    assert np.array_equal(checked.estimate.q, same.vehicle.q)
+    assert [(ld.name, ld.pieces, ld.removed, ld.net_down_N) for ld in checked.loads] == [
+        (ld.name, ld.pieces, ld.removed, ld.net_down_N) for ld in same.proposal.slots]

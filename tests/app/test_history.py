@@ -67,7 +67,7 @@ def test_a_new_file_has_the_schema_in_wal_mode(tmp_path: Path) -> None:
     path = tmp_path / "sub" / "trimd.db"
     History(path).close()
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 5
     assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"trims", "watch_segments", "alerts", "installs", "installed_pieces",
@@ -158,8 +158,38 @@ def test_a_version_2_file_migrates_and_takes_corrections(tmp_path: Path) -> None
         (verify, ESTIMATE, {"method": "milp"})]
     assert verify == 2  # the file's second verify hold
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 5
     assert conn.execute("PRAGMA foreign_key_check").fetchall() == []
+
+
+def test_a_version_4_file_migrates_and_takes_float_checks(tmp_path: Path) -> None:
+    """Version 5 adds the float checks and links a correction to a verify hold or to a
+    float check: a version-4 file keeps its corrections (linked to their verify holds), a
+    float check stored after carries its own, and a correction that names both or
+    neither is refused by the file itself."""
+    path = tmp_path / "v4.db"
+    old = connect(path, upto=4)
+    old.execute("INSERT INTO verifications (vehicle, t_unix, values_json) "
+                "VALUES ('rov', 2.0, '{\"level\": false}')")
+    old.execute("INSERT INTO corrections (vehicle, t_unix, verify_id, estimate_json, "
+                "proposal_json) VALUES ('rov', 2.0, 1, ?, '{\"method\": \"milp\"}')",
+                (json.dumps(ESTIMATE),))
+    old.close()
+    with History(path) as h:
+        floated = h.record_float("rov", 3.0, {"message": "floats NOT level"},
+                                 correction=(ESTIMATE, {"method": "float"}))
+        assert [(c.verify_id, c.float_id, c.proposal["method"]) for c in h.corrections("rov")
+                ] == [(1, None, "milp"), (None, floated, "float")]
+        assert [r.values for r in h.float_checks("rov")] == [{"message": "floats NOT level"}]
+    conn = sqlite3.connect(path)
+    conn.execute("PRAGMA foreign_keys = ON")
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 5
+    assert conn.execute("PRAGMA foreign_key_check").fetchall() == []
+    for link in ("NULL, NULL", "1, 1"):
+        with pytest.raises(sqlite3.IntegrityError):
+            conn.execute("INSERT INTO corrections (vehicle, t_unix, verify_id, float_id, "
+                         f"estimate_json, proposal_json) VALUES ('rov', 4.0, {link}, '{{}}', "
+                         "'{}')")
 
 
 def test_a_newer_file_is_refused(tmp_path: Path) -> None:

@@ -32,6 +32,16 @@ def test_float_correct_without_a_trim_in_the_history_says_to_give_one(
     assert "give the trim (TRIM.json)" in err and not log.exists()
 
 
+def test_float_correct_alone_without_the_history_says_to_give_the_trim(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "float.tlog"
+    code = main(["float", "--link", "sim:", "--profile", "bluerov2-heavy", "--yes",
+                 "--record", str(log), "--no-history", "--correct"])
+    err = capsys.readouterr().err
+    assert code == 2 and "without the trim history, give the trim (TRIM.json)" in err, err
+    assert not log.exists()
+
+
 @pytest.mark.parametrize(("args", "said"), [
     ([], "--link, --mass required (or --replay BEFORE AFTER)"),
     (["--link", "sim:"], "--mass required (or --replay BEFORE AFTER)"),

@@ -18,7 +18,9 @@ from pathlib import Path
 from typing import Any, Never
 
 from trimd.app.headless import StdinConfirm, stop_on_signals
+from trimd.app.history import History
 from trimd.app.history.installed import current_installed
+from trimd.app.history.trims import record_result
 from trimd.app.results import AnyPresenter
 from trimd.app.session import Session, SessionResult
 from trimd.app.verify import VerifyTarget
@@ -32,7 +34,7 @@ from trimd.core.profile_yaml import read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["FloatRequest", "float_correction", "float_from_settings", "float_session",
-           "float_settings", "run_float_check"]
+           "float_settings", "run_float_check", "store_float_check"]
 
 
 @dataclass(frozen=True)
@@ -112,3 +114,17 @@ def float_correction(f: FloatResult, target: VerifyTarget, profile: Profile,
         return None
     installed, _ = current_installed(db, vehicle, profile)
     return propose_float_correction(f, target.estimate, target.loads, profile, installed)
+
+
+def store_float_check(db: str | Path, vehicle: str, profile: Profile,
+                      result: SessionResult[Never, FloatResult],
+                      correction: Correction | None) -> str | None:
+    """Store the float check ``result`` (with its session log) under ``vehicle`` in the
+    history ``db``, its ``correction`` linked to it (a later ``trimd run --verify`` or
+    ``trimd float --correct`` of the vehicle checks that correction once it is applied:
+    :mod:`trimd.app.history.chain`); a line for people, None when the session gave no
+    result. DataError when the file cannot take it."""
+    with History(db) as history:
+        stored = record_result(history, vehicle, profile.name, result, correction=correction)
+    return None if stored is None else (f"trim history: stored for vehicle {vehicle} in "
+                                        f"{history.path}")

@@ -24,7 +24,7 @@ from trimd.ballast.changes import change_loads
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.proposal import slot_to_dict
 from trimd.ballast.verify import Verification, verify_hold
-from trimd.core.errors import DataError
+from trimd.core.errors import DataError, UsageError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_from_dict, estimate_to_dict
 from trimd.core.procedure import Procedure
@@ -104,16 +104,18 @@ def verify_procedure(profile: Profile, target: VerifyTarget, *, confirmed: bool,
                      verify=lambda hold: verify_hold(hold, profile, read.estimate, read.loads))
 
 
-def trim_target(path: str | None, profile: Profile, db: str | Path, vehicle: str
+def trim_target(path: str | None, profile: Profile, db: str | Path | None, vehicle: str
                 ) -> VerifyTarget:
     """The verify target of the trim in ``path`` (a trim's result, or a verify hold's
     correction) or, with ``path`` None, of the vehicle's last trim in the history ``db``
     or of the correction since that was applied
     (:func:`trimd.app.history.chain.proposal_on_vehicle`), predicting for the ballast
     recorded as installed since the trim, if any (:func:`recorded_target`). DataError
-    when there is none or it is malformed."""
+    when there is none or it is malformed, UsageError for no ``path`` and no ``db``."""
     if path is not None:
         return VerifyTarget(read_estimate(path), tuple(read_installed(path, profile)))
+    if db is None:
+        raise UsageError("without the trim history, give the trim (TRIM.json)")
     with History(db) as history:
         found = proposal_on_vehicle(history, vehicle, profile.installed)
         recorded = installed_since_trim(history, vehicle)

@@ -8,6 +8,9 @@ With ``--correct [TRIM.json]`` (the trim whose ballast is on: a trim's or correc
 result, or alone the vehicle's last trim in the history) a float that is not level ends
 with the correction of the ballast installed now, from the attitude it floated at
 (:func:`trimd.ballast.correct.floated_vehicle`), as ``trimd run --verify`` prints one.
+The float check is stored in the trim history with its correction linked to it (a later
+``trimd run --verify`` or ``trimd float --correct`` checks that correction once ``trimd
+ballast apply`` records it as installed); ``--no-history`` neither reads nor stores.
 
 Exit codes: 0 level within the profile's tolerance, 1 not level, undecided, failed or
 aborted, 2 usage or profile error, 3 link error (cannot open, or lost during the float).
@@ -22,7 +25,12 @@ from pathlib import Path
 
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
-from trimd.app.float_check import FloatRequest, float_correction, run_float_check
+from trimd.app.float_check import (
+    FloatRequest,
+    float_correction,
+    run_float_check,
+    store_float_check,
+)
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_correction
@@ -32,7 +40,7 @@ from trimd.cli.argtypes import Subcommands, bounded
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
 from trimd.core.errors import ProfileError, TrimdError
 from trimd.core.events import Phase
-from trimd.core.floating import FloatResult, Verdict
+from trimd.core.floating import Verdict
 from trimd.core.profile_yaml import load_profile
 
 __all__ = ["register", "run"]
@@ -67,6 +75,9 @@ def register(sub: Subcommands) -> None:
                    help="when it does not float level, propose the correction of the "
                    "ballast installed now for the trim in TRIM.json (a trim's or "
                    "correction's result) or, alone, the vehicle's last trim in the history")
+    p.add_argument("--no-history", action="store_true", help="neither read the installed "
+                   "ballast from the trim history (the profile's is used) nor store the "
+                   "float check in it")
     add_history_args(p)
     p.set_defaults(func=run)
 
@@ -76,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd let go of the vehicle")
-    vehicle, db = vehicle_of(args, profile.name), db_path(args)
+    vehicle, db = vehicle_of(args, profile.name), None if args.no_history else db_path(args)
     # the trim is read before the link opens: bad input commands nothing
     target = None if args.correct is None else trim_target(
         None if args.correct == _LAST_TRIM else args.correct, profile, db, vehicle)
@@ -93,7 +104,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"session log: {result.log_path}", file=sys.stderr)
     if result.cause == "link":
         return 3
-    f = result.verification if isinstance(result.verification, FloatResult) else None
+    f = result.verification
+    correction = None
     if f is not None and target is not None:
         try:
             correction = float_correction(f, target, profile, db, vehicle)
@@ -104,4 +116,13 @@ def run(args: argparse.Namespace) -> int:
                 print_result(args.json, {"type": "correction",
                                          **correction_to_dict(correction)},
                              "\n" + format_correction(correction, "the float check"))
+    if f is not None and db is not None:
+        try:
+            stored = store_float_check(db, vehicle, profile, result, correction)
+        except TrimdError as exc:  # the float itself succeeded and was printed
+            print(f"trimd float: warning: not stored in the trim history: {exc}",
+                  file=sys.stderr)
+        else:
+            if stored:
+                print(stored, file=sys.stderr)
     return 0 if f is not None and f.verdict is Verdict.LEVEL else 1

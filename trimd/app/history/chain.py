@@ -1,12 +1,12 @@
-"""What ``trimd run --verify`` checks when given no file, along the chain trim → apply →
-verify → correction → apply → verify.
+"""What ``trimd run --verify`` (and ``trimd float --correct``) checks when given no file,
+along the chain trim → apply → verify (or float) → correction → apply → verify.
 
-It is the vehicle's latest trim with a proposal, unless a verify hold's correction
-recorded since has been carried out: one whose ``installed_after`` is the ballast
-installed now (what ``trimd ballast apply`` recorded last). Then it is the newest such
-correction: the vehicle as that verify hold measured it, and the correction's pieces. A
-correction not applied leaves the trim's prediction (or the previous correction's) in
-force, as the ballast on the vehicle does.
+It is the vehicle's latest trim with a proposal, unless a verify hold's or a float
+check's correction recorded since has been carried out: one whose ``installed_after`` is
+the ballast installed now (what ``trimd ballast apply`` recorded last). Then it is the
+newest such correction: the vehicle as that verify hold (or float check) measured it, and
+the correction's pieces. A correction not applied leaves the trim's prediction (or the
+previous correction's) in force, as the ballast on the vehicle does.
 """
 
 from __future__ import annotations

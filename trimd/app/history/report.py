@@ -53,7 +53,8 @@ def _proposal_text(what: str, p: dict[str, Any]) -> str:
 
 
 def _correction_text(r: CorrectionRecord) -> str:
-    """The correction under its verify hold: its pieces and the changes, in words."""
+    """The correction under its verify hold or float check: its pieces and the changes,
+    in words."""
     changes = "; ".join(str(c.get("text")) for c in r.proposal.get("changes", []))
     return "      " + _proposal_text("correction", r.proposal) + (f" ({changes})" if changes
                                                                 else "")
@@ -113,15 +114,26 @@ def format_history(history: History, vehicles: list[str]) -> str:
         lines += [_install_text(r) for r in installs]
         lines.append(f"watch: {len(segments)} steady segment(s), {len(alerts)} alert(s)")
         lines += [_event_text(r) for r in alerts]
-        lines.append(f"verify holds: {len(verifies) or 'none'}")
-        corrections = {c.verify_id: c for c in history.corrections(v)}
-        for r in verifies:
-            lines.append(_event_text(r))
-            if r.id in corrections:
-                lines.append(_correction_text(corrections[r.id]))
+        corrections = history.corrections(v)
+        lines += _with_corrections("verify holds", verifies,
+                                   {c.verify_id: c for c in corrections})
+        lines += _with_corrections("float checks", history.float_checks(v),
+                                   {c.float_id: c for c in corrections})
         lines += _calibration_lines(history, v)
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
+
+
+def _with_corrections(what: str, records: list[EventRecord],
+                      corrections: dict[int | None, CorrectionRecord]) -> list[str]:
+    """A heading with the count of ``records`` (verify holds, float checks), then each
+    with the correction that came from it."""
+    lines = [f"{what}: {len(records) or 'none'}"]
+    for r in records:
+        lines.append(_event_text(r))
+        if r.id in corrections:
+            lines.append(_correction_text(corrections[r.id]))
+    return lines
 
 
 def _event_dict(r: EventRecord) -> dict[str, Any]:
@@ -143,8 +155,10 @@ def history_to_dict(history: History, vehicles: list[str]) -> dict[str, Any]:
         "watch_segments": [_event_dict(r) for r in history.watch_segments(v)],
         "alerts": [_event_dict(r) for r in history.alerts(v)],
         "verifications": [{"id": r.id, **_event_dict(r)} for r in history.verifications(v)],
+        "float_checks": [{"id": r.id, **_event_dict(r)} for r in history.float_checks(v)],
         "corrections": [{"t_unix": r.t_unix, "time_utc": utc_text(r.t_unix),
-                         "verify_id": r.verify_id, "estimate": r.estimate,
-                         "proposal": r.proposal} for r in history.corrections(v)],
+                         "verify_id": r.verify_id, "float_id": r.float_id,
+                         "estimate": r.estimate, "proposal": r.proposal}
+                        for r in history.corrections(v)],
         "calibration": _calibration_dict(history, v),
     } for v in vehicles]}

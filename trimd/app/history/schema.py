@@ -12,7 +12,9 @@ Times are seconds since the Unix epoch (UTC) [s]; JSON columns hold the shapes o
 :func:`trimd.core.estimate_json.estimate_to_dict` and
 :func:`trimd.ballast.propose.proposal_to_dict`, or a caller's dict of values. A
 correction (:mod:`trimd.ballast.correct`) is stored as the measured vehicle's estimate and
-its proposal, with the id of the verify hold it came from. A level hold of a trim or a
+its proposal, with the id of the verify hold or of the float check (``float_checks``: its
+result as :func:`trimd.core.floating.float_to_dict` gives it, and the session log) it
+came from. A level hold of a trim or a
 verify hold is stored summarised for calibration (``level_holds``: the hold as
 :func:`trimd.core.calibration.calibration_hold` gives it, the vehicle's q and its
 covariance then, the ballast installed then and the trim's or verify hold's record id),
@@ -65,6 +67,21 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
      "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
      *(f"CREATE INDEX {t}_by_vehicle ON {t} (vehicle, t_unix)"
        for t in ("level_holds", "calibration_experiments"))),
+    # v5: float checks, and corrections from a float check as from a verify hold (the
+    # corrections table rebuilt: a correction comes from exactly one of the two)
+    ("CREATE TABLE float_checks (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, values_json TEXT NOT NULL)",
+     "CREATE INDEX float_checks_by_vehicle ON float_checks (vehicle, t_unix)",
+     "CREATE TABLE corrections_v5 (id INTEGER PRIMARY KEY, vehicle TEXT NOT NULL, "
+     "t_unix REAL NOT NULL, verify_id INTEGER REFERENCES verifications(id), "
+     "float_id INTEGER REFERENCES float_checks(id), estimate_json TEXT NOT NULL, "
+     "proposal_json TEXT NOT NULL, CHECK ((verify_id IS NULL) <> (float_id IS NULL)))",
+     "INSERT INTO corrections_v5 (id, vehicle, t_unix, verify_id, estimate_json, "
+     "proposal_json) SELECT id, vehicle, t_unix, verify_id, estimate_json, proposal_json "
+     "FROM corrections",
+     "DROP TABLE corrections",
+     "ALTER TABLE corrections_v5 RENAME TO corrections",
+     "CREATE INDEX corrections_by_vehicle ON corrections (vehicle, t_unix)"),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 #: How long a writer waits for another's lock before it gives up [s].

@@ -30,7 +30,7 @@ __all__ = ["CorrectionRecord", "EventRecord", "History", "InstallRecord", "TrimR
 
 Source = Literal["proposal", "edited", "profile"]
 _EVENT_TABLES = ("watch_segments", "alerts", "verifications", "level_holds",
-                 "calibration_experiments")
+                 "calibration_experiments", "float_checks")
 
 
 def vehicle_key(profile_name: str, vehicle_id: str | int | None = None,
@@ -68,16 +68,18 @@ class EventRecord:
 
 @dataclass(frozen=True)
 class CorrectionRecord:
-    """A verify hold's correction: the vehicle as the hold measured it (``estimate``, the
-    ``estimate_to_dict`` shape) and the proposal from the ballast installed then
-    (``proposal_to_dict``); ``verify_id`` is the verify hold's record."""
+    """A verify hold's or a float check's correction: the vehicle as it measured it
+    (``estimate``, the ``estimate_to_dict`` shape) and the proposal from the ballast
+    installed then (``proposal_to_dict``); ``verify_id`` is the verify hold's record,
+    ``float_id`` the float check's (the other None)."""
 
     id: int
     vehicle: str
     t_unix: float
-    verify_id: int
+    verify_id: int | None
     estimate: dict[str, Any]
     proposal: dict[str, Any]
+    float_id: int | None = None
 
 
 @dataclass(frozen=True)
@@ -176,13 +178,28 @@ class History:
         """Store one verify hold's outcome (measured against predicted residual trim) and,
         in the same transaction, its ``correction`` (the measured vehicle's estimate and
         the proposal, as JSON dicts) linked to it; the verify hold's record id."""
+        return self._with_correction("verifications", "verify_id", vehicle, t_unix, values,
+                                     correction)
+
+    def record_float(self, vehicle: str, t_unix: float, values: dict[str, Any],
+                     correction: tuple[dict[str, Any], dict[str, Any]] | None = None) -> int:
+        """Store one float check's result (``float_to_dict`` and its session log) and, in
+        the same transaction, its ``correction`` linked to it; the float check's id."""
+        return self._with_correction("float_checks", "float_id", vehicle, t_unix, values,
+                                     correction)
+
+    def _with_correction(self, table: str, link: str, vehicle: str, t_unix: float,
+                         values: dict[str, Any],
+                         correction: tuple[dict[str, Any], dict[str, Any]] | None) -> int:
+        """One record of ``table`` and the correction (estimate, proposal) that refers to
+        it by the column ``link``, in one transaction; the record's id."""
         with self._transaction() as c:
-            verify = self._insert_event(c, "verifications", vehicle, t_unix, values)
+            record = self._insert_event(c, table, vehicle, t_unix, values)
             if correction is not None:
-                c.execute("INSERT INTO corrections (vehicle, t_unix, verify_id, "
+                c.execute(f"INSERT INTO corrections (vehicle, t_unix, {link}, "
                           "estimate_json, proposal_json) VALUES (?, ?, ?, ?, ?)",
-                          (vehicle, t_unix, verify, *map(_json, correction)))
-        return verify
+                          (vehicle, t_unix, record, *map(_json, correction)))
+        return record
 
     def record_level_hold(self, vehicle: str, t_unix: float, values: dict[str, Any]) -> int:
         """Store a level hold summarised for calibration (``trimd.app.history.calibration``)."""
@@ -253,6 +270,10 @@ class History:
         """The vehicle's verify outcomes, oldest first."""
         return self._events("verifications", vehicle)
 
+    def float_checks(self, vehicle: str) -> list[EventRecord]:
+        """The vehicle's float checks, oldest first."""
+        return self._events("float_checks", vehicle)
+
     def level_holds(self, vehicle: str) -> list[EventRecord]:
         """The vehicle's level holds summarised for calibration, oldest first."""
         return self._events("level_holds", vehicle)
@@ -262,12 +283,12 @@ class History:
         return self._events("calibration_experiments", vehicle)
 
     def corrections(self, vehicle: str) -> list[CorrectionRecord]:
-        """The vehicle's verify holds' corrections, oldest first."""
+        """The vehicle's corrections (its verify holds' and float checks'), oldest first."""
         rows = self._conn.execute(
-            "SELECT id, vehicle, t_unix, verify_id, estimate_json, proposal_json FROM "
-            "corrections WHERE vehicle = ? ORDER BY t_unix, id", (vehicle,))
-        return [CorrectionRecord(r[0], r[1], r[2], r[3], json.loads(r[4]), json.loads(r[5]))
-                for r in rows]
+            "SELECT id, vehicle, t_unix, verify_id, estimate_json, proposal_json, float_id "
+            "FROM corrections WHERE vehicle = ? ORDER BY t_unix, id", (vehicle,))
+        return [CorrectionRecord(r[0], r[1], r[2], r[3], json.loads(r[4]), json.loads(r[5]),
+                                 r[6]) for r in rows]
 
     def installs(self, vehicle: str) -> list[InstallRecord]:
         """Every ballast configuration recorded for the vehicle, oldest first."""
