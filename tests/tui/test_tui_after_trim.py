@@ -11,6 +11,7 @@ import asyncio
 import json
 import sys
 from collections.abc import Awaitable, Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,7 @@ from trimd.app.session import SessionResult
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.events import Phase
+from trimd.core.floating import FloatResult, Verdict, float_to_dict
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.core.samples import HoldAttitude, Release
@@ -87,17 +89,19 @@ async def trim_app(profile: Profile, tmp_path: Path, *, confirmed: bool,
                    open_link: Callable[[], Awaitable[RecordingSimLink]] | None = None,
                    history: bool = True) -> TrimApp:
     """The TUI over a trim of the simulated vehicle (PAYLOAD, seed 1) as ``trimd run``
-    builds it: the history ``h.db`` (``history`` False: ``--no-history``) and the verify
-    hold's link from ``vehicle`` (or ``open_link``), recorded to ``verify.tlog``."""
+    builds it: the history ``h.db`` (``history`` False: ``--no-history``) and the checks'
+    link from ``vehicle`` (or ``open_link``), recorded to ``verify.tlog`` or
+    ``float.tlog``."""
     vehicle = vehicle or Vehicle(profile)
     link = await recording_sim_link(f"payload={PAYLOAD},seed=1", profile,
                                     hold_while=vehicle.awaiting_operator)
     app = app_for(profile, link, confirmed=confirmed, tmp_path=tmp_path)
     vehicle.app = app
 
-    def recorder(target: dict[str, Any]) -> TlogRecorder:
-        return TlogRecorder(tmp_path / "verify.tlog", profile,
-                            read_profile_text(profile.name)[0], verify_target=target)
+    def recorder(kind: str, block: dict[str, Any]) -> TlogRecorder:
+        blocks = {"float_check" if kind == "float" else "verify_target": block}
+        return TlogRecorder(tmp_path / f"{kind}.tlog", profile,
+                            read_profile_text(profile.name)[0], **blocks)
 
     app.followup.after = AfterTrim(tmp_path / "h.db" if history else None, "rov", profile,
                                    confirmed, open_link or vehicle.open, recorder)
@@ -139,7 +143,8 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
         await until(pilot, lambda: bool(vehicle.links) and _phase(app) is Phase.CONFIRM)
         verify_link = vehicle.links[0]
         assert verify_link.sent == []  # nothing commanded before the operator confirms
-        assert app.result is None and app.query_one(Stepper).holds == sabertooth.holds[:1]
+        steps = app.query_one(Stepper).steps
+        assert app.result is None and len(steps) == 1 and steps[0].startswith("hold 1/1")
         await pilot.press("s")
         await until(pilot, lambda: app.result is not None)
         result = app.result
@@ -183,6 +188,69 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
                                        method="milp")
     assert isinstance(replayed.verification, Verification)
     assert verification_to_dict(replayed.verification) == verification_to_dict(v)
+
+
+@pytest.mark.slow
+@pytest.mark.asyncio
+async def test_apply_then_float_on_the_simulated_vehicle(sabertooth: Profile,
+                                                        tmp_path: Path) -> None:
+    """After apply, ``f``: a float check on the link opened again (the thrusters at
+    neutral, nothing before the operator confirms), its attitude the TRUE vehicle's
+    passive trim with the ballast within its ± (3σ), shown in the verdict panel, stored
+    in the history, recorded so that a replay gives the same result; a float not found
+    level offers its correction (apply), one that is level offers the checks again. The
+    ballasted Sabertooth rises while it settles: the profile's depth envelope, 10 m
+    instead of 1 m (the simulator has no surface), lets it settle."""
+    sabertooth = replace(sabertooth, procedure=replace(sabertooth.procedure,
+                                                       max_depth_excursion_m=10.0))
+    vehicle = Vehicle(sabertooth)
+    app = await trim_app(sabertooth, tmp_path, confirmed=False, vehicle=vehicle)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+        await pilot.press("s")
+        await until(pilot, lambda: app.result is not None)
+        assert not app.check_action("float", ())
+        await pilot.press("p")
+        await pilot.pause()
+        applied = app.followup.applied
+        assert applied is not None and app.check_action("float", ())
+        await pilot.press("f")
+        await until(pilot, lambda: bool(vehicle.links) and _phase(app) is Phase.CONFIRM)
+        float_link = vehicle.links[0]
+        assert float_link.sent == [] and app.query_one(Stepper).steps == [
+            "float: thrusters at neutral"]
+        await pilot.press("s")
+        await until(pilot, lambda: len(app.results) == 2)
+        result = app.result
+        assert result is not None and result.phase is Phase.DONE, result
+        f = result.verification
+        assert isinstance(f, FloatResult)
+        fitted = f"{PAYLOAD}+{carried(applied.loads, sabertooth.gravity_m_s2)}"
+        truth = passive_attitude_deg(sabertooth, fitted)
+        floated, sigma = (np.array([f.roll_deg, f.pitch_deg]),
+                          np.array([f.roll_std_deg, f.pitch_std_deg]))
+        assert np.all(np.abs(floated - truth) <= 3 * sigma), (floated, truth, sigma)
+        assert Release in [type(c) for c in float_link.sent]
+        assert not any(isinstance(c, HoldAttitude) for c in float_link.sent)
+        assert app.query_one(VerdictPanel).verification is f and app.has_class("-verdict")
+        offered = str(app.query_one(NextSteps).render())
+        if f.verdict is Verdict.LEVEL:
+            assert app.followup.correction is None and "float again" in offered
+        else:
+            assert app.followup.correction is not None and app.check_action("apply", ())
+            assert "apply the correction" in offered
+        await pilot.press("q")
+        await pilot.pause()
+    with History(tmp_path / "h.db") as history:
+        (stored,) = history.float_checks("rov")
+        corrections = history.corrections("rov")
+    assert stored.values["verdict"] == f.verdict.value
+    assert [c.float_id for c in corrections] == (
+        [] if f.verdict is Verdict.LEVEL else [stored.id])
+    replayed, _ = await replay_session(str(tmp_path / "float.tlog"), sabertooth, speed=None,
+                                       presenters=[], method="milp")
+    assert isinstance(replayed.verification, FloatResult)
+    assert float_to_dict(replayed.verification) == float_to_dict(f)
 
 
 @pytest.mark.slow

@@ -85,7 +85,7 @@ def after_sabertooth(sabertooth: Profile, tmp_path: Path, monkeypatch: pytest.Mo
             return await recording_sim_link(f"payload=10@AftSB+{extra},seed=2", sabertooth)
 
         app.followup.after = AfterTrim(Path("h.db"), "rov", sabertooth, True, fitted,
-                                       lambda target: None)
+                                       lambda kind, block: None)
         return app
     return build
 

@@ -18,31 +18,39 @@ import contextlib
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Never
+from typing import Never, TypeVar
 
 from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
+from trimd.app.float_check import float_correction, float_settings
 from trimd.app.history import History
 from trimd.app.history.calibration import record_level_hold
 from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result
-from trimd.app.results import AnyPresenter, AnyResult
-from trimd.app.session import Recorder, Session
+from trimd.app.results import AnyPresenter, AnyResult, Finding
+from trimd.app.session import Machine, Recorder, Session
 from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.correct import Correction, needs_correction, propose_correction
 from trimd.ballast.propose import Proposal
 from trimd.ballast.verify import Verification
 from trimd.core.errors import ProfileError
 from trimd.core.estimate import StaticEstimate
+from trimd.core.float_check import FloatCheck
+from trimd.core.floating import FloatResult
 from trimd.core.link import Link
 from trimd.core.profile import Profile
+from trimd.core.types import JsonObject
 
 __all__ = ["AfterTrim"]
+
+#: A check's proposal and finding types (its session's: what the presenters take).
+PT = TypeVar("PT", bound=Proposal)
+VT = TypeVar("VT", bound=Finding)
 
 
 @dataclass(frozen=True)
 class AfterTrim:
-    """Where a vehicle's results go and how its verify hold starts.
+    """Where a vehicle's results go and how its verify hold or float check starts.
 
     Attributes
     ----------
@@ -52,7 +60,9 @@ class AfterTrim:
     confirmed : the operator confirmed up front (``--yes``): a verify hold does not wait
         for a confirmation either.
     open_link : opens the trim's link again (same URL).
-    recorder : the recorder of a verify hold of a target (None: not recorded).
+    recorder : the recorder of a check (None: not recorded), given which (``verify`` or
+        ``float``) and the block its recording carries (the verify target's document, the
+        float check's settings).
     """
 
     db: Path | None
@@ -60,7 +70,7 @@ class AfterTrim:
     profile: Profile
     confirmed: bool
     open_link: Callable[[], Awaitable[Link]]
-    recorder: Callable[[dict[str, Any]], Recorder | None]
+    recorder: Callable[[str, JsonObject], Recorder | None]
 
     def store(self, result: AnyResult, correction: Correction | None = None
               ) -> str | None:
@@ -106,9 +116,23 @@ class AfterTrim:
         for a target that does not fit the profile, LinkError when the link does not open,
         OSError when the recording cannot be created (the link is closed again)."""
         procedure = verify_procedure(self.profile, target, confirmed=self.confirmed)
+        return await self._session(procedure, "verify", target.to_dict(), presenters)
+
+    async def float_session(self, presenters: list[AnyPresenter]
+                            ) -> Session[Never, FloatResult]:
+        """A float check (:class:`trimd.core.float_check.FloatCheck`, the profile's depth
+        envelope) on the link opened again (not started). LinkError when the link does not
+        open, OSError when the recording cannot be created (the link is closed again)."""
+        check = FloatCheck(self.profile, confirmed=self.confirmed)
+        return await self._session(check, "float", float_settings(check), presenters)
+
+    async def _session(self, procedure: Machine[PT, VT], kind: str, block: JsonObject,
+                       presenters: list[AnyPresenter]) -> Session[PT, VT]:
+        """``procedure``'s session on the link opened again, recorded as ``kind`` with
+        ``block``."""
         link = await self.open_link()
         try:
-            recorder = self.recorder(target.to_dict())
+            recorder = self.recorder(kind, block)
         except OSError:
             with contextlib.suppress(Exception):
                 await link.close()
@@ -116,3 +140,9 @@ class AfterTrim:
         announce_run(link, presenters)
         return Session(link, self.profile, recorder=recorder, presenters=presenters,
                        confirmed=self.confirmed, procedure=procedure)
+
+    def correct_float(self, f: FloatResult, target: VerifyTarget) -> Correction | None:
+        """The correction after the float check ``f`` of ``target``
+        (:func:`trimd.app.float_check.float_correction`: from the ballast installed now);
+        None when it floats level."""
+        return float_correction(f, target, self.profile, self.db, self.vehicle)

@@ -14,7 +14,6 @@ import dataclasses
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 from trimd.app import connect
 from trimd.app.after_trim import AfterTrim
@@ -41,6 +40,7 @@ from trimd.core.events import Phase
 from trimd.core.link import Link, Truthful
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
+from trimd.core.types import JsonObject
 from trimd.logs.recorder import TlogRecorder
 
 __all__ = ["register", "run", "run_demo"]
@@ -154,18 +154,21 @@ async def _tui(args: argparse.Namespace, profile: Profile, *, truth: bool
 
 
 def _after_trim(args: argparse.Namespace, profile: Profile) -> AfterTrim:
-    """Where results go, and how a verify hold after the trim opens its link (the same
-    URL) and records (a new log: ``--record PATH`` gets ``-verify-HHMMSS`` in its name)."""
+    """Where results go, and how a verify hold or a float check after the trim opens its
+    link (the same URL) and records (a new log: ``--record PATH`` gets ``-verify-HHMMSS``
+    or ``-float-HHMMSS`` in its name)."""
     yaml_text = read_profile_text(args.profile)[0]
 
-    def recorder(target: dict[str, Any]) -> TlogRecorder | None:
+    def recorder(kind: str, block: JsonObject) -> TlogRecorder | None:
         if args.no_record:
             return None
         path = default_record_path(profile) if not args.record else Path(args.record)
         if args.record:
-            path = path.with_name(f"{path.stem}-verify-{time.strftime('%H%M%S')}"
+            path = path.with_name(f"{path.stem}-{kind}-{time.strftime('%H%M%S')}"
                                   f"{path.suffix}")
-        return TlogRecorder(path, profile, yaml_text, verify_target=target)
+        if kind == "float":
+            return TlogRecorder(path, profile, yaml_text, float_check=block)
+        return TlogRecorder(path, profile, yaml_text, verify_target=block)
 
     return AfterTrim(None if args.no_history else Path(db_path(args)),
                      vehicle_of(args, profile.name), profile, args.yes,

@@ -1,8 +1,9 @@
 """The trimd terminal UI: the session runs in a worker on the app's loop; the TUI is
 one of its presenters. :func:`make_app` builds it for ``trimd run`` / ``trimd demo`` /
 ``trimd replay`` (which run it until the operator quits or a signal stops it) and for the
-tests. After a trim that ends with a proposal, ``trimd run``'s TUI offers apply and verify
-(:mod:`trimd.tui.followup`): a verify hold is a second session on the same screen."""
+tests. After a trim that ends with a proposal, ``trimd run``'s TUI offers apply, then a
+verify hold or a float check (:mod:`trimd.tui.followup`): each check is a second session
+on the same screen."""
 
 from __future__ import annotations
 
@@ -64,8 +65,8 @@ class TrimApp(App[AnyResult]):
     """Runs ``session`` and shows it; ``result`` is set once the session has ended.
 
     ``replay``: the session's link when it replays a recording (pause and speed keys).
-    ``after``: where results go and how a verify hold starts (None: no apply or verify).
-    ``results``: every session's result, the trim's first (a verify hold's after it)."""
+    ``after``: where results go and how a check starts (None: no apply, verify or float).
+    ``results``: every session's result, the trim's first (the checks' after it)."""
 
     CSS_PATH = "trimd.tcss"
     TITLE = "trimd"
@@ -79,6 +80,7 @@ class TrimApp(App[AnyResult]):
         Binding("r", "report", "Save report"),
         Binding("p", "apply", "Apply ballast"),
         Binding("y", "verify", "Verify"),
+        Binding("f", "float", "Float", show=False),  # the next-steps panel offers it
         # a replay's only (hidden over a live link)
         Binding("space", "pace('pause')", "Pause"),
         Binding("plus,equals_sign", "pace('faster')", "Faster", key_display="+"),
@@ -101,8 +103,7 @@ class TrimApp(App[AnyResult]):
         self.state = LiveState(clock)
         self.result: AnyResult | None = None
         self.results: list[AnyResult] = []
-        self.followup = Followup(self, profile, self.state,
-                                 lambda s: self.run_session(s, verify=True), after)
+        self.followup = Followup(self, profile, self.state, self.run_session, after)
         self.confirmed = False
         self._quitting = False
         self._progress: Progress | None = None
@@ -131,12 +132,12 @@ class TrimApp(App[AnyResult]):
         self._show_pace()
         self.run_session(self.session)
 
-    def run_session(self, session: AnySession, *, verify: bool = False) -> None:
-        """Run ``session`` (the trim, or later a verify hold) and show it; the operator
-        confirms it afresh (unless it was confirmed up front)."""
-        if verify:
+    def run_session(self, session: AnySession, kind: str = "trim") -> None:
+        """Run ``session`` (the trim, or later a check: ``kind`` "verify" or "float") and
+        show it; the operator confirms it afresh (unless it was confirmed up front)."""
+        if kind != "trim":
             self.state.restart()
-            self.query_one(Stepper).restart(verify=True)
+            self.query_one(Stepper).restart(kind)
             link = self.query_one(LinkPanel)
             link.link_description, link.closed = session.link.description, False
         self.session, self.result, self.confirmed = session, None, False
@@ -238,7 +239,7 @@ class TrimApp(App[AnyResult]):
             return self.replay is not None and self.result is None
         if action == "apply":
             return self.followup.can_apply
-        if action == "verify":
+        if action in ("verify", "float"):
             return self.followup.can_verify
         return True
 
@@ -306,7 +307,13 @@ class TrimApp(App[AnyResult]):
 
     def action_verify(self) -> None:
         """Once the ballast is on: a verify hold on the same link (after confirmation)."""
-        self.run_worker(self.followup.verify(), name="verify-open", group="verify",
+        self.run_worker(self.followup.check("verify"), name="verify-open", group="verify",
+                        exclusive=True)
+
+    def action_float(self) -> None:
+        """Once the ballast is on: a float check on the same link (after confirmation):
+        trimd lets go of the vehicle and measures the attitude it floats at."""
+        self.run_worker(self.followup.check("float"), name="float-open", group="verify",
                         exclusive=True)
 
     def action_pace(self, change: str) -> None:

@@ -1,13 +1,16 @@
 """The TUI after a session: store its result in the trim history and, once a trim ends
-with a proposal, offer "apply" and "verify" (:class:`trimd.app.after_trim.AfterTrim`);
-once a verify hold finds the vehicle not level or not as predicted, offer its correction
-(:mod:`trimd.ballast.correct`) the same way: apply, then verify again.
+with a proposal, offer "apply", then "verify" or "float"
+(:class:`trimd.app.after_trim.AfterTrim`); once a verify hold finds the vehicle not level
+or not as predicted, or a float check finds it floating not level, offer its correction
+(:mod:`trimd.ballast.correct`) the same way: apply, then check again.
 
 Apply records the ``milp`` proposal (pieces of the inventory; the other methods' ideal
 amounts cannot be installed as such) as the installed ballast, and shows it.
-Verify opens the trim's link again and hands the app a verify-hold session, which runs
-on the main screen as the trim did: nothing is commanded before the operator confirms
-(``s``, unless ``--yes``), ``a`` aborts, quitting asks first; its verdict then shows.
+Verify (a level hold through the thrusters) and float (the thrusters at neutral: the
+attitude the vehicle floats at, no thrust map; docs/method.md §8) open the trim's link
+again and hand the app the check's session, which runs on the main screen as the trim
+did: nothing is commanded before the operator confirms (``s``, unless ``--yes``), ``a``
+aborts, quitting asks first; its verdict then shows.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from trimd.ballast.verify import Verification
 from trimd.core.errors import TrimdError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.floating import FloatResult
 from trimd.core.profile import Profile
 from trimd.tui.event_log import EventLog
 from trimd.tui.next_steps import NextSteps
@@ -34,45 +38,52 @@ from trimd.tui.result_panel import ResultPanel
 from trimd.tui.telemetry import LiveState
 from trimd.tui.verdict_panel import VerdictPanel
 
-__all__ = ["APPLIED_METHOD", "Followup"]
+__all__ = ["APPLIED_METHOD", "CHECKS", "Followup"]
 
 #: The proposal apply records: pieces of the inventory, what can be installed (the other
 #: methods give ideal continuous amounts), as ``trimd ballast apply`` records it.
 APPLIED_METHOD = "milp"
+#: The checks after apply: their key, what they are called, and what the log says as one
+#: starts.
+CHECKS = {"verify": ("y", "verify hold", "verify hold: a level hold of the ballasted vehicle"),
+          "float": ("f", "float check", "float check: the thrusters at neutral, the "
+                    "ballasted vehicle floats")}
 
 
 class Followup:
     """What the app does after each session; ``after`` None: nothing (a replay).
 
     ``app`` is the TUI (its panels, bindings and workers), ``state`` its live state (the
-    clock of the log's lines), ``start_verify`` runs a verify hold's session on the main
-    screen (:meth:`trimd.tui.app.TrimApp.run_session`)."""
+    clock of the log's lines), ``start`` runs a check's session on the main screen, given
+    its kind (:meth:`trimd.tui.app.TrimApp.run_session`)."""
 
     def __init__(self, app: App[AnyResult], profile: Profile, state: LiveState,
-                 start_verify: Callable[[AnySession], None], after: AfterTrim | None) -> None:
+                 start: Callable[[AnySession, str], None], after: AfterTrim | None) -> None:
         self.app = app
         self.profile = profile
         self.state = state
-        self.start_verify = start_verify
+        self.start = start
         self.after = after
         self.running = True  # a session runs (the app starts one at once)
         self.trim: AnyResult | None = None  # the trim whose proposal is offered
         self.applied: Applied | None = None
-        self.target: VerifyTarget | None = None  # what a verify hold checks
-        self.correction: Correction | None = None  # a verify hold's, offered to apply
+        self.target: VerifyTarget | None = None  # what a check checks
+        self.correction: Correction | None = None  # a check's, offered to apply
         self.opening = False
+        self.kind = "verify"  # the check being opened, or the last one
 
     def _log(self, kind: str, text: str) -> None:
         self.app.query_one(EventLog).add(self.state.t_s, kind, text)
 
     def ended(self, r: AnyResult) -> None:
-        """A session ended: a verify hold shows its verdict (a replayed one too); with
-        ``after``, it is stored, and a trim with a proposal offers apply."""
+        """A session ended: a verify hold or a float check shows its verdict (a replayed
+        one too); with ``after``, it is stored, and a trim with a proposal offers apply."""
         self.running = False
-        if isinstance(r.verification, Verification):
-            self.app.query_one(VerdictPanel).show(r.verification)
+        v = r.verification if isinstance(r.verification, Verification | FloatResult) else None
+        if v is not None:
+            self.app.query_one(VerdictPanel).show(v)
             self.app.add_class("-verdict", "-result")
-            self._log("result", r.verification.message)
+            self._log("result", v.message)
         if self.after is None:
             return
         correction = self._correct(r)
@@ -85,10 +96,9 @@ class Followup:
             if stored:
                 self._log("info", stored)
         steps = self.app.query_one(NextSteps)
-        if self.target is not None:  # the verify hold this offered ended
+        if self.target is not None:  # the check this offered ended
             self.correction = correction
-            steps.verified(r.verification if isinstance(r.verification, Verification)
-                           else None, r.reason, correction)
+            steps.checked(v, r.reason, correction)
         elif r.phase is Phase.DONE and r.proposal is not None:
             self.trim = r
             if self.after.db is None:
@@ -98,13 +108,18 @@ class Followup:
                 steps.offer(APPLIED_METHOD, self.after.vehicle)
 
     def _correct(self, r: AnyResult) -> Correction | None:
-        """The correction after a verify hold this offered (None: none needed, or none
-        can be proposed, which the log says)."""
-        if (self.after is None or self.target is None
-                or not isinstance(r.verification, Verification)):
+        """The correction after a verify hold or a float check this offered (None: none
+        needed, or none can be proposed, which the log says)."""
+        v = r.verification
+        if self.after is None or self.target is None:
             return None
         try:
-            correction = self.after.correct(r.verification, self.target)
+            if isinstance(v, Verification):
+                correction = self.after.correct(v, self.target)
+            elif isinstance(v, FloatResult):
+                correction = self.after.correct_float(v, self.target)
+            else:
+                return None
         except TrimdError as exc:
             self._log("error", f"no correction proposed: {exc}")
             return None
@@ -154,34 +169,42 @@ class Followup:
             self.trim.estimate, self.profile, method=APPLIED_METHOD)
 
     def cancel(self) -> None:
-        """The operator aborted while the link was being opened: no verify hold starts."""
+        """The operator aborted while the link was being opened: no check starts."""
         if self.opening:
             self.app.workers.cancel_group(self.app, "verify")
             self.opening = False
-            self._log("error", "verify cancelled by the operator before it started")
-            self.app.query_one(NextSteps).failed("verify cancelled", "y", "verify again")
+            kind = self.kind
+            self._log("error", f"{kind} cancelled by the operator before it started")
+            self.app.query_one(NextSteps).failed(f"{kind} cancelled", CHECKS[kind][0],
+                                                 f"{kind} again")
             self.app.refresh_bindings()
 
-    async def verify(self) -> None:
-        """Open the link again and start the verify hold on the main screen."""
+    async def check(self, kind: str) -> None:
+        """Open the link again and start the check ``kind`` (:data:`CHECKS`: a verify
+        hold or a float check) on the main screen."""
         if self.after is None or self.target is None:
             return
-        self.opening = True
+        key, what, log = CHECKS[kind]
+        self.opening, self.kind = True, kind
         self.app.refresh_bindings()
         steps = self.app.query_one(NextSteps)
-        steps.verifying("the link (opening…)")
+        steps.checking(what, "the link (opening…)")
         try:
-            session = await self.after.verify_session(self.target, [])
+            session: AnySession
+            if kind == "verify":
+                session = await self.after.verify_session(self.target, [])
+            else:
+                session = await self.after.float_session([])
         except (TrimdError, OSError) as exc:
-            self._log("error", f"verify: {exc}")
-            steps.failed(f"verify: {exc}", "y", "verify again")
+            self._log("error", f"{kind}: {exc}")
+            steps.failed(f"{kind}: {exc}", key, f"{kind} again")
             return
         finally:
             self.opening = False
             self.app.refresh_bindings()
-        steps.verifying(getattr(session.link, "description", "the link"))
+        steps.checking(what, getattr(session.link, "description", "the link"))
         self.app.query_one(VerdictPanel).remove_class("-off")
         self.app.remove_class("-verdict", "-result")
-        self._log("state", "verify hold: a level hold of the ballasted vehicle")
+        self._log("state", log)
         self.running = True
-        self.start_verify(session)
+        self.start(session, kind)

@@ -13,18 +13,25 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from trimd.app.report import format_estimate, format_proposal, format_verification
+from trimd.app.report import (
+    format_estimate,
+    format_float,
+    format_proposal,
+    format_verification,
+)
 from trimd.ballast.proposal import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
+from trimd.core.floating import FloatResult, Verdict, float_to_dict
 
 __all__ = ["Report", "save_report"]
 
 
 @dataclass(frozen=True)
 class Report:
-    """What goes into a report; ``events`` are (session time [s], kind, text)."""
+    """What goes into a report; ``events`` are (session time [s], kind, text);
+    ``verification`` the last check's outcome (a verify hold's or a float check's)."""
 
     profile: str
     link: str
@@ -34,7 +41,7 @@ class Report:
     proposal: Proposal | None
     truth: str | None
     events: Sequence[tuple[float, str, str]]
-    verification: Verification | None = None
+    verification: Verification | FloatResult | None = None
 
 
 def _free_stem(directory: Path, stem: str) -> Path:
@@ -48,12 +55,14 @@ def _free_stem(directory: Path, stem: str) -> Path:
 
 def _warnings(r: Report) -> list[str]:
     """What the reader must not miss: an infeasible proposal, a verify hold not as
-    predicted."""
+    predicted, a float check not level."""
     p, v = r.proposal, r.verification
     out = []
     if p is not None and not p.feasible:
         out.append(f"the {p.method} proposal is NOT FEASIBLE (best achievable): {p.message}")
-    if v is not None and not (v.as_predicted and v.level):
+    if isinstance(v, FloatResult) and v.verdict is not Verdict.LEVEL:
+        out.append(f"the float check: {v.message}")
+    elif isinstance(v, Verification) and not (v.as_predicted and v.level):
         out.append(f"the verify hold: {v.message}")
     return out
 
@@ -66,8 +75,10 @@ def _to_dict(r: Report) -> dict[str, Any]:
         "estimate": None if r.estimate is None else estimate_to_dict(r.estimate),
         "proposal": None if r.proposal is None else proposal_to_dict(r.proposal),
         "truth": r.truth,
-        "verification": (None if r.verification is None
-                         else verification_to_dict(r.verification)),
+        "verification": (verification_to_dict(r.verification)
+                         if isinstance(r.verification, Verification) else None),
+        "float": (float_to_dict(r.verification) if isinstance(r.verification, FloatResult)
+                  else None),
         "events": [{"t_s": None if math.isnan(t) else t, "kind": k, "text": text}
                    for t, k, text in r.events],
     }
@@ -85,9 +96,11 @@ def _to_markdown(r: Report) -> str:
     if r.proposal is not None:
         out += ["", f"## Ballast proposal ({r.proposal.method})", "", "```text",
                 format_proposal(r.proposal), "```"]
-    if r.verification is not None:
+    if isinstance(r.verification, Verification):
         out += ["", "## Verify hold", "", "```text", format_verification(r.verification),
                 "```"]
+    elif isinstance(r.verification, FloatResult):
+        out += ["", "## Float check", "", "```text", format_float(r.verification), "```"]
     if r.truth:
         out += ["", "## Simulator truth", "", r.truth]
     out += ["", "## Events", "", "| t [s] | kind | event |", "|---:|---|---|"]

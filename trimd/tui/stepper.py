@@ -1,17 +1,19 @@
 """Procedure panel: the steps with the current one highlighted, settle and collect
 progress bars, time left before the step times out, and the reason when it ends. A verify
-hold has one hold (the level one) and ends in the verdict instead of a proposal."""
+hold has one hold (the level one) and ends in the verdict instead of a proposal; a float
+check lets go of the vehicle and ends in the attitude it floats at."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from rich.text import Text
 from textual.reactive import reactive
 from textual.widget import Widget
 
 from trimd.core.events import Phase, Progress
-from trimd.core.profile import Profile
+from trimd.core.profile import HoldSetpoint, Profile
 
 __all__ = ["Stepper", "bar"]
 
@@ -38,6 +40,12 @@ def _step(progress: Progress) -> int:
     return len(_PRE) + progress.holds + 1
 
 
+def _hold_steps(holds: Sequence[HoldSetpoint]) -> list[str]:
+    """One step per hold: its number and attitude."""
+    return [f"hold {k + 1}/{len(holds)}  roll {h.roll_deg:g}° pitch {h.pitch_deg:g}°"
+            for k, h in enumerate(holds)]
+
+
 class Stepper(Widget):
     """Redrawn whenever ``progress`` changes."""
 
@@ -47,16 +55,21 @@ class Stepper(Widget):
         super().__init__(id=id)
         self.profile = profile
         self.border_title = "Procedure"
-        self.holds = profile.holds
+        self.steps = _hold_steps(profile.holds)
         self.last_step = "solve → proposal"
         self._active = 0
         self._shape: tuple[int, Phase | None] = (0, None)
 
-    def restart(self, *, verify: bool) -> None:
-        """A new session: a verify hold (one level hold, then the verdict) or a trim."""
-        self.holds = self.profile.holds[:1] if verify else self.profile.holds
-        self.last_step = "compare → verdict" if verify else "solve → proposal"
-        self.border_title = "Verify hold" if verify else "Procedure"
+    def restart(self, kind: str) -> None:
+        """A new session: ``kind`` "verify" (one level hold, then the verdict), "float"
+        (thrusters at neutral, then the attitude it floats at) or "trim"."""
+        self.steps = (["float: thrusters at neutral"] if kind == "float" else
+                      _hold_steps(self.profile.holds[:1] if kind == "verify"
+                                  else self.profile.holds))
+        self.last_step = {"verify": "compare → verdict",
+                          "float": "settled → floats at"}.get(kind, "solve → proposal")
+        self.border_title = {"verify": "Verify hold", "float": "Float check"}.get(
+            kind, "Procedure")
         self._active = 0
         self.progress = None
         self.refresh(layout=True)
@@ -89,13 +102,12 @@ class Stepper(Widget):
             mark, style = self._mark(i)
             text.append(f"{mark} {phase.value}  ", style=style)
         text.append("\n")
-        for k, hold in enumerate(self.holds):
+        for k, step in enumerate(self.steps):
             mark, style = self._mark(len(_PRE) + k)
-            text.append(f"{mark} hold {k + 1}/{len(self.holds)}  roll {hold.roll_deg:g}°"
-                        f" pitch {hold.pitch_deg:g}°\n", style=style)
+            text.append(f"{mark} {step}\n", style=style)
             if p is not None and self._active == len(_PRE) + k and not p.phase.final:
                 text.append_text(self._bars(p, width))
-        mark, style = self._mark(len(_PRE) + len(self.holds))
+        mark, style = self._mark(len(_PRE) + len(self.steps))
         text.append(f"{mark} {self.last_step}\n", style=style)
         if p is not None:
             status = "bold red" if p.phase in (Phase.FAILED, Phase.ABORTED) else (

@@ -1,6 +1,8 @@
 """Verdict panel: a verify hold's outcome — the residual passive trim measured against the
 proposal's prediction, and per quantity measured − predicted with its ± (1σ), the ones
-that differ significantly in red and named (:class:`trimd.ballast.verify.Verification`)."""
+that differ significantly in red and named (:class:`trimd.ballast.verify.Verification`) —
+or a float check's: the attitude the vehicle floats at, ± (1σ), and its verdict
+(:class:`trimd.core.floating.FloatResult`)."""
 
 from __future__ import annotations
 
@@ -10,8 +12,9 @@ from rich.text import Text
 from textual.widget import Widget
 
 from trimd.ballast.verify import Z_VERDICT, Verification
+from trimd.core.floating import FloatResult, Verdict
 
-__all__ = ["VerdictPanel", "verdict_lines"]
+__all__ = ["VerdictPanel", "float_lines", "verdict_lines"]
 
 #: Short names of the compared quantities (order of trimd.ballast.verify.VERIFIED) and
 #: their units.
@@ -48,22 +51,38 @@ def verdict_lines(v: Verification, width: int = 80) -> list[Text]:
     return lines
 
 
+def float_lines(f: FloatResult, width: int = 80) -> list[Text]:
+    """The panel's lines for the float check ``f``, its message wrapped at ``width``."""
+    level = f.verdict is Verdict.LEVEL
+    head = Text("floats level" if level else (
+        f"floats NOT level within {f.level_tol_deg:g}°" if f.verdict is Verdict.NOT_LEVEL
+        else "float undecided"), style="bold green" if level else "bold red")
+    lines = [head, Text("passive trim, thrusters at neutral (no thrust map)", style="dim")]
+    lines += [Text(f"{axis:<6}{a:+6.2f} ± {s:4.2f}°") for axis, a, s in (
+        ("roll", f.roll_deg, f.roll_std_deg), ("pitch", f.pitch_deg, f.pitch_std_deg))]
+    lines += [Text(line, style="dim") for line in textwrap.wrap(f.message, max(width, 20))]
+    return lines
+
+
 class VerdictPanel(Widget):
-    """Shows the verification of the last verify hold (nothing before one)."""
+    """Shows the outcome of the last verify hold or float check (nothing before one)."""
 
     def __init__(self, *, id: str | None = None) -> None:
         super().__init__(id=id)
-        self.verification: Verification | None = None
+        self.verification: Verification | FloatResult | None = None
         self.border_title = "Verdict"
         self.border_subtitle = "residual trim ± 1σ"
 
-    def show(self, v: Verification) -> None:
+    def show(self, v: Verification | FloatResult) -> None:
         self.verification = v
-        self.set_class(not v.as_predicted or not v.level, "-off")
+        off = (v.verdict is not Verdict.LEVEL if isinstance(v, FloatResult)
+               else not v.as_predicted or not v.level)
+        self.set_class(off, "-off")
         self.refresh(layout=True)
 
     def render(self) -> Text:
-        if self.verification is None:
-            return Text("no verify hold yet", style="dim")
+        v, width = self.verification, self.content_size.width
+        if v is None:
+            return Text("no verify hold or float check yet", style="dim")
         return Text("\n", no_wrap=True, overflow="ellipsis").join(
-            verdict_lines(self.verification, self.content_size.width))
+            float_lines(v, width) if isinstance(v, FloatResult) else verdict_lines(v, width))
