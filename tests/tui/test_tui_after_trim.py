@@ -53,6 +53,14 @@ def _phase(app: TrimApp) -> Phase | None:
     return None if progress is None else progress.phase
 
 
+async def _confirm_the_trim(pilot: Pilot[Any], app: TrimApp) -> SessionResult | None:
+    """The operator confirms when the trim asks; the trim's result once it ended."""
+    await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
+    await pilot.press("s")
+    await until(pilot, lambda: app.result is not None)
+    return app.result
+
+
 class Vehicle:
     """The simulated vehicle's links: the trim's, then the verify holds', which carry
     what the operator recorded as installed each time (the pilot fitted it) unless
@@ -115,10 +123,7 @@ async def test_apply_then_verify_on_the_simulated_vehicle(sabertooth: Profile,
     vehicle = Vehicle(sabertooth)
     app = await trim_app(sabertooth, tmp_path, confirmed=False, vehicle=vehicle)
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
-        await pilot.press("s")
-        await until(pilot, lambda: app.result is not None)
-        trim = app.result
+        trim = await _confirm_the_trim(pilot, app)
         assert trim is not None and trim.phase is Phase.DONE, trim
         proposal = trim.proposal
         assert isinstance(proposal, Proposal) and proposal.feasible
@@ -206,9 +211,7 @@ async def test_apply_then_float_on_the_simulated_vehicle(sabertooth: Profile,
     vehicle = Vehicle(sabertooth)
     app = await trim_app(sabertooth, tmp_path, confirmed=False, vehicle=vehicle)
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: _phase(app) is Phase.CONFIRM)
-        await pilot.press("s")
-        await until(pilot, lambda: app.result is not None)
+        await _confirm_the_trim(pilot, app)
         assert not app.check_action("float", ())
         await pilot.press("p")
         await pilot.pause()
