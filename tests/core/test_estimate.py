@@ -91,8 +91,8 @@ def test_intervals_cover_the_net_quantities_when_the_wander_is_slower_than_the_h
     """Wander of 0.2° with a 20 s correlation over 3 min holds: each hold is worth 1–10
     independent samples, and the Student-t widening of those below seven
     (:func:`trimd.core.longrun.small_sample_factor`) keeps the 95 % intervals covering
-    90–99 % over 200 seeds (88.5–96 % without it, 93–98.5 % with it). error/σ is then heavy-tailed, so its
-    RMS is checked from above only."""
+    90–99 % over 200 seeds (88.5–96 % without it, 93–98.5 % with it). error/σ is then
+    heavy-tailed, so its RMS is checked from above only."""
     sabertooth = dataclasses.replace(sabertooth, attitude_error_deg=0.0)
     W, r_g = payload_truth(sabertooth, 10.0, np.array(sabertooth.slot("AftSB").position_m))
     truth = np.r_[W - sabertooth.buoyancy_N, W * r_g - sabertooth.buoyancy_N * np.asarray(
