@@ -26,7 +26,7 @@ from trimd.app.float_check import float_correction, float_settings
 from trimd.app.history import History
 from trimd.app.history.calibration import record_level_hold
 from trimd.app.history.installed import current_installed
-from trimd.app.history.trims import record_result
+from trimd.app.history.trims import record_result, stored_text
 from trimd.app.results import AnyPresenter, AnyResult, Finding
 from trimd.app.session import Machine, Recorder, Session
 from trimd.app.verify import VerifyTarget, verify_procedure
@@ -74,8 +74,8 @@ class AfterTrim:
 
     def store(self, result: AnyResult, correction: Correction | None = None
               ) -> str | None:
-        """Store a session's estimate and proposal, or its verification (with its
-        ``correction``), in the history, with its level hold and, after a recorded ballast
+        """Store a session's estimate and proposal, or its verification or float check
+        (with its ``correction``), in the history, with its level hold and, after a recorded ballast
         change, the calibration experiment it makes (:mod:`trimd.app.history.calibration`);
         a line for people (with the experiment's outcome), None when nothing was stored
         (no history, or a session that produced neither). DataError when the file cannot
@@ -88,7 +88,7 @@ class AfterTrim:
                                    correction=correction)
             outcome = None if record is None else record_level_hold(
                 history, self.vehicle, self.profile, result, record, installed)
-        stored = f"trim history: stored for vehicle {self.vehicle} in {history.path}"
+        stored = stored_text(self.vehicle, history.path)
         return stored if outcome is None else f"{stored}; {outcome.message}"
 
     def correct(self, v: Verification, target: VerifyTarget) -> Correction | None:

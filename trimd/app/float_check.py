@@ -20,7 +20,7 @@ from typing import Any, Never
 from trimd.app.headless import StdinConfirm, stop_on_signals
 from trimd.app.history import History
 from trimd.app.history.installed import current_installed
-from trimd.app.history.trims import record_result
+from trimd.app.history.trims import record_result, stored_text
 from trimd.app.results import AnyPresenter
 from trimd.app.session import Session, SessionResult
 from trimd.app.verify import VerifyTarget
@@ -126,5 +126,4 @@ def store_float_check(db: str | Path, vehicle: str, profile: Profile,
     result. DataError when the file cannot take it."""
     with History(db) as history:
         stored = record_result(history, vehicle, profile.name, result, correction=correction)
-    return None if stored is None else (f"trim history: stored for vehicle {vehicle} in "
-                                        f"{history.path}")
+    return None if stored is None else stored_text(vehicle, history.path)

@@ -13,7 +13,13 @@ from trimd.ballast.verify import Verification, verification_to_dict
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.floating import FloatResult, float_to_dict
 
-__all__ = ["record_result"]
+__all__ = ["record_result", "stored_text"]
+
+
+def stored_text(vehicle: str, path: object) -> str:
+    """The line for people that a session's result was stored under ``vehicle`` in the
+    history at ``path``."""
+    return f"trim history: stored for vehicle {vehicle} in {path}"
 
 
 def record_result(history: History, vehicle: str, profile: str, result: AnyResult,
