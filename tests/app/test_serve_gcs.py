@@ -17,7 +17,7 @@ import pytest
 
 from bench.bench_alert_latency import report
 from tests.app.serve_process import Serve, serve_beside_mavproxy
-from tests.drivers.test_mavlink_gcs import AtMavproxy, station_text
+from tests.drivers.test_mavlink_gcs import LEAK_N, AtMavproxy, station_text
 from tests.drivers.test_mavlink_link import TRIMD
 from tests.drivers.test_mavlink_mavproxy import needs_mavproxy
 from tests.helpers import REPO
@@ -38,7 +38,8 @@ def test_mavproxy_prints_the_alert_the_api_gives(
     run, serve, _ = served
     print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
     alert = run.alert                       # the first of /api/alerts
-    assert alert["quantity"] == "net_force_N" and alert["total"] > 0
+    assert alert["quantity"] == "net_force_N"
+    assert abs(alert["total"] - LEAK_N) < 3 * alert["total_std"], alert
     assert f"AP: {station_text(alert)}" in run.printed.splitlines(), station_text(alert)
     assert "AP: TRIMD watch on: baseline after 2 hovers" in run.printed
     assert f"dive {alert['dive']} started" in serve.output()

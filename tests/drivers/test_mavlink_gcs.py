@@ -53,9 +53,14 @@ from trimd.drivers.sim.mavlink_server import open_mavlink2
 from trimd.logs.tlog import TlogReader
 
 HANG_GUARD_S = 400.0       # the whole run; not a timed assertion
-#: water from 350 s of simulated time (35 s of wall time, after the baseline's two 11 s
-#: segments), 2 N per simulated minute: the first segment after it is ≈ 3 N heavier
-LEAK = "leak_N_min=2,leak_start_s=350"
+#: a flooding housing: 8 N of water within 8 s from 480 s of simulated time (48 s of wall
+#: time; the watch's baseline is formed by ≈ 38 s: the depth settles from arming, 5 s of
+#: quiet, the settling test, two 11 s segments); the first whole segment after it alerts.
+#: (A leak of 2 N/min alerted only at the fifth segment after it, each segment's ± widened
+#: by the water coming in during it: twice the dive; one of 4 N needed two segments.)
+LEAK = "leak_N_min=60,leak_start_s=480,leak_max_N=8"
+#: the water that came in [N]
+LEAK_N = 8.0
 #: the watch's options: 11 s segments (just above the shortest allowed; 110 s of simulated
 #: time), a baseline of two
 FAST_WATCH = ("--max-segment", "11", "--baseline-segments", "2")
@@ -214,7 +219,9 @@ def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
     print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
     print("\n".join(x for x in printed.splitlines() if "TRIMD" in x))
     alert = next(r for r in watch if r["type"] == "alert")
-    assert alert["component"] == 0 and alert["total"] > 0
+    assert alert["component"] == 0
+    # the water, against a baseline formed before it came in
+    assert abs(alert["total"] - LEAK_N) < 3 * alert["total_std"], alert
     assert f"AP: {station_text(alert)}" in printed.splitlines()
     assert "AP: TRIMD watch on: baseline after 2 hovers" in printed
     # each printed W − B is one of the watch's segments' (float32 on the wire)

@@ -27,6 +27,17 @@ def test_a_leak_adds_weight_at_its_rate_from_its_start() -> None:
     assert np.allclose(dq[1:], dq[0] * np.asarray(p.slot("W-aft-ctr").position_m), atol=1e-9)
 
 
+def test_a_flooding_housing_fills_up_and_stops() -> None:
+    """``leak_max_N``: the water stops coming in once that much is in."""
+    v = SimVehicle(load_profile("bluerov2-heavy"),
+                   parse_sim_options("leak_N_min=60,leak_start_s=5,leak_max_N=8"))
+    q0 = v.truth.mass.net[0]
+    v.run_for(10.0)
+    assert 4.0 <= v.truth.mass.net[0] - q0 < 8.0      # 1 N/s for the seconds since 5 s
+    v.run_for(10.0)
+    assert v.truth.mass.net[0] - q0 == pytest.approx(8.0, abs=1e-9)
+
+
 def test_a_dropped_piece_takes_its_in_water_weight_at_its_time() -> None:
     p = load_profile("bluerov2-heavy")
     v = SimVehicle(p, parse_sim_options("drop=lead-200g@W-front-stbd@5"))
@@ -84,6 +95,7 @@ def test_the_transits_pilot_cruises_turns_and_stops_at_one_attitude() -> None:
     ("drop=lead-200g@W-aft-ctr", "PIECE@SLOT@T_S"),
     ("pilot=cruise", "known scripts"),
     ("leak_N_min=-1", "adds weight"),
+    ("leak_N_min=1,leak_max_N=-2", "adds weight"),
 ])
 def test_bad_scenario_options_are_link_errors(options: str, words: str) -> None:
     with pytest.raises(LinkError, match=words):

@@ -127,7 +127,7 @@ class SimConfig:
 
     leak_N_min, leak_start_s, leak_at : water comes in at ``leak_N_min`` [N of weight per
         minute] from ``leak_start_s`` [s] on, at ``leak_at`` (a slot or ``x,y,z`` [m];
-        "" the origin CG0).
+        "" the origin CG0), until ``leak_max_N`` [N] is in (0: no end).
     drop : ballast pieces lost, ``PIECE@SLOT@T_S`` joined by ``+`` (PIECE an inventory
         name or a mass in kg).
     pilot : a scripted pilot on the sticks (``dive``, ``transits``; "" none).
@@ -187,6 +187,7 @@ class SimConfig:
     leak_N_min: float = 0.0
     leak_start_s: float = 300.0
     leak_at: str = ""
+    leak_max_N: float = 0.0
     drop: str = ""
     pilot: str = ""
 

@@ -6,7 +6,8 @@ dive for the passive watch (``trimd watch``), with nobody commanding through the
 * ``leak_N_min=0.5,leak_start_s=300`` — water comes in at 0.5 N of weight per minute
   from 300 s of simulated time on, at ``leak_at`` (a slot name or ``x,y,z`` in metres,
   body FRD; default the origin CG0). The housing's volume does not change, so the weight
-  adds to W alone.
+  adds to W alone. ``leak_max_N=4`` stops it once 4 N are in (a flooded housing is
+  full): at ``leak_N_min=60`` that is a step of 4 N within 4 s.
 * ``drop=PIECE@SLOT@T_S`` — at ``T_S`` [s] a ballast piece of the profile's inventory
   (``lead-200g``; or a mass in kg, ``0.2``) falls off ``SLOT``: its in-water weight (a
   float's lift) is taken from the vehicle there. Several drops join with ``+``:
@@ -158,11 +159,13 @@ class Scenario:
     """The leak, drops and pilot of one :class:`~trimd.drivers.sim.config.SimConfig`."""
 
     def __init__(self, profile: Profile, leak_N_min: float, leak_start_s: float,
-                 leak_at: str, drop: str, pilot: str) -> None:
-        if leak_N_min < 0:
-            raise ProfileError(f"leak_N_min={leak_N_min:g}: a leak adds weight (≥ 0)")
+                 leak_at: str, drop: str, pilot: str, leak_max_N: float = 0.0) -> None:
+        if leak_N_min < 0 or leak_max_N < 0:
+            raise ProfileError(f"leak_N_min={leak_N_min:g}, leak_max_N={leak_max_N:g}: a "
+                               "leak adds weight (≥ 0)")
         self.leak_N_s = leak_N_min / 60
         self.leak_start_s = leak_start_s
+        self.leak_max_N = leak_max_N or math.inf
         where = parse_payload(f"1@{leak_at}", profile)[0].position_m if leak_at else (
             0.0, 0.0, 0.0)
         self.leak_at = where
@@ -178,7 +181,7 @@ class Scenario:
 
     def leaked_N(self, t_s: float) -> float:
         """Weight of the water in at ``t_s`` [N]."""
-        return self.leak_N_s * max(0.0, t_s - self.leak_start_s)
+        return min(self.leak_max_N, self.leak_N_s * max(0.0, t_s - self.leak_start_s))
 
     def payload(self, t_s: float) -> tuple[PayloadItem, ...]:
         """What the scenario adds to the hidden payload at ``t_s``: the water (a weight),

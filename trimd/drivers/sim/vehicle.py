@@ -101,7 +101,7 @@ class SimVehicle:
         self.true_profile, self.offset = perturb_profile(profile, c)
         self.payload = self._own_payload = parse_payload(c.payload, profile)
         self.scenario = Scenario(profile, c.leak_N_min, c.leak_start_s, c.leak_at, c.drop,
-                                 c.pilot)
+                                 c.pilot, c.leak_max_N)
         self._steps_per_s = max(1, round(1.0 / c.dt_s))
         self.mass = mass_properties(self.true_profile, self.payload)
         self.body = RigidBody(self.true_profile, self.mass, damping=c.damping)
