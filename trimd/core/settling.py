@@ -124,12 +124,14 @@ class StreamSteadiness:
         if self._ratio.count <= MIN_RATIO_SAMPLES or t_s - t_short[0] < 0.9 * WINDOW_S:
             self.steady = False
             return False
-        ok = R < R_CRIT
-        if not np.all(ok):          # a channel the ratio test passes needs no drift test
-            ok |= last_window_drift(t_short, x[short], WINDOW_S) <= self.floor
-        if t_s - t[0] >= 0.9 * LONG_WINDOW_S and not np.all(ok):
+        if all(r < R_CRIT for r in R):  # a channel the ratio test passes needs no drift test
+            self.steady = True
+            return True
+        ok = np.array(R) < R_CRIT
+        ok |= last_window_drift(t_short, x[short], WINDOW_S) <= self.floor
+        if t_s - t[0] >= 0.9 * LONG_WINDOW_S and not ok.all():
             ok |= last_window_drift(t, x, LONG_WINDOW_S) <= self.floor
-        self.steady = bool(np.all(ok))
+        self.steady = bool(ok.all())
         return self.steady
 
     def only_wanders(self) -> bool:
@@ -195,8 +197,9 @@ class HoldSettling:
         self.rate_tol = math.radians(limits.rate_tol_deg_s)
         self._settled = GraceTimer()            # the whole hold
         self._attitude_steady = GraceTimer()    # the attitude alone (the effort waiver)
-        #: the last RATE_WINDOW_S of (t [s], p, q [rad/s], φ, θ [rad])
-        self._recent: deque[tuple[float, float, float, float, float]] = deque()
+        #: the last RATE_WINDOW_S of t [s], p, q [rad/s], φ, θ [rad] (one deque each: summed
+        #: on every sample)
+        self._recent: tuple[deque[float], ...] = tuple(deque() for _ in range(5))
         self._attitude = StreamSteadiness(np.full(2, ATTITUDE_DRIFT_SHARE * self.tol))
         self._effort = StreamSteadiness(floor)
 
@@ -222,18 +225,21 @@ class HoldSettling:
     def at_setpoint(self) -> bool:
         """Is the mean roll and pitch over the last :data:`RATE_WINDOW_S` within the
         tolerance of the set-point?"""
-        recent, n = self._recent, len(self._recent)
-        return (n > 0 and abs(sum(r[3] for r in recent) / n - self.phi) <= self.tol
-                and abs(sum(r[4] for r in recent) / n - self.theta) <= self.tol)
+        _, _, _, phi, theta = self._recent
+        n = len(phi)
+        return (n > 0 and abs(sum(phi) / n - self.phi) <= self.tol
+                and abs(sum(theta) / n - self.theta) <= self.tol)
 
     def _steady(self, a: Attitude) -> bool:
         """Is everything steady at ``a`` (before the grace of :class:`GraceTimer`)?"""
         recent = self._recent
-        recent.append((a.t_s, a.p, a.q, a.phi, a.theta))
-        while recent[0][0] < a.t_s - RATE_WINDOW_S:
-            recent.popleft()
-        mean_rate = max(abs(sum(r[1] for r in recent)),
-                        abs(sum(r[2] for r in recent))) / len(recent)
+        for d, v in zip(recent, (a.t_s, a.p, a.q, a.phi, a.theta), strict=True):
+            d.append(v)
+        t, p, q = recent[:3]
+        while t[0] < a.t_s - RATE_WINDOW_S:
+            for d in recent:
+                d.popleft()
+        mean_rate = max(abs(sum(p)), abs(sum(q))) / len(t)
         still = self._attitude.update(a.t_s, (a.phi, a.theta)) or self._attitude.only_wanders()
         attitude_steady = still and self.at_setpoint() and mean_rate <= self.rate_tol
         self._attitude_steady.update(a.t_s, attitude_steady)

@@ -59,28 +59,31 @@ class RatioTest:
 
     def __init__(self, lambda1: float = 0.2, lambda2: float = 0.1, lambda3: float = 0.1):
         self.l1, self.l2, self.l3 = lambda1, lambda2, lambda3
-        self._x: FloatArray | None = None
-        self._xf: FloatArray | None = None
-        self._nu2: FloatArray | None = None
-        self._delta2: FloatArray | None = None
+        # the filters' state per channel, in Python floats: a sample's few channels cost
+        # less so than as arrays (the settling test's hot path), with the same arithmetic
+        self._x: list[float] = []
+        self._xf: list[float] = []
+        self._nu2: list[float] = []
+        self._delta2: list[float] = []
         self.count = 0
 
-    def update(self, x: ArrayLike) -> FloatArray:
+    def update(self, x: ArrayLike) -> list[float]:
         """Add one sample (a value per channel); return R per channel."""
-        v = np.atleast_1d(np.asarray(x, float))
-        if self._x is None or self._xf is None or self._nu2 is None or self._delta2 is None:
-            self._x, self._xf = v.copy(), v.copy()
-            self._nu2, self._delta2 = np.zeros_like(v), np.zeros_like(v)
+        v: list[float] = np.atleast_1d(np.asarray(x, float)).tolist()
+        if not self.count:
+            self._x, self._xf = v, list(v)
+            self._nu2, self._delta2 = [0.0] * len(v), [0.0] * len(v)
         else:
-            self._nu2 = self.l2 * (v - self._xf) ** 2 + (1 - self.l2) * self._nu2
-            self._delta2 = self.l3 * (v - self._x) ** 2 + (1 - self.l3) * self._delta2
-            self._xf = self.l1 * v + (1 - self.l1) * self._xf
-            self._x = v.copy()
+            l1, l2, l3 = self.l1, self.l2, self.l3
+            self._nu2 = [l2 * ((a - f) * (a - f)) + (1 - l2) * n
+                         for a, f, n in zip(v, self._xf, self._nu2, strict=True)]
+            self._delta2 = [l3 * ((a - b) * (a - b)) + (1 - l3) * d
+                            for a, b, d in zip(v, self._x, self._delta2, strict=True)]
+            self._xf = [l1 * a + (1 - l1) * f for a, f in zip(v, self._xf, strict=True)]
+            self._x = v
         self.count += 1
-        both_zero = (self._nu2 < _TINY) & (self._delta2 < _TINY)
-        R: FloatArray = np.where(both_zero, 1.0, (2 - self.l1) * self._nu2
-                                 / np.maximum(self._delta2, _TINY))
-        return R
+        return [1.0 if n < _TINY and d < _TINY else (2 - self.l1) * n / max(d, _TINY)
+                for n, d in zip(self._nu2, self._delta2, strict=True)]
 
 
 def window_drift(t: ArrayLike, x: ArrayLike, window_s: float, t_crit: float = 3.0
