@@ -2,15 +2,15 @@
 1 s of the alert").
 
 The set-up of ``tests/app/test_serve_gcs.py``: ``trimd sim`` serving the BlueROV2 Heavy with
-water coming in (2 N per simulated minute, at 10×) behind its router to ``trimd serve
-…?ids=vehicle`` and to MAVProxy 1.8.75, ``TRIMD_ALERT_RUNS`` times (default 3). Measured
-per run, on the wall clock of this machine [s]: from the alert's time as trimd logs it
-(``t_unix`` of the alert in ``/api/alerts``: ``trimd serve`` stores it in its history just
-before it hands the STATUSTEXT to its link) to the moment this process read MAVProxy's
-printed ``AP: TRIMD heavier …`` line from MAVProxy's stdout (unbuffered, read line by line
-as it comes). That spans trimd's outbox, UDP to the simulator's router, the router's
-forwarding, MAVProxy's decoding and printing, and the pipe. Also: when the alert came after
-the start of the run [s]. Prints that MAVProxy is missing instead where it is.
+a housing flooding (8 N within 8 s after the watch's baseline, at 10×) behind its router to
+``trimd serve …?ids=vehicle`` and to MAVProxy 1.8.75, ``TRIMD_ALERT_RUNS`` times (default
+3). Measured per run, on the wall clock of this machine [s]: from the alert's time as trimd
+logs it (``t_unix`` of the alert in ``/api/alerts``: ``trimd serve`` stores it in its
+history just before it hands the STATUSTEXT to its link) to the moment this process read
+MAVProxy's printed ``AP: TRIMD heavier …`` line from MAVProxy's stdout (unbuffered, read
+line by line as it comes). That spans trimd's outbox, UDP to the simulator's router, the
+router's forwarding, MAVProxy's decoding and printing, and the pipe. Also: when the alert
+came after the start of the run [s]. Prints that MAVProxy is missing instead where it is.
 """
 
 from __future__ import annotations

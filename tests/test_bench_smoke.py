@@ -22,7 +22,8 @@ MODULES = sorted(m.name for m in pkgutil.iter_modules([str(REPO / "bench")])
 #: module → the test that runs its measurement on a run the test makes anyway: one served
 #: dive beside MAVProxy (two minutes of wall time) instead of two
 RUN_ELSEWHERE = {"bench_alert_latency": ("tests/app/test_serve_gcs.py",
-                                         "test_the_alert_latency_bench_measures_this_dive")}
+                                         "test_mavproxy_prints_the_alert_the_api_and_history_give"
+                                         )}
 
 
 def test_every_benchmark_module_is_found() -> None:

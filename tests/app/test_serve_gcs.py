@@ -16,26 +16,24 @@ from pathlib import Path
 import pytest
 
 from bench.bench_alert_latency import report
-from tests.app.serve_process import Serve, serve_beside_mavproxy
-from tests.drivers.test_mavlink_gcs import LEAK_N, AtMavproxy, station_text
+from tests.app.serve_process import serve_beside_mavproxy
+from tests.drivers.test_mavlink_gcs import LEAK_N, station_text
 from tests.drivers.test_mavlink_link import TRIMD
 from tests.drivers.test_mavlink_mavproxy import needs_mavproxy
 from tests.helpers import REPO
 
 
-@pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> tuple[AtMavproxy, Serve, Path]:
-    """One leaky dive under ``trimd serve`` beside MAVProxy, shared by the tests below:
-    the run, the stopped service and its data folder."""
-    tmp = tmp_path_factory.mktemp("serve-gcs")
-    return (*serve_beside_mavproxy(tmp), tmp / "data")
-
-
 @pytest.mark.slow
 @needs_mavproxy
-def test_mavproxy_prints_the_alert_the_api_gives(
-        served: tuple[AtMavproxy, Serve, Path]) -> None:
-    run, serve, _ = served
+def test_mavproxy_prints_the_alert_the_api_and_history_give(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """One leaky dive under ``trimd serve`` beside MAVProxy (one test, so that the dive
+    runs once: a module fixture runs once per xdist worker that takes one of its tests):
+    MAVProxy prints the alert of /api/alerts and the watch's start; the service logged
+    both; ``trimd history`` shows the alert; and ``bench/bench_alert_latency.py`` at its
+    tiny size measures this dive (the bench's own runs are :func:`serve_beside_mavproxy`
+    too; its figures mean nothing here)."""
+    run, serve = serve_beside_mavproxy(tmp_path)
     print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
     alert = run.alert                       # the first of /api/alerts
     assert alert["quantity"] == "net_force_N"
@@ -45,27 +43,14 @@ def test_mavproxy_prints_the_alert_the_api_gives(
     assert f"dive {alert['dive']} started" in serve.output()
     assert f"ALERT: {alert['text']}" in serve.output()
 
-
-@pytest.mark.slow
-@needs_mavproxy
-def test_trimd_history_shows_the_alert_mavproxy_printed(
-        served: tuple[AtMavproxy, Serve, Path]) -> None:
-    run, _, data = served
-    shown = subprocess.run([*TRIMD, "history", "--db", str(data / "trimd.db")],
+    shown = subprocess.run([*TRIMD, "history", "--db", str(tmp_path / "data" / "trimd.db")],
                            capture_output=True, text=True, timeout=120,
                            env={**os.environ, "PYTHONPATH": str(REPO)})
     assert shown.returncode == 0, shown.stderr
-    assert run.alert["text"] in shown.stdout, shown.stdout
+    assert alert["text"] in shown.stdout, shown.stdout
 
-
-@pytest.mark.slow
-@needs_mavproxy
-def test_the_alert_latency_bench_measures_this_dive(
-        served: tuple[AtMavproxy, Serve, Path], capsys: pytest.CaptureFixture[str]) -> None:
-    """``bench/bench_alert_latency.py`` at its tiny size, one run: the served dive above
-    (the bench's own runs are :func:`serve_beside_mavproxy` too) through its measurement
-    and report; the figures mean nothing here."""
-    report([served[0]])
+    capsys.readouterr()
+    report([run])
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 2 and lines[0].startswith("  run 1: alert "), lines
     assert lines[1].startswith("alert → MAVProxy's printed line over 1 run(s): median"), lines

@@ -189,12 +189,9 @@ def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subproces
     return AtMavproxy(lines, found, tlog, started_unix, took)
 
 
-@pytest.fixture(scope="module")
-def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> tuple[AtMavproxy,
-                                                                        list[dict[str, Any]]]:
+def leak_at_mavproxy(tmp: Path) -> tuple[AtMavproxy, list[dict[str, Any]]]:
     """``trimd watch`` beside MAVProxy: what MAVProxy printed, and every JSON line of the
     watch."""
-    tmp = tmp_path_factory.mktemp("gcs")
     out = tmp / "watch.jsonl"
 
     def watch(profile: Path, port: int) -> subprocess.Popen[bytes]:
@@ -212,9 +209,14 @@ def leak_at_mavproxy(tmp_path_factory: pytest.TempPathFactory) -> tuple[AtMavpro
 
 @pytest.mark.slow
 @needs_mavproxy
-def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
-        leak_at_mavproxy: tuple[AtMavproxy, list[dict[str, Any]]]) -> None:
-    run, watch = leak_at_mavproxy
+def test_mavproxy_prints_the_leak_alert_and_the_watch_values_and_hears_nothing_else(
+        tmp_path: Path) -> None:
+    """One dive (one test, so that it runs once: a module fixture runs once per xdist
+    worker that takes one of its tests). MAVProxy prints the watch's alert, its start and
+    each segment's values; in MAVProxy's tlog (every packet that reached it through the
+    router) what came from trimd's ids, 1/191, is the watch's set and no command but
+    stream rates."""
+    run, watch = leak_at_mavproxy(tmp_path)
     printed = run.printed
     print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
     print("\n".join(x for x in printed.splitlines() if "TRIMD" in x))
@@ -232,15 +234,8 @@ def test_mavproxy_prints_the_leak_alert_and_the_watch_values(
     assert {name for name, _ in _VALUE.findall(printed)} == {"TRIMD_WB", "TRIMD_MX",
                                                              "TRIMD_MY"}
 
-
-@pytest.mark.slow
-@needs_mavproxy
-def test_the_watch_sends_mavproxy_nothing_but_its_heartbeat_requests_texts_and_values(
-        leak_at_mavproxy: tuple[AtMavproxy, list[dict[str, Any]]]) -> None:
-    """In MAVProxy's tlog (every packet that reached it through the router): what came
-    from trimd's ids, 1/191, is the watch's set and no command but stream rates."""
     kinds: dict[str, set[int]] = {}
-    for _, msg in TlogReader.open(leak_at_mavproxy[0].tlog).messages():
+    for _, msg in TlogReader.open(run.tlog).messages():
         if (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 191):
             kinds.setdefault(msg.get_type(), set()).add(
                 int(getattr(msg, "command", getattr(msg, "type", 0))))
