@@ -49,7 +49,7 @@ from bench.bench_sim_coverage import (
     run_seeds,
     seeding,
 )
-from bench.size import size
+from bench.size import size, sized_profile
 from tests.helpers import sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
 from trimd.app.connect import open_link
@@ -148,8 +148,9 @@ def _verdict(accepted: bool) -> str:
 
 
 def run(name: str, payload: str, seed: int, options: str) -> Seed:
-    """The seed (module docstring)."""
-    profile = load_profile(name)
+    """The seed (module docstring); at the tiny size each hold collects for less
+    (:func:`bench.size.sized_profile`)."""
+    profile = sized_profile(load_profile(name))
     before, before_share = _trim(profile, payload, seed, options)
     weight = known_weight(profile)
     with tempfile.TemporaryDirectory() as tmp:

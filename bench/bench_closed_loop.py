@@ -54,7 +54,7 @@ import numpy as np
 
 from bench.bench_float import WIDE_ENVELOPE_M
 from bench.bench_sim_coverage import CASES, picked, run_seeds, seeding
-from bench.size import size
+from bench.size import size, sized_profile
 from tests.helpers import carried, sim_float, sim_trim, sim_verify
 from trimd.app.apply import apply_ballast
 from trimd.ballast.check import SlotLoad
@@ -235,8 +235,9 @@ def _loop(t: Trial, check: Check, proposal: Proposal, trim_s: float,
 def run(name: str, payload: str, seed: int, options: str, second_trim: bool,
         checks: tuple[str, ...] = ("verify",)) -> tuple[Loop, ...]:
     """The trim of ``seed`` and, from it, the loop of each of ``checks`` (module
-    docstring), in their order."""
-    profile = load_profile(name)
+    docstring), in their order; at the tiny size each hold collects for less
+    (:func:`bench.size.sized_profile`)."""
+    profile = sized_profile(load_profile(name))
     trial = sim_trim(profile, payload, seed, options)
     estimate, proposal = trial.result.estimate, trial.result.proposal
     trim_s = trial.vehicle.t_s

@@ -32,9 +32,11 @@ from trimd.identify.signals import design_signal
 from trimd.identify.validation import validate
 
 FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 10.0)))
-VALIDATE_S = size(120.0, 5.0)
-#: The fit's settings: the defaults, a few iterations at the tiny size.
-FIT = size(FitOptions(), FitOptions(max_iter=2))
+#: The held-out recording per stage [s].
+VALIDATE_S = size(120.0, 2.0)
+#: The fit's settings: the defaults; at the tiny size one iteration per least-squares run
+#: and 2 s segments (half the sequential steps of each batched simulation).
+FIT = size(FitOptions(), FitOptions(max_iter=1, segment_s=2.0))
 
 #: docs/method.md §5: thesis estimates of the Sabertooth parameters (simulation).
 THESIS = {"X_u": -117.8, "Y_v": -289.1, "X_u|u|": -280.7, "Y_v|v|": -979.3,

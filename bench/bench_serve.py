@@ -25,6 +25,9 @@ from typing import Any
 from bench.size import size
 
 REPO = Path(__file__).resolve().parent.parent
+#: How often the status is asked [s of wall time]: the simulated dive runs on as fast as
+#: it goes in between (at the tiny size a few simulated seconds, not a minute, past its end).
+POLL_S = size(1.0, 0.25)
 
 
 def _free_port() -> int:
@@ -46,8 +49,8 @@ def _rss_mb(pid: int) -> float:
 
 
 def main() -> None:
-    hours = float(os.environ.get("TRIMD_SERVE_HOURS", size(2.0, 0.04)))
-    every_s = float(os.environ.get("TRIMD_SERVE_EVERY_S", size(600.0, 60.0)))
+    hours = float(os.environ.get("TRIMD_SERVE_HOURS", size(2.0, 0.025)))
+    every_s = float(os.environ.get("TRIMD_SERVE_EVERY_S", size(600.0, 45.0)))
     port = _free_port()
     with tempfile.TemporaryDirectory() as data:
         proc = subprocess.Popen(
@@ -59,7 +62,7 @@ def main() -> None:
         t0, dive = time.monotonic(), None
         try:
             while dive is None or dive["duration_s"] < hours * 3600:
-                time.sleep(1.0)
+                time.sleep(POLL_S)
                 if proc.poll() is not None:
                     raise RuntimeError(f"trimd serve exited {proc.returncode}")
                 try:

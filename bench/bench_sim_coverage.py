@@ -171,7 +171,9 @@ def run_seeds(fn: Callable[..., T], name: str, payload: str, seeds: int, options
 def main() -> None:
     cfg = seeding("COVERAGE", size(200, 1), "disturb=real,truth=perturbed")
     seeds, options = cfg.seeds, cfg.options
-    for name, payload in picked(CASES, cfg.wanted):
+    # at the tiny size one case per profile: the Heavy's small payload runs the first
+    # case's code with other numbers
+    for name, payload in picked(size(CASES, (CASES[0], CASES[-1])), cfg.wanted):
         runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes)
         covered, rms, n_done = coverage(runs)
         print(f"{name}, {payload}, sim:{options}: {n_done}/{seeds} runs done, "

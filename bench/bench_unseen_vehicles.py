@@ -88,9 +88,11 @@ FIT_S = float(os.environ.get("TRIMD_BENCH_IDENT_S", size(600.0, 10.0)))
 ENVELOPE_M = 5.0
 #: The buoyancy of a random vehicle is the prior's times a factor in 1 ± this.
 BUOYANCY_SPREAD = 0.01
-VALIDATE_S = size(120.0, 5.0)
-#: The fit's settings: the defaults, a few iterations at the tiny size.
-FIT = size(FitOptions(), FitOptions(max_iter=2))
+#: The held-out recording per stage [s].
+VALIDATE_S = size(120.0, 2.0)
+#: The fit's settings: the defaults; at the tiny size one iteration per least-squares run
+#: and 2 s segments (half the sequential steps of each batched simulation).
+FIT = size(FitOptions(), FitOptions(max_iter=1, segment_s=2.0))
 SPEEDS = (0.15, 0.4)
 PROFILES = os.environ.get("TRIMD_BENCH_MC_PROFILES",
                           size("bluerov2-heavy,sabertooth-dh2", "sabertooth-dh2")).split(",")
