@@ -32,9 +32,7 @@ from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 
 PROFILE = "bluerov2-heavy"
-#: The leak of the detection dives [N/min] and when it starts [s]: at the tiny size (whose
-#: dives are shorter than the full size's start) a minute in, so that water still comes in.
-LEAK_N_MIN, LEAK_START_S = 0.5, size(300.0, 60.0)
+LEAK_N_MIN, LEAK_START_S = 0.5, 300.0
 
 
 def dive(options: str, seconds: float) -> tuple[TrimWatch, SimVehicle]:
@@ -124,8 +122,8 @@ def leak(options: str, seeds: int, seconds: float = 1200.0) -> list[float]:
 
 def main() -> None:
     seeds = int(os.environ.get("TRIMD_WATCH_SEEDS", size(3, 1)))
-    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.025)))
+    hours = float(os.environ.get("TRIMD_WATCH_HOURS", size(2.0, 0.05)))
     options = os.environ.get("TRIMD_WATCH_OPTIONS", "pilot=dive,disturb=real,truth=perturbed")
     no_change(options, seeds, hours)
     leak(options, int(os.environ.get("TRIMD_WATCH_LEAK_SEEDS", size(2, 1))),
-         size(1200.0, 90.0))
+         size(1200.0, 320.0))

@@ -88,12 +88,12 @@ class Tally:
 
 def main() -> None:
     seeds = int(os.environ.get("TRIMD_WATCH_TRANSIT_SEEDS", size(40, 1)))
-    hours = float(os.environ.get("TRIMD_WATCH_TRANSIT_HOURS", size(0.1, 0.02)))
+    hours = float(os.environ.get("TRIMD_WATCH_TRANSIT_HOURS", size(0.1, 0.05)))
     options = os.environ.get("TRIMD_WATCH_TRANSIT_OPTIONS", OPTIONS)
     tally = Tally(hours * 3600)
     no_change(options, seeds, hours, tally)
     print(tally.summary())
     delays = leak(options, int(os.environ.get("TRIMD_WATCH_TRANSIT_LEAK_SEEDS", size(2, 1))),
-                  size(1200.0, 90.0))
+                  size(1200.0, 320.0))
     within = sum(d <= LEAK_WITHIN_S for d in delays)
     print(f"leak alerted within {LEAK_WITHIN_S:g} s of its start: {within} of {len(delays)}")
