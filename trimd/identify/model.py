@@ -21,13 +21,14 @@ of freedom it excites and takes the others from the measurements (exogenous inpu
 The simulator is written for least squares: it integrates many short segments at once
 (axis K) for many parameter vectors at once (axis B, the finite-difference columns of a
 Jacobian), with classical RK4 at the sample interval h and τ_f exact for a zero-order-held
-command.
+command. Its state is one (8, B, K) array and each term of the equations one operation on
+all six DOFs (the per-step cost is Python's, not the arithmetic's, at these sizes); the
+measured components are overwritten with the measurements at every RK4 stage.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,31 +223,78 @@ def lagged_thrust(tau: FloatArray, T_s: float, h: float, lead_s: float | None = 
     return start, mid
 
 
-def _derivative(s: list[FloatArray], M: FloatArray, Dl: FloatArray, Dq: FloatArray,
-                tau: FloatArray, q_rest: Sequence[float]) -> list[FloatArray]:
-    """ẋ of every state component; ``s`` holds 8 arrays (B, K); M, Dl, Dq are (6, B, 1);
-    ``tau`` is (K, 6) or, one per parameter vector, (B, K, 6)."""
-    u, v, w, p, q, r, phi, th = s
-    a1, a2, a3 = M[0] * u, M[1] * v, M[2] * w
-    c1, c2, c3 = M[3] * p, M[4] * q, M[5] * r
-    sp, cp, st, ct = np.sin(phi), np.cos(phi), np.sin(th), np.cos(th)
-    # g(η) = G(φ, θ)·q_rest written out (trimd.core.model.restoring_matrix)
-    q0, q1, q2, q3 = q_rest
+#: The velocity components as the first and the second factors of the cross products
+#: (v × (M₁·v) in surge, sway and heave, ω × (M₂·ω) in roll, pitch and yaw).
+_P1 = np.array([1, 2, 0, 4, 5, 3])
+_P2 = np.array([2, 0, 1, 5, 3, 4])
+
+
+#: What is known in advance of the measured angles at one step: sin φ and cos φ when φ is
+#: measured and θ is not, the factors of :func:`_restoring_rows` when both are (else
+#: ``None``: computed from the state).
+_Angles = tuple[tuple[FloatArray, FloatArray] | None, tuple[FloatArray, FloatArray] | None]
+
+
+def _restoring_rows(sp: FloatArray, cp: FloatArray, st: FloatArray, ct: FloatArray
+                    ) -> tuple[FloatArray, FloatArray]:
+    """The angle factors of g(η) = G(φ, θ)·q_rest (:func:`trimd.core.model.restoring_matrix`)
+    from sin φ, cos φ, sin θ, cos θ (one shape): the first term of every DOF's and the
+    second of roll, pitch and yaw's, stacked on a new first axis (6 and 3 long; np.array
+    rather than np.stack, which costs three times as much at these sizes)."""
     ctsp, ctcp = ct * sp, ct * cp
-    f = (
-        tau[..., 0] - (q * a3 - r * a2) + (Dl[0] + Dq[0] * np.abs(u)) * u - st * q0,
-        tau[..., 1] - (r * a1 - p * a3) + (Dl[1] + Dq[1] * np.abs(v)) * v + ctsp * q0,
-        tau[..., 2] - (p * a2 - q * a1) + (Dl[2] + Dq[2] * np.abs(w)) * w + ctcp * q0,
-        tau[..., 3] - (q * c3 - r * c2) - (v * a3 - w * a2)
-        + (Dl[3] + Dq[3] * np.abs(p)) * p + ctcp * q2 - ctsp * q3,
-        tau[..., 4] - (r * c1 - p * c3) - (w * a1 - u * a3)
-        + (Dl[4] + Dq[4] * np.abs(q)) * q - ctcp * q1 - st * q3,
-        tau[..., 5] - (p * c2 - q * c1) - (u * a2 - v * a1)
-        + (Dl[5] + Dq[5] * np.abs(r)) * r + ctsp * q1 + st * q2,
-    )
-    tt = st / ct
-    return [fi / M[i] for i, fi in enumerate(f)] + [p + (q * sp + r * cp) * tt,
-                                                     q * cp - r * sp]
+    return np.array([st, ctsp, ctcp, ctcp, ctcp, ctsp]), np.array([ctsp, st, st])
+
+
+def _derivative(s: FloatArray, M: FloatArray, Dl: FloatArray, Dq: FloatArray,
+                tau: FloatArray, g: tuple[FloatArray, FloatArray], angles: _Angles
+                ) -> FloatArray:
+    """ẋ (8, B, K) at the state ``s`` (8, B, K); M, Dl, Dq are (6, B, 1), ``tau`` (6, 1, K)
+    or (6, B, K); ``g`` the entries of the restoring vector that multiply the angle factors
+    of :func:`_restoring_rows` (signed), (6, 1, 1) and (3, 1, 1); ``angles`` what is
+    known of the measured angles (:data:`_Angles`). The rows of measured components are
+    not used (the rate of an angle ``angles`` knows is zero).
+
+    Per DOF the operations of its equation written out, in their order (x − a·b as
+    x + a·(−b), which rounds alike): τ − C(ν)·ν with the Kirchhoff form
+    C(ν)·ν = [ω × (M₁·v); ω × (M₂·ω) + v × (M₁·v)], plus the damping, minus g(η)."""
+    nu = s[:6]
+    m = M * nu                                             # M₁·v, M₂·ω
+    n1, n2, m1, m2 = nu[_P1], nu[_P2], m[_P1], m[_P2]
+    cross = n1 * m2 - n2 * m1                              # v × (M₁·v), ω × (M₂·ω)
+    f = np.empty_like(cross)
+    f[:3] = tau[:3] - (n1[3:] * m2[:3] - n2[3:] * m1[:3])  # ω × (M₁·v)
+    f[3:] = tau[3:] - cross[3:] - cross[:3]
+    f += (Dl + Dq * np.abs(nu)) * nu
+    out = np.empty((8, *f.shape[1:]))
+    roll, rows = angles
+    if rows is None:
+        sp, cp = (np.sin(s[6]), np.cos(s[6])) if roll is None else roll
+        st, ct = np.sin(s[7]), np.cos(s[7])
+        rows = _restoring_rows(sp, cp, st, ct)
+        p, q, r = nu[3:]
+        out[6] = p + (q * sp + r * cp) * (st / ct) if roll is None else 0.0
+        out[7] = q * cp - r * sp
+    else:
+        out[6:] = 0.0
+    f += rows[0] * g[0]
+    f[3:] += rows[1] * g[1]
+    np.divide(f, M, out=out[:6])
+    return out
+
+
+def _measured_angles(ex: FloatArray, measured: FloatArray) -> list[_Angles]:
+    """:data:`_Angles` of every step from the measured components ``ex`` (steps, ·, 1, K)
+    (``measured``: which, ascending; φ and θ come last)."""
+    n = len(ex)
+    if 6 in measured and 7 in measured:
+        a, b = ex[:, -2], ex[:, -1]
+        first, second = _restoring_rows(np.sin(a), np.cos(a), np.sin(b), np.cos(b))
+        return [(None, rows) for rows in zip(np.moveaxis(first, 0, 1),
+                                             np.moveaxis(second, 0, 1), strict=True)]
+    if 6 in measured:
+        a = ex[:, -1]
+        return [(roll, None) for roll in zip(np.sin(a), np.cos(a), strict=True)]
+    return [(None, None)] * n
 
 
 def simulate(M: FloatArray, Dl: FloatArray, Dq: FloatArray, q_rest: FloatArray,
@@ -272,31 +320,40 @@ def simulate(M: FloatArray, Dl: FloatArray, Dq: FloatArray, q_rest: FloatArray,
     x : simulated ``states`` at steps 1..L, shape (L, B, K, len(states)).
     """
     Mt, Dlt, Dqt = (np.asarray(a, float).T[:, :, None] for a in (M, Dl, Dq))
-    q = [float(v) for v in q_rest]
-    B, K = x0.shape[:2]
+    q0, q1, q2, q3 = (float(v) for v in q_rest)
+    g = (np.array([-q0, q0, q0, q2, -q1, q1])[:, None, None],
+         np.array([-q3, -q3, q2])[:, None, None])
     L = exo.shape[0] - 1
-    sim = [i in states for i in range(8)]
-    x = [np.array(x0[..., i]) if sim[i] else np.broadcast_to(exo[0, :, i], (B, K))
-         for i in range(8)]
-    out = np.empty((L, len(states), B, K))
+    sim = np.array(states, int)
+    # the whole state is one (8, B, K) array; every step overwrites the measured
+    # components (those not simulated) with the measurements, (·, 1, K) per step and half
+    # step; the thrust per step (6, 1 or B, K)
+    measured = np.array([i for i in range(8) if i not in states], int)
+    e0 = np.ascontiguousarray(np.moveaxis(exo[:, :, measured], -1, 1)[:, :, None])
+    em = 0.5 * (e0[:-1] + e0[1:])
+    t0, tm = (np.ascontiguousarray(np.moveaxis(t, -1, 1) if t.ndim == 4
+                                   else np.moveaxis(t, -1, 1)[:, :, None])
+              for t in (tau_start, tau_mid))
+    a0, am = _measured_angles(e0, measured), _measured_angles(em, measured)
+    x = np.empty((8, *x0.shape[:2]))
+    x[sim] = np.moveaxis(x0, -1, 0)[sim]
+    out = np.empty((L, len(sim), *x0.shape[:2]))
+    c, h6 = 0.5 * h, h / 6.0
 
-    def at(base: list[FloatArray], d: list[FloatArray] | None, c: float, ex: FloatArray
-           ) -> list[FloatArray]:
-        return [(base[i] + c * d[i] if d is not None else base[i]) if sim[i]
-                else np.broadcast_to(ex[:, i], (B, K)) for i in range(8)]
+    def at(y: FloatArray, ex: FloatArray) -> FloatArray:
+        if measured.size:
+            y[measured] = ex
+        return y
 
     # a trial parameter vector whose simulation diverges comes out non-finite, which the
     # fit rejects (trimd.identify.solve): an expected outcome, not a warning for the user
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(L):
-            e0, e1 = exo[k], exo[k + 1]
-            em = 0.5 * (e0 + e1)
-            k1 = _derivative(at(x, None, 0.0, e0), Mt, Dlt, Dqt, tau_start[k], q)
-            k2 = _derivative(at(x, k1, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q)
-            k3 = _derivative(at(x, k2, 0.5 * h, em), Mt, Dlt, Dqt, tau_mid[k], q)
-            k4 = _derivative(at(x, k3, h, e1), Mt, Dlt, Dqt, tau_start[k + 1], q)
-            x = [x[i] + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]) if sim[i]
-                 else np.broadcast_to(e1[:, i], (B, K)) for i in range(8)]
-            for j, i in enumerate(states):
-                out[k, j] = x[i]
+            at(x, e0[k])
+            k1 = _derivative(x, Mt, Dlt, Dqt, t0[k], g, a0[k])
+            k2 = _derivative(at(x + c * k1, em[k]), Mt, Dlt, Dqt, tm[k], g, am[k])
+            k3 = _derivative(at(x + c * k2, em[k]), Mt, Dlt, Dqt, tm[k], g, am[k])
+            k4 = _derivative(at(x + h * k3, e0[k + 1]), Mt, Dlt, Dqt, t0[k + 1], g, a0[k + 1])
+            x = x + h6 * (k1 + 2.0 * (k2 + k3) + k4)
+            np.take(x, sim, axis=0, out=out[k])
     return np.moveaxis(out, 1, -1)
