@@ -34,50 +34,42 @@ def bluerov() -> Profile:
 
 
 #: The modules that take the longest [s of one worker], longest first: the sum of their
-#: tests among the 60 slowest of ``--durations=60`` on this 2-core machine under a heavy
-#: load (2026-11-27; bench_alert_latency's tiny run since moved into test_serve_gcs's
-#: dive), then the older figures of modules with no test among those. Only the order
-#: matters: it lets the longest start first, spread over the workers, so that no long
-#: module is left to run alone at the end. A module not listed counts as short; a stale
-#: figure costs wall time, never a test.
+#: tests' wall times in one ``make test`` on this 2-core machine (2026-11-27, after the
+#: watch's and the identification's speed-ups). Only the order matters: it lets the
+#: longest start first, spread over the workers, so that no long module is left to run
+#: alone at the end. A module not listed counts as short; a stale figure costs wall time,
+#: never a test.
 MODULE_COST_S = {
-    "tests/app/test_serve.py": 240,
-    "tests/tui/test_tui_after_trim.py": 235,
-    "tests/app/test_serve_gcs.py": 220,
-    "tests/app/test_wander.py": 170,
-    "tests/test_bench_smoke.py": 165,
-    "tests/drivers/test_mavlink_link.py": 130,
-    "tests/drivers/test_mavlink_gcs.py": 128,
-    "tests/app/test_serve_browser.py": 125,
-    "tests/drivers/test_mavlink_stations.py": 121,
-    "tests/app/test_watch_sim.py": 104,
-    "tests/app/test_correction.py": 95,
-    "tests/app/test_float_check.py": 90,
-    "tests/identify/test_staged.py": 90,
-    "tests/drivers/test_mavlink_mavproxy.py": 87,
-    "tests/drivers/test_serial_link.py": 82,
-    "tests/ballast/test_ballast_degenerate.py": 80,
-    "tests/drivers/test_sim_disturbance.py": 77,
-    "tests/tui/test_tui_snapshots.py": 74,
-    "tests/app/test_watch_baseline.py": 70,
-    "tests/app/test_verify.py": 67,
-    "tests/drivers/test_fuzz_mavlink.py": 60,
-    "tests/tui/test_tui.py": 60,
-    "tests/drivers/test_serial_protocol.py": 60,
-    "tests/tui/test_tui_watch.py": 58,
-    "tests/test_package.py": 48,
-    "tests/logs/test_replay.py": 45,
-    "tests/ballast/test_ballast_props.py": 42,
-    "tests/app/test_run_sim.py": 40,
-    "tests/cli/test_cli_solve.py": 39,
-    "tests/identify/test_excitation.py": 37,
-    "tests/tui/test_tui_terminal.py": 36,
-    "tests/core/test_estimate.py": 36,
-    "tests/identify/test_identify.py": 35,
-    "tests/cli/test_cli_watch.py": 34,
-    "tests/identify/test_envelope.py": 32,
-    "tests/tui/test_tui_replay.py": 32,
-    "tests/cli/test_json_contract.py": 30,
+    "tests/drivers/test_mavlink_link.py": 87,
+    "tests/app/test_serve_gcs.py": 84,
+    "tests/drivers/test_mavlink_gcs.py": 83,
+    "tests/drivers/test_mavlink_stations.py": 74,
+    "tests/test_bench_smoke.py": 61,
+    "tests/identify/test_staged.py": 61,
+    "tests/tui/test_tui_after_trim.py": 43,
+    "tests/core/test_estimate.py": 38,
+    "tests/drivers/test_serial_link.py": 34,
+    "tests/app/test_watch_sim.py": 34,
+    "tests/app/test_float_check.py": 33,
+    "tests/identify/test_identify.py": 32,
+    "tests/tui/test_tui.py": 32,
+    "tests/app/test_run_sim.py": 32,
+    "tests/drivers/test_mavlink_mavproxy.py": 31,
+    "tests/cli/test_cli_watch.py": 29,
+    "tests/app/test_wander.py": 23,
+    "tests/tui/test_tui_snapshots.py": 20,
+    "tests/app/test_serve.py": 20,
+    "tests/app/test_verify.py": 20,
+    "tests/logs/test_replay.py": 19,
+    "tests/app/test_correction.py": 17,
+    "tests/drivers/test_sim_disturbance.py": 16,
+    "tests/drivers/test_serial_protocol.py": 13,
+    "tests/cli/test_inspect.py": 13,
+    "tests/drivers/test_fuzz_mavlink.py": 12,
+    "tests/ballast/test_ballast_degenerate.py": 12,
+    "tests/app/test_calibration_history.py": 12,
+    "tests/ballast/test_ballast_props.py": 12,
+    "tests/app/test_calibration.py": 11,
 }
 
 
