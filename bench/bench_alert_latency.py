@@ -23,7 +23,7 @@ from pathlib import Path
 
 from bench.size import size
 from tests.app.serve_process import serve_beside_mavproxy
-from tests.drivers.test_mavlink_gcs import AtMavproxy, station_text
+from tests.drivers.mavproxy_dive import AtMavproxy, station_text
 from tests.drivers.test_mavlink_mavproxy import mavproxy_installed
 
 

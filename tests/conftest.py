@@ -42,7 +42,6 @@ def bluerov() -> Profile:
 MODULE_COST_S = {
     "tests/drivers/test_mavlink_link.py": 87,
     "tests/app/test_serve_gcs.py": 84,
-    "tests/drivers/test_mavlink_gcs.py": 83,
     "tests/drivers/test_mavlink_stations.py": 74,
     "tests/test_bench_smoke.py": 61,
     "tests/identify/test_staged.py": 61,

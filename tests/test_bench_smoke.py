@@ -21,9 +21,9 @@ MODULES = sorted(m.name for m in pkgutil.iter_modules([str(REPO / "bench")])
                  if m.name.startswith("bench_"))
 #: module → the test that runs its measurement on a run the test makes anyway: one served
 #: dive beside MAVProxy (two minutes of wall time) instead of two
-RUN_ELSEWHERE = {"bench_alert_latency": ("tests/app/test_serve_gcs.py",
-                                         "test_mavproxy_prints_the_alert_the_api_and_history_give"
-                                         )}
+RUN_ELSEWHERE = {"bench_alert_latency": (
+    "tests/app/test_serve_gcs.py",
+    "test_mavproxy_prints_the_alerts_of_the_watch_and_the_service_beside_it")}
 
 
 def test_every_benchmark_module_is_found() -> None:

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tests.drivers.test_mavlink_gcs import FAST_WATCH, AtMavproxy, leak_beside_mavproxy
+from tests.drivers.mavproxy_dive import FAST_WATCH, AtMavproxy, Trimd, leak_beside_mavproxy
 from tests.helpers import REPO
 
 #: the longest any wait may take before the test fails as hung [s, wall clock]
@@ -88,17 +88,17 @@ class Serve:
             self._out.close()
 
 
-def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
-    """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
-    printed its alert; the run and the stopped service."""
+def served_beside_mavproxy(data: Path, comp: int = 191) -> tuple[Trimd, list[Serve]]:
+    """``trimd serve …?ids=vehicle&comp=COMP`` (its data in ``data``) as a trimd under test
+    beside MAVProxy, and the list its :class:`Serve` goes into once started."""
     http = free_tcp_port()
     started: list[Serve] = []
 
     def start(profile: Path, port: int) -> subprocess.Popen[bytes]:
         started.append(Serve(
             [sys.executable, "-m", "trimd", "serve", "--link",
-             f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle", "--profile", str(profile),
-             "--data", str(tmp / "data"), "--host", "127.0.0.1", "--port", str(http),
+             f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle&comp={comp}", "--profile",
+             str(profile), "--data", str(data), "--host", "127.0.0.1", "--port", str(http),
              *FAST_WATCH], http))
         return started[0].proc
 
@@ -106,7 +106,14 @@ def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
         alerts = started[0].get("/api/alerts")
         return alerts["alerts"][0] if alerts and alerts["alerts"] else None
 
-    run = leak_beside_mavproxy(tmp, start, alert)
+    return (start, alert), started
+
+
+def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
+    """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
+    printed its alert; the run and the stopped service."""
+    served, started = served_beside_mavproxy(tmp / "data")
+    run = leak_beside_mavproxy(tmp, [served])
     code = started[0].stop()
     assert code == 0, (code, started[0].output())
     return run, started[0]

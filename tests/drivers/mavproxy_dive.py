@@ -1,21 +1,21 @@
-"""The watch's alert and values on a real ground station: MAVProxy beside ``trimd watch``.
+"""A BlueROV2 with trimd on its companion computer, MAVProxy beside it, and a housing that
+floods: the set-up of ``tests/app/test_serve_gcs.py`` and ``bench/bench_alert_latency.py``.
 
-The set-up of a BlueROV2 with trimd on its companion computer: ``trimd sim`` serves the
-simulated Heavy, with water coming in, on three endpoints behind one router (as BlueOS's
-mavlink-router does): ``trimd watch …?ids=vehicle`` on the first (a component of the
-vehicle, 1/191), MAVProxy 1.8.75 on the second (the pilot's ground station, its console
-and tlog), and the test's helper on the third (it switches the simulator's pilot-input
-failsafe off and arms the vehicle in ALT_HOLD: nobody flies it). MAVProxy prints the
-vehicle's STATUSTEXT (``AP: …``) and, asked to (``watch NAMED_VALUE_FLOAT``), the named
-values; its tlog holds every packet trimd sent through the router. MAVProxy is told the
-vehicle's system (``--target-system=1``): left to find it, it takes the first autopilot
-heartbeat's component too (1/1) and then shows nothing of the vehicle's other components.
+``trimd sim`` serves the simulated Heavy on endpoints behind one router (as BlueOS's
+mavlink-router does): each trimd under test on one (``trimd watch …?ids=vehicle``, a
+component of the vehicle, 1/191; ``trimd serve …?ids=vehicle&comp=192``), MAVProxy 1.8.75
+on another (the pilot's ground station, its console and tlog), and a helper on the last
+(it switches the simulator's pilot-input failsafe off and arms the vehicle in ALT_HOLD:
+nobody flies it). MAVProxy prints the vehicle's STATUSTEXT (``AP: …``) and, asked to
+(``watch NAMED_VALUE_FLOAT``), the named values; its tlog holds every packet trimd sent
+through the router. MAVProxy is told the vehicle's system (``--target-system=1``): left to
+find it, it takes the first autopilot heartbeat's component too (1/1) and then shows
+nothing of the vehicle's other components.
 
 The served simulator runs 10× faster than the wall clock the live watch measures on, so
 the watch cuts 11 s segments (110 simulated seconds each) and forms its baseline from two.
-Nothing is timed: the test waits for what MAVProxy prints, with a generous hang guard.
-:func:`leak_beside_mavproxy` runs the set-up for any trimd that listens there (``trimd
-serve`` in ``tests/app/test_serve_gcs.py``, ``bench/bench_alert_latency.py``).
+Nothing is timed: :func:`leak_beside_mavproxy` waits for what MAVProxy prints, with a
+generous hang guard.
 """
 
 from __future__ import annotations
@@ -28,15 +28,13 @@ import signal
 import subprocess
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-from tests.drivers.test_mavlink_announce import WATCH_SENDS
 from tests.drivers.test_mavlink_link import (
     TRIMD,
     fast_profile,
@@ -44,7 +42,7 @@ from tests.drivers.test_mavlink_link import (
     switch_off_pilot_failsafe,
     wait_bound,
 )
-from tests.drivers.test_mavlink_mavproxy import MAVPROXY, needs_mavproxy
+from tests.drivers.test_mavlink_mavproxy import MAVPROXY
 from tests.helpers import REPO
 from trimd.app.announce import alert_text
 from trimd.core.change import ChangeAlert
@@ -64,7 +62,7 @@ LEAK_N = 8.0
 #: the watch's options: 11 s segments (just above the shortest allowed; 110 s of simulated
 #: time), a baseline of two
 FAST_WATCH = ("--max-segment", "11", "--baseline-segments", "2")
-_VALUE = re.compile(r"^< NAMED_VALUE_FLOAT \{.*name : (\w+), value : ([-\d.e+]+)", re.M)
+VALUE = re.compile(r"^< NAMED_VALUE_FLOAT \{.*name : (\w+), value : ([-\d.e+]+)", re.M)
 
 
 def arm(port: int) -> None:
@@ -118,18 +116,31 @@ def station_text(d: dict[str, Any]) -> str:
 @dataclass
 class AtMavproxy:
     """What a run beside MAVProxy gave: each line MAVProxy printed with the wall time it
-    was read [s since the Unix epoch], trimd's first alert (as trimd gave it), MAVProxy's
-    tlog, when the run started [s since the Unix epoch] and the wall time it took [s]."""
+    was read [s since the Unix epoch], each trimd's first alert (as that trimd gave it),
+    MAVProxy's tlog, when the run started [s since the Unix epoch] and the wall time it
+    took [s]."""
 
     lines: list[tuple[float, str]]
-    alert: dict[str, Any]
+    alerts: list[dict[str, Any]]
     tlog: Path
     started_unix: float
     took: float
 
     @property
+    def alert(self) -> dict[str, Any]:
+        """The first trimd's alert."""
+        return self.alerts[0]
+
+    @property
     def printed(self) -> str:
         return "\n".join(line for _, line in self.lines)
+
+
+#: A trimd under test: ``start(profile, port)`` starts it listening on UDP ``port`` with
+#: the profile (the Heavy's, fast holds) at ``profile``; ``alert()`` is its first alert
+#: (None before it).
+Trimd = tuple[Callable[[Path, int], "subprocess.Popen[bytes]"],
+              Callable[[], "dict[str, Any] | None"]]
 
 
 def _read_lines(stream: IO[bytes], into: list[tuple[float, str]]) -> None:
@@ -138,15 +149,14 @@ def _read_lines(stream: IO[bytes], into: list[tuple[float, str]]) -> None:
         into.append((time.time(), raw.decode("utf-8", errors="replace").rstrip("\n")))
 
 
-def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subprocess.Popen[bytes]],
-                         alert: Callable[[], dict[str, Any] | None]) -> AtMavproxy:
-    """Run the set-up until MAVProxy has printed trimd's alert and values.
+def leak_beside_mavproxy(tmp: Path, trimds: Sequence[Trimd]) -> AtMavproxy:
+    """Run the set-up until MAVProxy has printed each trimd's alert, and values (MAVProxy
+    prints a text only once when two components send the same).
 
-    ``start_trimd(profile, port)`` starts trimd listening on UDP ``port`` with the profile
-    (the Heavy's, fast holds) at ``profile``; ``alert()`` is trimd's first alert (None
-    before it). MAVProxy's stdout is read line by line as it comes (it runs unbuffered)."""
+    MAVProxy's stdout is read line by line as it comes (it runs unbuffered)."""
     profile = fast_profile(tmp, "bluerov2-heavy")
-    trimd_port, gcs_port, helper_port = free_udp_port(), free_udp_port(), free_udp_port()
+    trimd_ports = [free_udp_port() for _ in trimds]
+    gcs_port, helper_port = free_udp_port(), free_udp_port()
     env = {**os.environ, "PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
     tlog, lines = tmp / "gcs.tlog", []
     procs: list[subprocess.Popen[bytes]] = []
@@ -161,23 +171,26 @@ def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subproces
             procs.append(gcs)
             assert gcs.stdout is not None
             threading.Thread(target=_read_lines, args=(gcs.stdout, lines), daemon=True).start()
-            procs.insert(0, start_trimd(profile, trimd_port))
-            wait_bound(gcs_port)
-            wait_bound(trimd_port)
+            procs[:0] = [start(profile, port)
+                         for (start, _), port in zip(trimds, trimd_ports, strict=True)]
+            for port in (gcs_port, *trimd_ports):
+                wait_bound(port)
             procs.append(subprocess.Popen(
                 [*TRIMD, "sim", "--profile", str(profile), "--rate", "10", "--options",
                  f"mode=ALT_HOLD,{LEAK}",
                  *(f"--serve=mavlink:udpout:127.0.0.1:{p}"
-                   for p in (trimd_port, gcs_port, helper_port))],
+                   for p in (*trimd_ports, gcs_port, helper_port))],
                 stdout=subprocess.DEVNULL, stderr=err_file, cwd=REPO, env=env))
             switch_off_pilot_failsafe(helper_port)
             arm(helper_port)
             deadline = time.monotonic() + HANG_GUARD_S
             while True:
                 printed = "\n".join(line for _, line in lines)
-                found = alert()
-                names = {name for name, _ in _VALUE.findall(printed)}
-                if found is not None and "AP: TRIMD heavier" in printed and "TRIMD_WB" in names:
+                found = [alert() for _, alert in trimds]
+                names = {name for name, _ in VALUE.findall(printed)}
+                shown = printed.splitlines()
+                if (all(a is not None and f"AP: {station_text(a)}" in shown for a in found)
+                        and "TRIMD_WB" in names):
                     break
                 dead = [" ".join(map(str, p.args[2:4])) for p in procs if p.poll() is not None]
                 assert not dead, (dead, printed[-2000:], (tmp / "sim.err").read_text()[-2000:])
@@ -186,15 +199,15 @@ def leak_beside_mavproxy(tmp: Path, start_trimd: Callable[[Path, int], subproces
             took = time.monotonic() - t0
         finally:
             _stop(procs)
-    return AtMavproxy(lines, found, tlog, started_unix, took)
+    return AtMavproxy(lines, [a for a in found if a is not None], tlog, started_unix, took)
 
 
-def leak_at_mavproxy(tmp: Path) -> tuple[AtMavproxy, list[dict[str, Any]]]:
-    """``trimd watch`` beside MAVProxy: what MAVProxy printed, and every JSON line of the
-    watch."""
+def watch_beside_mavproxy(tmp: Path) -> tuple[Trimd, Callable[[], list[dict[str, Any]]]]:
+    """``trimd watch …?ids=vehicle`` (JSON lines to ``tmp/watch.jsonl``) as a trimd under
+    test, and what it wrote (every JSON line)."""
     out = tmp / "watch.jsonl"
 
-    def watch(profile: Path, port: int) -> subprocess.Popen[bytes]:
+    def start(profile: Path, port: int) -> subprocess.Popen[bytes]:
         with out.open("wb") as stdout, (tmp / "watch.err").open("wb") as stderr:
             return subprocess.Popen(
                 [*TRIMD, "watch", "--link", f"mavlink:udpin:127.0.0.1:{port}?ids=vehicle",
@@ -202,44 +215,26 @@ def leak_at_mavproxy(tmp: Path) -> tuple[AtMavproxy, list[dict[str, Any]]]:
                  *FAST_WATCH], stdout=stdout, stderr=stderr, cwd=REPO,
                 env={**os.environ, "PYTHONPATH": str(REPO)})
 
-    run = leak_beside_mavproxy(tmp, watch, lambda: _first_alert(out))
-    return run, [json.loads(x) for x in out.read_text(encoding="utf-8").splitlines()
-                 if x.startswith("{")]
+    def records() -> list[dict[str, Any]]:
+        return [json.loads(x) for x in out.read_text(encoding="utf-8").splitlines()
+                if x.startswith("{") and x.endswith("}")]
+
+    return (start, lambda: _first_alert(out)), records
 
 
-@pytest.mark.slow
-@needs_mavproxy
-def test_mavproxy_prints_the_leak_alert_and_the_watch_values_and_hears_nothing_else(
-        tmp_path: Path) -> None:
-    """One dive (one test, so that it runs once: a module fixture runs once per xdist
-    worker that takes one of its tests). MAVProxy prints the watch's alert, its start and
-    each segment's values; in MAVProxy's tlog (every packet that reached it through the
-    router) what came from trimd's ids, 1/191, is the watch's set and no command but
-    stream rates."""
-    run, watch = leak_at_mavproxy(tmp_path)
-    printed = run.printed
-    print(f"alert at MAVProxy after {run.took:.0f} s of wall time")
-    print("\n".join(x for x in printed.splitlines() if "TRIMD" in x))
-    alert = next(r for r in watch if r["type"] == "alert")
-    assert alert["component"] == 0
-    # the water, against a baseline formed before it came in
-    assert abs(alert["total"] - LEAK_N) < 3 * alert["total_std"], alert
-    assert f"AP: {station_text(alert)}" in printed.splitlines()
-    assert "AP: TRIMD watch on: baseline after 2 hovers" in printed
-    # each printed W − B is one of the watch's segments' (float32 on the wire)
-    segments = [r["net_force_N"] for r in watch if r["type"] == "segment"]
-    shown = [float(v) for name, v in _VALUE.findall(printed) if name == "TRIMD_WB"]
-    assert shown and all(min(abs(v - s) for s in segments) < 1e-4 for v in shown), (
-        shown, segments)
-    assert {name for name, _ in _VALUE.findall(printed)} == {"TRIMD_WB", "TRIMD_MX",
-                                                             "TRIMD_MY"}
+def texts_from(tlog: Path, system: int, component: int) -> list[str]:
+    """The STATUSTEXTs that reached MAVProxy from (system, component), in order."""
+    return [m.text for _, m in TlogReader.open(tlog).messages()
+            if m.get_type() == "STATUSTEXT"
+            and (m.get_srcSystem(), m.get_srcComponent()) == (system, component)]
 
+
+def sent_by(tlog: Path, system: int, component: int) -> dict[str, set[int]]:
+    """What reached MAVProxy from (system, component): each message type with the commands
+    (COMMAND_LONG) or types (HEARTBEAT) it carried."""
     kinds: dict[str, set[int]] = {}
-    for _, msg in TlogReader.open(run.tlog).messages():
-        if (msg.get_srcSystem(), msg.get_srcComponent()) == (1, 191):
+    for _, msg in TlogReader.open(tlog).messages():
+        if (msg.get_srcSystem(), msg.get_srcComponent()) == (system, component):
             kinds.setdefault(msg.get_type(), set()).add(
                 int(getattr(msg, "command", getattr(msg, "type", 0))))
-    print({k: sorted(v) for k, v in kinds.items()})
-    assert set(kinds) - {"REQUEST_DATA_STREAM"} == WATCH_SENDS
-    assert kinds["COMMAND_LONG"] == {mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL}
-    assert kinds["HEARTBEAT"] == {mavlink2.MAV_TYPE_ONBOARD_CONTROLLER}
+    return kinds
