@@ -27,6 +27,7 @@ why); the vehicle's calibration is recomputed from these (docs/method.md §7).
 from __future__ import annotations
 
 import sqlite3
+import time
 from pathlib import Path
 
 from trimd.app.files import data_dir
@@ -94,6 +95,24 @@ def default_db_path() -> Path:
     return data_dir() / "trimd.db"
 
 
+def _wal(conn: sqlite3.Connection) -> None:
+    """Put the file in WAL journal mode, waiting up to :data:`BUSY_TIMEOUT_S` for others.
+
+    While a new file is created by two processes at once (the watch and the service
+    starting together), each switch reads the header and then wants to write it; SQLite
+    answers the second "database is locked" at once, without its busy handler (waiting
+    could deadlock), so the switch is retried here until the other has committed."""
+    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    while True:
+        try:
+            conn.execute("PRAGMA journal_mode = WAL")
+            return
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
+
+
 def migrate(conn: sqlite3.Connection, upto: int = SCHEMA_VERSION) -> int:
     """Bring the file to version ``upto`` (each step one transaction); its old version.
 
@@ -128,7 +147,7 @@ def connect(path: str | Path, *, upto: int = SCHEMA_VERSION) -> sqlite3.Connecti
     except (OSError, sqlite3.Error) as exc:
         raise DataError(f"{p}: cannot open the trim history ({exc})") from None
     try:
-        conn.execute("PRAGMA journal_mode = WAL")  # waits for a lock as any statement
+        _wal(conn)
         conn.execute("PRAGMA foreign_keys = ON")
         conn.execute("PRAGMA synchronous = FULL")
         migrate(conn, upto)
