@@ -11,6 +11,7 @@ within 10 % of that force or moment; every validation NRMSE ≥ 90 %)."""
 from __future__ import annotations
 
 import asyncio
+import math
 import os
 import time
 
@@ -104,10 +105,12 @@ def _stage(profile: Profile, stage: str) -> tuple[bool, float, float]:
     for name in shown:
         p = fit[name]
         tv = truth[name]
-        share = abs(p.value - tv) * fit.share[name]
+        # a DOF the record did not excite has no share scale: judged by its error alone
+        scale = fit.share.get(name, math.nan)
+        share = abs(p.value - tv) * scale
         # the share rule judges only a negligible coefficient: its whole contribution is
         # below 10 % of the DOF's force or moment (a zero one included)
-        negligible = abs(tv) * fit.share[name] < 0.1
+        negligible = abs(tv) * scale < 0.1
         good = bool(share <= 0.1 if negligible else abs(p.value - tv) <= 0.1 * abs(tv))
         ok &= good
         err = f"{100 * (p.value - tv) / tv:+7.2f} %" if tv else "   (zero)"

@@ -113,7 +113,9 @@ def serve_beside_mavproxy(tmp: Path) -> tuple[AtMavproxy, Serve]:
     """Run ``trimd serve`` (its data in ``tmp/data``) beside MAVProxy until MAVProxy has
     printed its alert; the run and the stopped service."""
     served, started = served_beside_mavproxy(tmp / "data")
-    run = leak_beside_mavproxy(tmp, [served])
-    code = started[0].stop()
+    try:
+        run = leak_beside_mavproxy(tmp, [served])
+    finally:  # its output file closed however the dive ended
+        code = started[0].stop() if started else 0
     assert code == 0, (code, started[0].output())
     return run, started[0]

@@ -123,7 +123,7 @@ def verdict(watch: TrimWatch) -> str:
     notes = "".join(f"\n  {n}" for n in watch.notes)
     if not watch.segments:
         return f"no steady segment: {_why_none(watch, rejected)}{notes}"
-    n_base = sum(s.baseline for s in watch.segments)
+    n_base = sum(s.baseline for s in watch.segments) - len(watch.baseline_dropped)
     base = (watch.detector.baseline.source if watch.detector is not None else
             f"not formed ({n_base} of {watch.baseline_segments} level segments)")
     text = (f"{len(watch.segments)} steady segment(s); baseline {base}; "
@@ -135,6 +135,9 @@ def verdict(watch: TrimWatch) -> str:
     if watch.segments and not watch.segments[0].estimate.observable[3]:
         text += ("\n  at level the height of the centre of gravity (W·z_g − B·z_b) is not "
                  "observable")
+    if watch.baseline_dropped:
+        text += ("\n  left out of the baseline, as the trim moved while it formed (a leak? "
+                 "a loose piece?): " + "; ".join(watch.baseline_dropped))
     if rejected:
         text += f"\n  not counted: {rejected}"
     if watch.breaks:

@@ -151,11 +151,11 @@ def _missing(fits: Sequence[StageFit]) -> list[tuple[StageFit, tuple[DofExcitati
 
 
 def run_identify(args: argparse.Namespace) -> int:
-    from trimd.app.excite_logs import experiments_by_stage, stopped_early  # reads logs
+    from trimd.app.excite_logs import experiments_by_stage  # reads logs
 
     profile = load_profile(args.profile)
     statics = read_statics(args.estimate) if args.estimate else None
-    experiments = experiments_by_stage(args.logs, profile, args.stage)
+    experiments, early = experiments_by_stage(args.logs, profile, args.stage)
     fits = fit_stages(experiments, profile, FitOptions(segment_s=args.segment),
                       statics=statics)
     by_name = {f.stage: f for f in fits}
@@ -169,7 +169,9 @@ def run_identify(args: argparse.Namespace) -> int:
         return fits[-1].values() | best
 
     validations: dict[str, list[Validation]] = {}
-    for stage, held_out in experiments_by_stage(args.validate, profile, args.stage).items():
+    held_out_by_stage, early_held_out = experiments_by_stage(args.validate, profile,
+                                                             args.stage)
+    for stage, held_out in held_out_by_stage.items():
         for e in held_out:
             validations.setdefault(stage, []).extend(
                 validate(values(stage), [e], profile, stage, statics=statics))
@@ -185,9 +187,8 @@ def run_identify(args: argparse.Namespace) -> int:
         comments.append(f"{', '.join(blind)}: need a DVL (no body velocity in these logs), "
                         "the profile's values kept")
     fragment = profile_fragment(best, profile, comments)
-    early = {p: t for p in [*args.logs, *args.validate] if (t := stopped_early(p))}
     print_result(args.json, {"type": "identification", **summary_dict(fits, validations),
-                             "stopped_early": early, "fragment": fragment},
+                             "stopped_early": early | early_held_out, "fragment": fragment},
                  "\n\n".join(format_fit(f, validations.get(f.stage, ())) for f in fits)
                  + "\n\n" + fragment)
     if args.out:

@@ -113,6 +113,7 @@ def _finish(watch: TrimWatch, args: argparse.Namespace, source: str,
         print_json({"type": "verdict", "source": source, "vehicle": watch.vehicle,
                     "segments": len(watch.segments), "alerts": len(watch.alerts),
                     "rejected": watch.rejected, "breaks": watch.breaks, "h_sigma": watch.h,
+                    "baseline_dropped": watch.baseline_dropped,
                     "text": text})
     else:
         print(f"{source}: {text}")

@@ -39,12 +39,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
+from trimd.core.errors import EstimationError
 from trimd.core.estimate import StaticEstimate
-from trimd.core.segment import SegmentEstimate
+from trimd.core.segment import Q_NAMES, SegmentEstimate
 from trimd.core.types import FloatArray
 
-__all__ = ["COMPONENTS", "CUSUM_K", "Baseline", "ChangeAlert", "ChangeDetector",
+__all__ = ["COMPONENTS", "CUSUM_K", "DISAGREE_P", "Baseline", "ChangeAlert", "ChangeDetector",
            "baseline_from_estimate", "baseline_from_segments", "threshold_for"]
 
 #: CUSUM reference value k [σ]: half the shift it is tuned to.
@@ -54,6 +56,12 @@ Z_START = 2.0
 #: The components tested (index into q): W − B and the two moments that level segments
 #: observe. W·z_g − B·z_b is never observable at level.
 COMPONENTS = (0, 1, 2)
+#: Segments offered as a baseline disagree when, for one component, their scatter about
+#: the weighted mean has a χ² tail probability below this: far out, as between-segment
+#: wander that the segments' own ± understates (strong disturbance torques at 20 s
+#: correlation: χ² 14–27 on 2 degrees of freedom in simulated dives) is not a change,
+#: while a step of 2 N gives χ² 43.
+DISAGREE_P = 1e-6
 
 
 def threshold_for(false_alarms_per_h: float, segments_per_h: float, k: float = CUSUM_K,
@@ -91,13 +99,24 @@ class Baseline:
 
 
 def baseline_from_segments(segments: Sequence[SegmentEstimate],
-                           floor_var: FloatArray | None = None) -> Baseline:
+                           floor_var: FloatArray | None = None,
+                           source: str | None = None, widen: bool = False) -> Baseline:
     """Per component, the inverse-variance weighted mean of the segments that observe it
     (their noise variances plus ``floor_var``, the wander between segments; the shared
-    gain exposure averaged with the same weights)."""
+    gain exposure averaged with the same weights), named ``source`` for people (by
+    default "the first n segments").
+
+    When the segments disagree (a component's χ² about the mean, :func:`_scatter`, has a
+    tail probability below :data:`DISAGREE_P`) the trim moved between them (a piece lost,
+    a float torn off) and their mean would be a level the vehicle never had:
+    EstimationError saying which and by how much; with ``widen``, the baseline instead,
+    each disagreeing component's variance at least the segments' own weighted scatter
+    about it (which of those levels the vehicle holds now is not known), and the source
+    saying so. A slow leak widens each segment's own ± instead and is not caught so."""
     floor = np.zeros(4) if floor_var is None else np.asarray(floor_var, float)
     q, var = np.full(4, np.nan), np.full(4, np.inf)
     gain = np.zeros((4, segments[0].gain_sensitivity.shape[1]))
+    widened = []
     for i in range(4):
         use = [s for s in segments if s.observable[i]]
         if not use:
@@ -107,7 +126,30 @@ def baseline_from_segments(segments: Sequence[SegmentEstimate],
         q[i] = sum(wk * s.q[i] for wk, s in zip(w, use, strict=True))
         var[i] = float(np.sum(w**2 * v))
         gain[i] = sum(wk * s.gain_sensitivity[i] for wk, s in zip(w, use, strict=True))
-    return Baseline(q, var, gain, f"the first {len(segments)} segments")
+        chi2 = _scatter(use, v, w, i)
+        if i in COMPONENTS and len(use) > 1 and stats.chi2.sf(chi2, len(use) - 1) < DISAGREE_P:
+            spread = [s.q[i] for s in use]
+            why = (f"{Q_NAMES[i]} ranged {min(spread):+.3f} to {max(spread):+.3f} "
+                   f"{'N' if i == 0 else 'N·m'} over {len(use)} segments (χ² {chi2:.0f} "
+                   f"on {len(use) - 1} degrees of freedom)")
+            if not widen:
+                raise EstimationError(why)
+            spread_var = float(w @ (np.array(spread) - q[i]) ** 2) * len(use) / (len(use) - 1)
+            var[i] = max(var[i], spread_var)
+            widened.append(why)
+    source = source or f"the first {len(segments)} segments"
+    if widened:
+        source += f" (they disagreed, their ± widened to their scatter: {'; '.join(widened)})"
+    return Baseline(q, var, gain, source)
+
+
+def _scatter(use: Sequence[SegmentEstimate], v: FloatArray, w: FloatArray, i: int) -> float:
+    """χ² = Σ (q_k − q̄)²/σ_k² of component ``i`` of the segments ``use`` about their
+    weighted mean (weights ``w``), σ_k² a segment's noise-and-floor variance ``v`` plus its
+    gain exposure's difference from the mean exposure, as the change test counts them."""
+    q = np.array([s.q[i] for s in use])
+    g = np.array([s.gain_sensitivity[i] for s in use])
+    return float(np.sum((q - w @ q) ** 2 / (v + np.sum((g - w @ g) ** 2, axis=1))))
 
 
 def baseline_from_estimate(est: StaticEstimate, source: str) -> Baseline:

@@ -110,6 +110,13 @@ class HoldSamples:
     label: str = ""
     thrust: FloatArray | None = None
 
+    def take(self, index: FloatArray, label: str | None = None) -> HoldSamples:
+        """The samples at ``index`` (an integer index or a boolean mask), named ``label``
+        (this hold's label when None)."""
+        return HoldSamples(self.t_s[index], self.phi[index], self.theta[index],
+                           self.tau[index], self.label if label is None else label,
+                           None if self.thrust is None else self.thrust[index])
+
 
 @dataclass
 class HoldRecord:

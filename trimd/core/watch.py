@@ -33,17 +33,13 @@ so they find the same segments.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 from collections.abc import Callable
 
 import numpy as np
 
-from trimd.core.change import (
-    Baseline,
-    ChangeDetector,
-    baseline_from_segments,
-    threshold_for,
-)
+from trimd.core.change import Baseline, ChangeDetector, baseline_from_segments, threshold_for
 from trimd.core.decision import StopRule
 from trimd.core.effort import thrust_at
 from trimd.core.errors import DataError, EstimationError
@@ -99,13 +95,6 @@ SEGMENT_ATTITUDE_WANDER_DEG = 0.05
 #: Default target false-alarm rate [1/h] and the segment rate it is computed for [1/h].
 FALSE_ALARMS_PER_H = 0.01
 SEGMENTS_PER_H = 60.0
-
-
-def _before(hold: HoldSamples, t_s: float) -> HoldSamples:
-    """The samples of ``hold`` up to ``t_s`` [s]."""
-    k = hold.t_s <= t_s
-    return HoldSamples(hold.t_s[k], hold.phi[k], hold.theta[k], hold.tau[k], hold.label,
-                       None if hold.thrust is None else hold.thrust[k])
 
 
 def _t_clock(t_s: float) -> str:
@@ -173,6 +162,8 @@ class TrimWatch:
         self._emitted_until = -math.inf
         self._next_tick = -math.inf
         self._pending: list[SegmentEstimate] = []
+        #: level segments left out of the baseline, each with why (for people)
+        self.baseline_dropped: list[str] = []
         self._last_level: HoldSamples | None = None
 
     # ------------------------------------------------------------------ input
@@ -273,7 +264,7 @@ class TrimWatch:
                 for hold, ended in find_segments(run, t[ok], tau, self.profile, thrust[ok]):
                     closed = ended or not last
                     if closed:  # the pilot ended it: leave out what the test saw late
-                        hold = _before(hold, float(hold.t_s[-1]) - END_MARGIN_S)
+                        hold = hold.take(hold.t_s <= hold.t_s[-1] - END_MARGIN_S)
                     for chunk in self._chunks(hold, complete_only=not (closed or final)):
                         out.extend(self._segment(chunk))
                     if not closed:
@@ -306,9 +297,7 @@ class TrimWatch:
             if hold.t_s[sel[-1]] - hold.t_s[sel[0]] < MIN_SEGMENT_S:
                 self.rejected["too short"] = self.rejected.get("too short", 0) + 1
                 continue
-            chunks.append(HoldSamples(hold.t_s[sel], hold.phi[sel], hold.theta[sel],
-                                      hold.tau[sel], "",
-                                      None if hold.thrust is None else hold.thrust[sel]))
+            chunks.append(hold.take(sel, ""))
         return chunks
 
     def _cut(self, open_start: float | None) -> None:
@@ -362,8 +351,7 @@ class TrimWatch:
             self.rejected[why] = self.rejected.get(why, 0) + 1
             return []
         index = len(self.segments) + 1
-        named = HoldSamples(hold.t_s, hold.phi, hold.theta, hold.tau, f"segment {index}",
-                            hold.thrust)
+        named = dataclasses.replace(hold, label=f"segment {index}")
         try:
             est = estimate_segment(named, self.profile, self._q_prior)
         except (EstimationError, DataError) as exc:
@@ -383,14 +371,30 @@ class TrimWatch:
         self.segments.append(seg)
         out: list[WatchSegment | WatchAlert] = [seg]
         if baseline:
-            self._pending.append(est)
-            if len(self._pending) >= self.baseline_segments:
-                self.detector = ChangeDetector(
-                    baseline_from_segments(self._pending, self.floor_var), self.h,
-                    floor_var=self.floor_var, relevance=self.relevance)
+            self._offer_to_baseline(est)
         elif self.detector is not None:
             for a in self.detector.update(est):
                 alert = WatchAlert(a, alert_text(a, self.clock))
                 self.alerts.append(alert)
                 out.append(alert)
         return out
+
+    def _offer_to_baseline(self, est: SegmentEstimate) -> None:
+        """Form the baseline once the last ``baseline_segments`` level segments agree
+        (:func:`baseline_from_segments`); while they do not (the trim moving as they were
+        measured), the oldest is dropped and why kept in ``baseline_dropped``. After as
+        many drops as the baseline has segments it forms from the last ones, its ± widened
+        to their scatter."""
+        self._pending.append(est)
+        if len(self._pending) < self.baseline_segments:
+            return
+        source = (f"{self._pending[0].label} to {self._pending[-1].label}"
+                  if self.baseline_dropped else None)
+        widen = len(self.baseline_dropped) >= self.baseline_segments  # no longer wait
+        try:
+            baseline = baseline_from_segments(self._pending, self.floor_var, source, widen)
+        except EstimationError as exc:
+            self.baseline_dropped.append(f"{self._pending.pop(0).label}: {exc}")
+            return
+        self.detector = ChangeDetector(baseline, self.h, floor_var=self.floor_var,
+                                       relevance=self.relevance)

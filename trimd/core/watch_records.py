@@ -15,7 +15,7 @@ from typing import Any
 from trimd.core.change import ChangeAlert
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
-from trimd.core.segment import SegmentEstimate
+from trimd.core.segment import Q_NAMES, SegmentEstimate
 
 __all__ = ["WatchAlert", "WatchSegment", "alert_text"]
 
@@ -85,8 +85,7 @@ def _unobservable(e: SegmentEstimate) -> str:
     if e.observable == (True, True, True, False):
         return ("level: the moment about the vertical, W·z_g − B·z_b (the height of the "
                 "centre of gravity), is not observable")
-    names = ("W − B", "W·x_g − B·x_b", "W·y_g − B·y_b", "W·z_g − B·z_b")
-    missing = [n for n, ok in zip(names, e.observable, strict=True) if not ok]
+    missing = [n for n, ok in zip(Q_NAMES, e.observable, strict=True) if not ok]
     return (f"at roll {e.roll_deg:.1f}°, pitch {e.pitch_deg:.1f}° one attitude cannot "
             f"separate {', '.join(missing)}" if missing else "")
 
