@@ -1,4 +1,5 @@
-"""The trim watch's change test on the simulated BlueROV2 Heavy during scripted dives.
+"""The trim watch's change test on a simulated vehicle during scripted dives (the BlueROV2
+Heavy, or ``TRIMD_WATCH_PROFILE``).
 
 False alarms: ``TRIMD_WATCH_SEEDS`` (default 3) dives of ``TRIMD_WATCH_HOURS`` (default 2)
 simulated hours each, with the sim options ``TRIMD_WATCH_OPTIONS`` (default
@@ -31,7 +32,8 @@ from trimd.drivers.sim.config import parse_sim_options
 from trimd.drivers.sim.link import SimLink
 from trimd.drivers.sim.vehicle import SimVehicle
 
-PROFILE = "bluerov2-heavy"
+#: the vehicle watched (``TRIMD_WATCH_PROFILE``, a profile name or path)
+PROFILE = os.environ.get("TRIMD_WATCH_PROFILE", "bluerov2-heavy")
 LEAK_N_MIN, LEAK_START_S = 0.5, 300.0
 
 
