@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from tests.helpers import payload_truth
+from trimd.app.watch import verdict
 from trimd.core.change import baseline_from_segments
 from trimd.core.errors import EstimationError
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
@@ -88,6 +89,11 @@ def test_segments_measured_while_the_trim_moved_are_left_out(stepped: TrimWatch)
     W, _ = payload_truth(profile, 0.3, np.array(profile.slot("W-aft-ctr").position_m))
     net = W + STEP_N - profile.buoyancy_N
     assert abs(base.q[0] - net) < 3 * math.sqrt(base.var[0]) + 0.05, (base.q[0], net)
+
+
+def test_the_verdict_names_the_segments_left_out(stepped: TrimWatch) -> None:
+    text = verdict(stepped)
+    assert "left out of the baseline" in text and stepped.baseline_dropped[0] in text
 
 
 def test_disagreeing_segments_are_refused_with_why(stepped: TrimWatch) -> None:

@@ -136,8 +136,8 @@ def verdict(watch: TrimWatch) -> str:
         text += ("\n  at level the height of the centre of gravity (W·z_g − B·z_b) is not "
                  "observable")
     if watch.baseline_dropped:
-        text += ("\n  left out of the baseline, as the trim moved while it formed (a leak? "
-                 "a loose piece?): " + "; ".join(watch.baseline_dropped))
+        text += ("\n  left out of the baseline, as the trim moved while it formed (a piece "
+                 "lost? a sudden flood?): " + "; ".join(watch.baseline_dropped))
     if rejected:
         text += f"\n  not counted: {rejected}"
     if watch.breaks:

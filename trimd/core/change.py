@@ -126,17 +126,19 @@ def baseline_from_segments(segments: Sequence[SegmentEstimate],
         q[i] = sum(wk * s.q[i] for wk, s in zip(w, use, strict=True))
         var[i] = float(np.sum(w**2 * v))
         gain[i] = sum(wk * s.gain_sensitivity[i] for wk, s in zip(w, use, strict=True))
+        if i not in COMPONENTS or len(use) < 2:
+            continue
         chi2 = _scatter(use, v, w, i)
-        if i in COMPONENTS and len(use) > 1 and stats.chi2.sf(chi2, len(use) - 1) < DISAGREE_P:
-            spread = [s.q[i] for s in use]
-            why = (f"{Q_NAMES[i]} ranged {min(spread):+.3f} to {max(spread):+.3f} "
-                   f"{'N' if i == 0 else 'N·m'} over {len(use)} segments (χ² {chi2:.0f} "
-                   f"on {len(use) - 1} degrees of freedom)")
-            if not widen:
-                raise EstimationError(why)
-            spread_var = float(w @ (np.array(spread) - q[i]) ** 2) * len(use) / (len(use) - 1)
-            var[i] = max(var[i], spread_var)
-            widened.append(why)
+        if stats.chi2.sf(chi2, len(use) - 1) >= DISAGREE_P:
+            continue
+        spread = np.array([s.q[i] for s in use])
+        why = (f"{Q_NAMES[i]} ranged {spread.min():+.3f} to {spread.max():+.3f} "
+               f"{'N' if i == 0 else 'N·m'} over {len(use)} segments (χ² {chi2:.0f} "
+               f"on {len(use) - 1} degrees of freedom)")
+        if not widen:
+            raise EstimationError(why)
+        var[i] = max(var[i], float(w @ (spread - q[i]) ** 2) * len(use) / (len(use) - 1))
+        widened.append(why)
     source = source or f"the first {len(segments)} segments"
     if widened:
         source += f" (they disagreed, their ± widened to their scatter: {'; '.join(widened)})"
