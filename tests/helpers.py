@@ -373,15 +373,18 @@ def sim_float(profile: Profile, payload: str, seed: int, options: str,
     return asyncio.run(go())
 
 
-def command_plan(sent: list[Command]) -> list[tuple[float, float] | str]:
+def command_plan(sent: Sequence[Command]) -> list[tuple[float, float] | str]:
     """The commands a session sent, as its plan: each held (roll, pitch) [deg, rounded to
     0.01°] once, however often the held heading was moved along during the hold
-    (``trimd.core.procedure.HEADING_LEASH_DEG``), and ``"release"``."""
+    (``trimd.core.procedure.HEADING_LEASH_DEG``), and ``"release"``. The steps of a ramp
+    to a hold (``trimd.core.ramp``) are left out: an attitude is held when the next
+    command holds it too (the next hold's ramp starts there) or is not an attitude."""
+    steps = [(round(math.degrees(c.phi), 2), round(math.degrees(c.theta), 2))
+             if isinstance(c, HoldAttitude) else type(c).__name__.lower() for c in sent]
     plan: list[tuple[float, float] | str] = []
-    for c in sent:
-        step: tuple[float, float] | str = (
-            (round(math.degrees(c.phi), 2), round(math.degrees(c.theta), 2))
-            if isinstance(c, HoldAttitude) else type(c).__name__.lower())
-        if not plan or plan[-1] != step:
+    for k, step in enumerate(steps):
+        after = steps[k + 1] if k + 1 < len(steps) else "end"
+        held = isinstance(step, str) or isinstance(after, str) or after == step
+        if held and (not plan or plan[-1] != step):
             plan.append(step)
     return plan

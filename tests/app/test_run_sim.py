@@ -140,7 +140,9 @@ def test_sim_trim_is_reproducible_by_seed(bluerov: Profile) -> None:
 @pytest.mark.parametrize("seed", [2, 3])
 def test_a_trimmed_vehicle_can_be_trimmed_again(bluerov: Profile, seed: int) -> None:
     """Trim, put the proposal on, trim again: the second trim settles at its tilted hold
-    and leaves the true vehicle within the level tolerance. A trimmed vehicle needs no
+    and leaves the true vehicle where it said: within the level tolerance or within its
+    predicted trim ± 95 % on both axes (its ESC dead bands leave a Heavy's passive trim
+    known to a few degrees, docs/method.md §3, so level is not promised). A trimmed vehicle needs no
     yaw torque when tilted, so its horizontal thrusters idle in their deadband; with the
     heading held absolutely (before ``HEADING_LEASH_DEG``) its yaw limit-cycled through
     the roll and pitch loops and the tilted hold of these seeds never settled."""
@@ -151,4 +153,8 @@ def test_a_trimmed_vehicle_can_be_trimmed_again(bluerov: Profile, seed: int) -> 
     again = sim_trim(bluerov, ballasted, seed, options)
     assert again.result.phase is Phase.DONE, again.result.reason
     after = again.trim_after_proposal_deg()
-    assert max(abs(a) for a in after) <= bluerov.level_tol_deg, after
+    proposal = again.result.proposal
+    assert isinstance(proposal, Proposal)
+    predicted = (proposal.trim.roll_deg, proposal.trim.pitch_deg)
+    for a, p, s in zip(after, predicted, proposal.trim_std_deg, strict=True):
+        assert abs(a) <= bluerov.level_tol_deg or abs(a - p) <= 1.96 * s, (after, predicted)

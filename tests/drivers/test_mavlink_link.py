@@ -470,14 +470,17 @@ def test_rates_hold_release_and_link_lost(
 
 # ------------------------------------------------------------------ trimd run ↔ trimd sim
 def fast_profile(tmp_path: Path, name: str) -> Path:
-    """Profile ``name`` with 3 s instead of 10 s of steadiness before collecting and at most
-    60 s of collecting per hold: the served simulator runs 10× faster than the wall clock
-    the live procedure measures."""
+    """Profile ``name`` with 3 s instead of 10 s of steadiness before collecting, at most
+    60 s of collecting per hold and the commanded tilt moving at 50°/s instead of 5°/s:
+    the served simulator runs 10× faster than the wall clock the live procedure
+    measures."""
     text = (PROFILES / f"{name}.yaml").read_text(encoding="utf-8")
     assert "min_steady_s: 10.0" in text
     text = re.sub(r"collect_max_s: [\d.]+", "collect_max_s: 60.0", text, count=1)
     path = tmp_path / f"{name}.yaml"
-    path.write_text(text.replace("min_steady_s: 10.0", "min_steady_s: 3.0"), encoding="utf-8")
+    assert "tilt_rate_deg_s" not in text
+    faster = r"\1min_steady_s: 3.0\n\1tilt_rate_deg_s: 50.0"
+    path.write_text(re.sub(r"( *)min_steady_s: 10.0", faster, text, count=1), encoding="utf-8")
     return path
 
 

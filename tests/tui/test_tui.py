@@ -153,6 +153,12 @@ async def test_whole_procedure_on_the_simulated_vehicle(sabertooth: Profile,
     assert np.all(np.abs(passive_attitude_deg(sabertooth, ballasted)) < 0.5)
 
 
+def _in_hold_2(app: object, link: FakeLink) -> bool:
+    """Settling in the tilted hold: a tilt was commanded (the first step of its ramp)."""
+    return _phase(app) is Phase.SETTLE and any(
+        isinstance(c, HoldAttitude) and c.phi != 0.0 for c in link.sent)
+
+
 def _tilting_in_hold_2(link: RecordingSimLink) -> bool:
     """The tilted hold (20° roll and pitch) reached the vehicle and it is on its way."""
     if len(link.sent) < 2:
@@ -174,14 +180,16 @@ async def test_abort_mid_hold_on_the_simulated_vehicle_releases_it(sabertooth: P
         await until(pilot, lambda: (link.paused_at is not None and _phase(app) is Phase.SETTLE)
                     or app.result is not None)
         assert app.result is None, app.result  # frozen in hold 2, not ended before it
-        held = link.vehicle.controller.target
-        assert held[:2] == pytest.approx((math.radians(20.0), math.radians(20.0)))
+        held = link.vehicle.controller.target  # on its way up the ramp to 20°/20°
+        assert held[0] == pytest.approx(held[1])
+        assert math.radians(5.0) < held[0] <= math.radians(20.0)
         await pilot.press("a")
         await until(pilot, lambda: app.result is not None)
         assert app.result is not None and app.result.phase is Phase.ABORTED
         assert app.result.reason == "aborted by the operator"
         assert _phase(app) is Phase.ABORTED
-    assert command_plan(link.sent) == [(0.0, 0.0), (20.0, 20.0), "release"]
+    on_ramp = round(math.degrees(held[0]), 2)  # aborted on the way up: released from there
+    assert command_plan(link.sent) == [(0.0, 0.0), (on_ramp, on_ramp), "release"]
     t_release, _ = link.commands[-1]
     assert t_release == link.paused_at  # mid-hold: the vehicle took no step in between
     v = link.vehicle
@@ -228,7 +236,7 @@ async def test_abort_mid_hold_from_the_help_screen_releases_at_once(
     link = FakeLink(thesis_vehicle(profile, stuck_at_deg=5.0))  # hold 2 never settles
     app = app_for(profile, link, confirmed=True)
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: _phase(app) is Phase.SETTLE and len(link.sent) == 2)
+        await until(pilot, lambda: _in_hold_2(app, link))
         await pilot.press("question_mark")
         assert isinstance(app.screen, HelpScreen)
         pressed_at = link.t
@@ -285,7 +293,7 @@ async def test_a_signal_mid_hold_releases_and_quits(sabertooth: Profile,
         async with app.run_test(size=(80, 24)) as pilot:
             stop_on_signals(app.stop)  # as trimd run does around the TUI
             await until(pilot, lambda: app.result is not None
-                        or (_phase(app) is Phase.SETTLE and len(link.sent) == 2))
+                        or _in_hold_2(app, link))
             assert app.result is None, app.result.reason   # still in the tilted hold
             os.kill(os.getpid(), sig)
             await until(pilot, lambda: app.result is not None)
@@ -314,7 +322,7 @@ async def test_a_hang_up_exits_once_the_vehicle_is_released(
                         lambda code: exits.append((code, isinstance(link.sent[-1], Release))))
     leaving: set[asyncio.Future[None]] = set()
     async with app.run_test(size=(80, 24)) as pilot:
-        await until(pilot, lambda: _phase(app) is Phase.SETTLE and len(link.sent) == 2)
+        await until(pilot, lambda: _in_hold_2(app, link))
         tui_run._hang_up(app, leaving)
         await until(pilot, lambda: bool(exits))
     assert exits == [(1, True)]  # exit code 1, and only after the release was sent

@@ -182,10 +182,19 @@ def describe_command(command: Command) -> str:
     return repr(command)
 
 
+#: An attitude command that moves roll and pitch by no more than this [deg] from the one
+#: before continues it (a ramp step: ``procedure.tilt_rate_deg_s`` over one attitude
+#: sample, 0.3° at 5°/s and 16 Hz, 1.25° at the slowest attitude stream trimd accepts).
+RAMP_STEP_DEG = 1.5
+
+
 class NewCommands:
-    """The commands each presenter shows: every command, except a hold's set-point sent
-    again with only its heading moved along (``trimd.core.procedure.HEADING_LEASH_DEG``:
-    dozens per trim, recorded in the session log, not news to the operator)."""
+    """The commands each presenter shows: every command, except an attitude command that
+    moved roll and pitch by at most :data:`RAMP_STEP_DEG` from the one before: a hold's
+    set-point sent again with only its heading moved along
+    (``trimd.core.procedure.HEADING_LEASH_DEG``), or a step of the ramp to a hold
+    (``trimd.core.ramp``; the hold's own line says where it goes). Dozens per trim, in the
+    session log, not news to the operator."""
 
     def __init__(self) -> None:
         self._held: tuple[float, float] | None = None
@@ -193,9 +202,11 @@ class NewCommands:
     def __call__(self, command: Command) -> str | None:
         """The command's log line, or None when it is not news."""
         held = (command.phi, command.theta) if isinstance(command, HoldAttitude) else None
-        if held is not None and held == self._held:
+        last, self._held = self._held, held
+        step = math.radians(RAMP_STEP_DEG)
+        if held is not None and last is not None and all(
+                abs(h - g) <= step for h, g in zip(held, last, strict=True)):
             return None
-        self._held = held
         return describe_command(command)
 
 

@@ -34,6 +34,7 @@ from trimd.core.guards import Guard
 from trimd.core.phases import Phases
 from trimd.core.precheck import Precheck
 from trimd.core.profile import HoldSetpoint, Profile
+from trimd.core.ramp import TiltRamp
 from trimd.core.samples import (
     Attitude,
     Battery,
@@ -110,6 +111,8 @@ class Procedure(Phases[P, V]):
         self.precheck = Precheck(MIN_RATES_HZ, profile.procedure.max_depth_excursion_m)
         self._holds: list[HoldRecord] = []
         self._psi = 0.0
+        self._tilt = TiltRamp(math.radians(self.proc.tilt_rate_deg_s),
+                              math.radians(self.proc.attitude_tol_deg))
         self._settling: HoldSettling | None = None
         self._look = 0
         self._weighed = False
@@ -161,18 +164,24 @@ class Procedure(Phases[P, V]):
             return []
         if self.phase is Phase.COLLECT and self._time_left(self._t_data) < 0:
             return self._end_hold(self._decided())
-        return self._heading_leash(a) + self._hold_sample(a, self._settling)
+        return self._command(a) + self._hold_sample(a, self._settling)
 
-    def _heading_leash(self, a: Attitude) -> list[Output[P, V]]:
-        """Move the held heading towards the vehicle's when it trails by more than
-        :data:`HEADING_LEASH_DEG`."""
+    def _command(self, a: Attitude) -> list[Output[P, V]]:
+        """The hold's attitude command again when the ramp to it moved on
+        (:class:`~trimd.core.ramp.TiltRamp`) or the held heading moved towards the
+        vehicle's, which it may trail by at most :data:`HEADING_LEASH_DEG`."""
+        moved = self._tilt.advance(a.t_s)
         error = math.remainder(self._psi - a.psi, math.tau)
         leash = math.radians(HEADING_LEASH_DEG)
-        if abs(error) <= leash:
+        if abs(error) > leash:
+            self._psi = a.psi + math.copysign(leash / 2, error)
+        elif not moved:
             return []
-        self._psi = a.psi + math.copysign(leash / 2, error)
-        hold = self._holds[-1]
-        return [HoldAttitude(hold.phi, hold.theta, self._psi)]
+        return [HoldAttitude(*self._commanded(), self._psi)]
+
+    def _commanded(self) -> tuple[float, float]:
+        """Roll and pitch [rad] commanded now."""
+        return self._tilt.command or (0.0, 0.0)
 
     def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output[P, V]]:
         """An attitude sample during a hold: settle, collect, move on."""
@@ -211,9 +220,13 @@ class Procedure(Phases[P, V]):
         self._look = 0
         self.guard.start(self._now_data(), self._depth.depth_m if self._depth else math.nan,
                          "the hold's start depth")
-        out: list[Output[P, V]] = [HoldAttitude(phi, theta, self._psi)]
+        a = self._attitude
+        self._tilt.toward(self._now_data(), (phi, theta), (a.phi, a.theta) if a else None)
+        out: list[Output[P, V]] = [HoldAttitude(*self._commanded(), self._psi)]
+        ramp = ("" if self._commanded() == (phi, theta)
+                else f" at {self.proc.tilt_rate_deg_s:g}°/s")  # the ramp's rate
         return out + self._enter(Phase.SETTLE, f"hold {k + 1}/{len(self.holds)}: roll "
-                                 f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°")
+                                 f"{sp.roll_deg:g}°, pitch {sp.pitch_deg:g}°{ramp}")
 
     def _maybe_next_hold(self) -> list[Output[P, V]]:
         """After a collected sample: at each look of the stop rule, move on once the

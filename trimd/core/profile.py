@@ -162,6 +162,10 @@ class ProcedureLimits:
     collect_max_s: float
     connect_timeout_s: float
     link_timeout_s: float
+    #: How fast [deg/s] a commanded roll or pitch moves to a new hold's: a step of 20°
+    #: made the simulated small-payload Heavy overshoot past 30° (its thrusters idle in
+    #: their dead band); at 5°/s it did not.
+    tilt_rate_deg_s: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)

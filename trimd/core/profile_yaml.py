@@ -126,7 +126,8 @@ _KNOWN_KEYS = {
     "thrust_kgf", "neutral_us", "max_weight_kg", "max_float_kg", "kind", "count",
     "net_buoyancy_pct", "roll_deg", "pitch_deg", "max_tilt_deg", "max_depth_excursion_m",
     "attitude_tol_deg", "rate_tol_deg_s", "min_steady_s", "settle_timeout_s", "collect_max_s",
-    "connect_timeout_s", "link_timeout_s", "level_tol_deg", "uncertainty_pct", "deadband_margin_us",
+    "connect_timeout_s", "link_timeout_s", "tilt_rate_deg_s", "level_tol_deg", "uncertainty_pct",
+    "deadband_margin_us",
     *RETIRED_PROCEDURE_KEYS,
     "installed", "slot", "piece",
     "surge_kg", "sway_kg", "heave_kg", "roll_kg_m2", "pitch_kg_m2", "yaw_kg_m2",
@@ -236,6 +237,7 @@ def _procedure(node: _Node) -> ProcedureLimits:
         collect_max_s=node.number("collect_max_s", 120.0, positive=True),
         connect_timeout_s=node.number("connect_timeout_s", 30.0, positive=True),
         link_timeout_s=node.number("link_timeout_s", 0.8, positive=True),
+        tilt_rate_deg_s=node.number("tilt_rate_deg_s", 5.0, positive=True),
     )
     if p.max_tilt_deg >= 60:
         raise node.fail("max_tilt_deg", f"expected less than 60 degrees, got {p.max_tilt_deg}")
