@@ -22,6 +22,7 @@ from trimd.core.settling import (
     WINDOW_S,
     HoldSettling,
     StreamSteadiness,
+    euler_rates,
 )
 from trimd.core.steady import ratio_statistic, window_drift
 
@@ -224,3 +225,42 @@ def test_only_wanders_tells_wander_from_a_creep() -> None:
                 stream.update(ti, xi)
             out.append(stream.only_wanders())
     assert np.mean(wanders) >= 0.8 and not any(creeps), (wanders, creeps)
+
+
+def _turning_in_yaw(phi: float, theta: float, yaw_rate: float, t: float) -> Attitude:
+    """An attitude at roll ``phi`` and pitch ``theta`` [rad], turning in yaw alone at
+    ``yaw_rate`` [rad/s]: its body rates (p, q, r) = T_Θ⁻¹·(0, 0, ψ̇)."""
+    return Attitude(t, phi, theta, yaw_rate * t, -math.sin(theta) * yaw_rate,
+                    math.sin(phi) * math.cos(theta) * yaw_rate,
+                    math.cos(phi) * math.cos(theta) * yaw_rate)
+
+
+def test_euler_rates_of_a_tilted_vehicle_turning_in_yaw_are_zero() -> None:
+    a = _turning_in_yaw(math.radians(20.0), math.radians(-15.0), math.radians(10.0), 0.0)
+    assert abs(a.p) > math.radians(2.0) and abs(a.q) > math.radians(2.0)
+    assert euler_rates(a) == pytest.approx((0.0, 0.0), abs=1e-12)
+    rolling = Attitude(0.0, 0.0, 0.0, 0.0, 0.1, -0.2, math.nan)  # level: the body rates
+    assert euler_rates(rolling) == pytest.approx((0.1, -0.2))
+
+
+def test_a_tilted_hold_whose_heading_hunts_settles(bluerov: Profile) -> None:
+    """At 20°/20°, the heading hunting ±10°/s (the small-payload Heavy's yaw in its
+    horizontal thrusters' dead band; trimd holds roll and pitch, the heading trails the
+    vehicle's): body p and q beyond the rate tolerance most of the time, roll and pitch
+    still. Settles within the minimum steady time and a little."""
+    proc = bluerov.procedure
+    sp = math.radians(20.0)
+    floor = StopRule.for_profile(bluerov).effort_floor(math.radians(proc.attitude_tol_deg),
+                                                       sp, sp)
+    hold = HoldSettling(proc, sp, sp, floor)
+    rng = np.random.default_rng(3)
+    body_q = []
+    for i in range(int(DURATION_S * ATT_HZ)):
+        t = i / ATT_HZ
+        hold.effort(t, level_tau(bluerov) + 0.01 * rng.standard_normal(6))
+        a = _turning_in_yaw(sp, sp, math.radians(10.0) * math.sin(2 * math.pi * t / 20.0), t)
+        body_q.append(abs(a.q))
+        if hold.attitude(a, True) and t - hold.steady_since >= proc.min_steady_s:
+            break
+    assert np.mean(np.array(body_q) > math.radians(proc.rate_tol_deg_s)) > 0.5
+    assert t < 30.0

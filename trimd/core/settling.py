@@ -1,12 +1,16 @@
 """Has a commanded attitude hold settled? The live test, one sample at a time.
 
 A hold has settled when the attitude is at its set-point within ``attitude_tol_deg`` and
-its body rates are below ``rate_tol_deg_s`` (both judged by their mean over
+its roll and pitch rates are below ``rate_tol_deg_s`` (both judged by their mean over
 :data:`RATE_WINDOW_S`), and two streams are steady, each on its own samples (a
 zero-order-held, repeated value would distort both tests): the attitude (roll, pitch) and
-the thruster effort τ. A stream is steady on a channel when the Cao–Rhinehart ratio test
-(:class:`trimd.core.steady.RatioTest`) finds no transient, *or* the channel does not
-drift by more than a practical floor over a trailing window
+the thruster effort τ. The rates are the Euler angles' (:func:`euler_rates`), not the
+body rates p, q: at a tilt, a vehicle turning in yaw has body rates p and q while its roll
+and pitch stay put (the simulated small-payload BlueROV2 Heavy at 20°/20°, its yaw hunting
+±10°/s in its horizontal thrusters' dead band, had 3–5°/s of body p and q, and its
+tilted hold never settled in 5 of 200 trims). A stream is steady on a channel when the
+Cao–Rhinehart ratio test (:class:`trimd.core.steady.RatioTest`) finds no transient, *or*
+the channel does not drift by more than a practical floor over a trailing window
 (:func:`trimd.core.steady.window_drift`).
 
 The ratio test alone reads any coloured signal as a transient: slow attitude wander (an
@@ -73,7 +77,7 @@ from trimd.core.samples import Attitude
 from trimd.core.steady import RatioTest, last_window_drift
 
 __all__ = ["ATTITUDE_DRIFT_SHARE", "EFFORT_WAIVER_S", "LONG_WINDOW_S", "UNSTEADY_GRACE_S",
-           "WINDOW_S", "HoldSettling", "StreamSteadiness"]
+           "WINDOW_S", "HoldSettling", "StreamSteadiness", "euler_rates"]
 
 #: A failed steadiness test unsettles a hold only when it persists this long [s].
 UNSTEADY_GRACE_S = 1.0
@@ -86,7 +90,7 @@ EFFORT_WAIVER_S = 10.0
 #: Effort whose drift over the long window is within this many times its scatter about
 #: the drift line only wanders (:meth:`StreamSteadiness.only_wanders`).
 WANDER_RATIO = 5.0
-#: The body rates and the attitude's distance from its set-point are judged by their mean
+#: The roll and pitch rates and the attitude's distance from its set-point are judged by their mean
 #: over this trailing window [s]: a vehicle turning towards its set-point keeps its rate,
 #: wander about it averages out.
 RATE_WINDOW_S = 2.0
@@ -96,6 +100,15 @@ MIN_RATIO_SAMPLES = 12
 R_CRIT = 2.5
 #: The attitude may drift by this share of the attitude tolerance per window.
 ATTITUDE_DRIFT_SHARE = 0.5
+
+
+def euler_rates(a: Attitude) -> tuple[float, float]:
+    """Roll and pitch rates φ̇, θ̇ [rad/s] from the body rates p, q, r (Fossen's T_Θ:
+    φ̇ = p + (q·sin φ + r·cos φ)·tan θ, θ̇ = q·cos φ − r·sin φ); a yaw rate r that is not
+    known (NaN) counts as none."""
+    r = a.r if math.isfinite(a.r) else 0.0
+    s, c = math.sin(a.phi), math.cos(a.phi)
+    return a.p + (a.q * s + r * c) * math.tan(a.theta), a.q * c - r * s
 
 
 class StreamSteadiness:
@@ -197,7 +210,7 @@ class HoldSettling:
         self.rate_tol = math.radians(limits.rate_tol_deg_s)
         self._settled = GraceTimer()            # the whole hold
         self._attitude_steady = GraceTimer()    # the attitude alone (the effort waiver)
-        #: the last RATE_WINDOW_S of t [s], p, q [rad/s], φ, θ [rad] (one deque each: summed
+        #: the last RATE_WINDOW_S of t [s], φ̇, θ̇ [rad/s], φ, θ [rad] (one deque each: summed
         #: on every sample)
         self._recent: tuple[deque[float], ...] = tuple(deque() for _ in range(5))
         self._attitude = StreamSteadiness(np.full(2, ATTITUDE_DRIFT_SHARE * self.tol))
@@ -233,7 +246,7 @@ class HoldSettling:
     def _steady(self, a: Attitude) -> bool:
         """Is everything steady at ``a`` (before the grace of :class:`GraceTimer`)?"""
         recent = self._recent
-        for d, v in zip(recent, (a.t_s, a.p, a.q, a.phi, a.theta), strict=True):
+        for d, v in zip(recent, (a.t_s, *euler_rates(a), a.phi, a.theta), strict=True):
             d.append(v)
         t, p, q = recent[:3]
         while t[0] < a.t_s - RATE_WINDOW_S:
