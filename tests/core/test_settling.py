@@ -197,7 +197,9 @@ def weak_loop_hold(profile: Profile, seed: int, wander_deg: float = 1.0
 def test_a_hold_wandering_by_as_much_as_its_tolerance_settles(bluerov: Profile) -> None:
     """Attitude wander of 1° RMS against a 1.5° tolerance drifts beyond the attitude's
     drift floor over most windows and crosses the tolerance for seconds at a time: the
-    hold is as steady as its loop makes it, and settles (issue 22: such holds never did)."""
+    hold is as steady as its loop makes it, and settles (issue 22: such holds never did;
+    seed 8's 2 s mean left the tolerance for longer than the grace until the long window's
+    mean counted for an attitude that only wanders)."""
     tol = math.radians(bluerov.procedure.attitude_tol_deg)
     att, _ = weak_loop_hold(bluerov, 0)
     t = np.arange(len(att)) / ATT_HZ
@@ -206,7 +208,7 @@ def test_a_hold_wandering_by_as_much_as_its_tolerance_settles(bluerov: Profile) 
         assert np.mean(np.any(beyond, axis=1)) > 0.3
     assert np.mean(np.any(np.abs(att) > tol, axis=1)) > 0.1
     times = [settled_at(bluerov, *weak_loop_hold(bluerov, seed)) for seed in range(20)]
-    assert np.mean(np.isfinite(times)) >= 0.9, times
+    assert np.all(np.isfinite(times)), times
 
 
 def test_only_wanders_tells_wander_from_a_creep() -> None:
