@@ -142,10 +142,11 @@ def test_a_trimmed_vehicle_can_be_trimmed_again(bluerov: Profile, seed: int) -> 
     """Trim, put the proposal on, trim again: the second trim settles at its tilted hold
     and leaves the true vehicle where it said: within the level tolerance or within its
     predicted trim ± 95 % on both axes (its ESC dead bands leave a Heavy's passive trim
-    known to a few degrees, docs/method.md §3, so level is not promised). A trimmed vehicle needs no
-    yaw torque when tilted, so its horizontal thrusters idle in their deadband; with the
-    heading held absolutely (before ``HEADING_LEASH_DEG``) its yaw limit-cycled through
-    the roll and pitch loops and the tilted hold of these seeds never settled."""
+    known to a few degrees, docs/method.md §3, so level is not promised). A trimmed
+    vehicle needs no yaw torque when tilted, so its horizontal thrusters idle in their
+    deadband; with the heading held absolutely (before ``HEADING_LEASH_DEG``) its yaw
+    limit-cycled through the roll and pitch loops and the tilted hold of these seeds
+    never settled."""
     options = "disturb=real,truth=perturbed"
     first = sim_trim(bluerov, "0.4@W-aft-stbd", seed, options)
     assert first.result.proposal is not None, first.result.reason

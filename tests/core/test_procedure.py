@@ -115,19 +115,17 @@ def test_no_command_before_confirmation(sabertooth: Profile,
 def hold_times(commands: list[tuple[float, object]]) -> list[tuple[float, float]]:
     """Per hold of the plan (:func:`tests.helpers.command_plan`), when the ramp to it
     started and when the command reached it [s]."""
-    attitudes = [(t, c) for t, c in commands if isinstance(c, HoldAttitude)]
-    plan = [step for step in command_plan([c for _, c in attitudes]) if step != "release"]
+    holds = [c for _, c in commands if isinstance(c, HoldAttitude)]
+    t = [t for t, c in commands if isinstance(c, HoldAttitude)]
+    steps = command_plan(holds)                       # each hold once
+    sent = [command_plan([c])[0] for c in holds]      # each command as a plan step
     times, k = [], 0
-    for target in plan:
-        start = attitudes[k][0]
-        while (round(math.degrees(attitudes[k][1].phi), 2),
-               round(math.degrees(attitudes[k][1].theta), 2)) != target:
+    for target in steps:
+        start = t[k]
+        k = sent.index(target, k)
+        times.append((start, t[k]))
+        while k + 1 < len(sent) and sent[k + 1] == target:
             k += 1
-        times.append((start, attitudes[k][0]))
-        while k < len(attitudes) and (round(math.degrees(attitudes[k][1].phi), 2),
-                                      round(math.degrees(attitudes[k][1].theta), 2)) == target:
-            k += 1
-        k = max(k - 1, 0)
     return times
 
 

@@ -81,6 +81,10 @@ def test_bluerov_directions_follow_ardusub_factor_table(bluerov: Profile) -> Non
     (lambda d: d["thrust_curves"]["sabertooth"]["tables"][0].update(
         pwm_us=[1100, 1300, 1490, 1510, 1900, 1700]), r"strictly increasing"),
     (lambda d: d["procedure"].update(max_tilt_deg=80), r"max_tilt_deg: expected less than 60"),
+    (lambda d: d["procedure"].update(tilt_rate_deg_s=0),
+     r"procedure\.tilt_rate_deg_s: expected a positive number, got 0"),
+    (lambda d: d["procedure"].update(tilt_rate_deg_sec=5),
+     r"procedure\.tilt_rate_deg_sec: unknown key \(did you mean 'tilt_rate_deg_s'\?\)"),
     (lambda d: d["thrust_curves"]["sabertooth"].update(uncertainty_pct=-1),
      r"thrust_curves\.sabertooth\.uncertainty_pct: expected a number >= 0"),
     (lambda d: d["thrust_curves"]["sabertooth"].update(uncertainty_pct=100),
