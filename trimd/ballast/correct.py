@@ -11,9 +11,10 @@ trim's, whose roll and pitch rows are the verify hold's, whose ± is mostly the 
 hold's (its thrusters barely work, so the thrust curves' errors hardly enter).
 
 A float check (:mod:`trimd.core.float_check`) measures the same vehicle without the
-thrust map: the attitude it floats at, at which W·r_g − B·r_b points along gravity, so
-that with the prediction's W·z_g − B·z_b it gives the x/y net moments
-(:func:`floated_vehicle`), to the attitude reference's accuracy.
+thrust map: the attitude it floats at, at which W·r_g − B·r_b points along gravity, two
+equations that update the prediction (:func:`floated_vehicle`): the x/y net moments to
+the attitude reference's accuracy, and W·z_g − B·z_b as far as the trim's covariance ties
+its error to theirs.
 
 The correction is :func:`trimd.ballast.propose.propose_ballast`'s ``milp`` proposal for
 that vehicle from the ballast installed now: the same inventory, slots, net-buoyancy
@@ -46,6 +47,8 @@ __all__ = ["Correction", "correction_to_dict", "floated_vehicle", "measured_vehi
 #: The rows a level hold measures each net quantity by: Z → W − B, M → W·x_g − B·x_b,
 #: K → W·y_g − B·y_b (for the estimate's ``dofs_used``).
 _LEVEL_ROWS = ("Z", "M", "K")
+#: χ² (2 degrees of freedom) beyond which a float contradicts the prediction (0.1 %).
+_FLOAT_CONSISTENT = 13.8
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,31 +124,56 @@ def floated_vehicle(f: FloatResult, estimate: StaticEstimate, loads: Sequence[Sl
 
     At the attitude (φ, θ) it floats at, the restoring moment (W·r_g − B·r_b) × g_b
     vanishes, g_b = (−sin θ, cos θ·sin φ, cos θ·cos φ) the direction of gravity in the
-    body (Fossen eq. 4.6): W·r_g − B·r_b = λ·g_b, so with m_z = W·z_g − B·z_b the
-    prediction's (the trim ``estimate`` plus ``loads``, the pieces installed since, exactly
-    known: ``estimate``'s covariance), m_x = −m_z·tan θ / cos φ and m_y = m_z·tan φ. W − B
-    is the prediction's too (the float's depth rate is only its sign). The covariance
-    carries the float's 1σ in φ and θ and the prediction's in W − B and m_z, through the
-    Jacobian."""
+    body (Fossen eq. 4.6): W·r_g − B·r_b = λ·g_b, i.e. m_x + m_z·tan θ / cos φ = 0 and
+    m_y − m_z·tan φ = 0, two equations linear in q. The prediction (the trim ``estimate``
+    plus ``loads``, the pieces installed since, exactly known: ``estimate``'s covariance)
+    is updated by them as by a measurement (a Kalman update; the float's 1σ in φ and θ
+    through the Jacobian at the prediction's m_z): the x/y net moments come out of the
+    float, and whatever of the trim's errors they share with W·z_g − B·z_b and W − B
+    (the thrust curves' gains move the tilted hold's stiffness and the level hold's
+    moments alike) is corrected in those too, so that the stiffness a correction divides
+    by is as good as the float and the known ballast change make it. When the float
+    contradicts the prediction beyond chance (χ² of 2 degrees of freedom past
+    :data:`_FLOAT_CONSISTENT`), the prediction's errors are not what its covariance says:
+    m_x and m_y are the float's alone and W − B and m_z the prediction's."""
     predicted = check_trim(estimate, loads, profile.gravity_m_s2)
-    wb, m_z = -predicted.net_buoyancy_N, float(predicted.net_moment_Nm[2])
+    q_p = np.r_[-predicted.net_buoyancy_N, predicted.net_moment_Nm]
+    P = estimate.q_cov
+    m_z = float(q_p[3])
     phi, theta = math.radians(f.roll_deg), math.radians(f.pitch_deg)
     t_phi, t_theta, c_phi = math.tan(phi), math.tan(theta), math.cos(phi)
-    q = np.array([wb, -m_z * t_theta / c_phi, m_z * t_phi, m_z])
-    J = np.zeros((4, 4))   # ∂q / ∂(W − B, m_z, φ, θ)
-    J[0, 0] = J[3, 1] = 1.0
-    J[1] = (0.0, -t_theta / c_phi, -m_z * t_theta * t_phi / c_phi,
-            -m_z / (c_phi * math.cos(theta)**2))
-    J[2] = (0.0, t_phi, m_z / c_phi**2, 0.0)
-    cov = np.zeros((4, 4))
-    cov[:2, :2] = estimate.q_cov[np.ix_((0, 3), (0, 3))]
-    cov[2, 2], cov[3, 3] = math.radians(f.roll_std_deg)**2, math.radians(f.pitch_std_deg)**2
-    note = ("the vehicle as a float check found it, its ballast on: the x/y net moments from "
-            "the attitude it floats at (no thrust map) and W·z_g − B·z_b from the trim and "
-            "the pieces installed since; W − B the prediction's")
+    H = np.array([[0.0, 1.0, 0.0, t_theta / c_phi], [0.0, 0.0, 1.0, -t_phi]])
+    J = np.array([[m_z * t_theta * t_phi / c_phi, m_z / (c_phi * math.cos(theta)**2)],
+                  [-m_z / c_phi**2, 0.0]])   # ∂(H q) / ∂(φ, θ)
+    R = J @ np.diag([math.radians(f.roll_std_deg)**2,
+                     math.radians(f.pitch_std_deg)**2]) @ J.T
+    S = H @ P @ H.T + R
+    innovation = -H @ q_p
+    if float(innovation @ np.linalg.solve(S, innovation)) <= _FLOAT_CONSISTENT:
+        K = np.linalg.solve(S, H @ P).T
+        q = q_p + K @ innovation
+        q_cov = P - K @ S @ K.T
+        how = ("updated by the attitude it floats at (no thrust map), as predicted: W − B "
+               "and W·z_g − B·z_b corrected with the x/y net moments")
+    else:
+        q = np.r_[q_p[0], -m_z * t_theta / c_phi, m_z * t_phi, m_z]
+        G = np.zeros((4, 4))   # ∂q / ∂(W − B, m_z, φ, θ)
+        G[0, 0] = G[3, 1] = 1.0
+        G[1] = (0.0, -H[0, 3], -J[0, 0], -J[0, 1])
+        G[2] = (0.0, t_phi, -J[1, 0], 0.0)
+        cov = np.zeros((4, 4))
+        cov[:2, :2] = P[np.ix_((0, 3), (0, 3))]
+        cov[2:, 2:] = np.diag([math.radians(f.roll_std_deg)**2,
+                               math.radians(f.pitch_std_deg)**2])
+        q_cov = G @ cov @ G.T
+        how = ("the x/y net moments from the attitude it floats at (no thrust map; NOT as "
+               "predicted: the prediction left out), W − B and W·z_g − B·z_b the "
+               "prediction's")
+    note = (f"the vehicle as a float check found it, its ballast on: {how} (the trim and "
+            "the pieces installed since)")
     hold = HoldSummary("float", f.roll_deg, f.pitch_deg, f.samples, f.t_start_s, f.t_end_s)
-    return net_estimate(q, J @ cov @ J.T, profile, holds=(hold,), dofs_used=("K", "M"),
-                        residual_rms=np.full(6, np.nan), notes=(note,))
+    return net_estimate(q, (q_cov + q_cov.T) / 2, profile, holds=(hold,),
+                        dofs_used=("K", "M"), residual_rms=np.full(6, np.nan), notes=(note,))
 
 
 def propose_correction(v: Verification, estimate: StaticEstimate, profile: Profile,
