@@ -326,14 +326,14 @@ def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -
 
 def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile, tmp_path: Path
                                                         ) -> None:
-    """The closed loop through the float: the Heavy's trim (seed 0) and its ballast leave
-    it 1.6° rolled, which the thrust map near the dead band hid from the trim; the float
-    finds it to 0.2°, and the correction from the attitude it floated at (the prediction's
-    W·z_g − B·z_b, the ballast installed now) leaves the TRUE vehicle within the level
+    """The closed loop through the float: the Heavy's trim (seed 1) and its ballast leave
+    it 1.3° rolled, which the thrust map near the dead band hid from the trim; the float
+    finds it to 0.2°, and the correction from the attitude it floated at (the prediction
+    updated by it, the ballast installed now) leaves the TRUE vehicle within the level
     tolerance or its own predicted trim ± 95 %, and nearer level than before; the app's
     use case proposes the same correction. The history keeps the chain: trim → apply →
     float → correction → apply, and what a verify hold then checks is the correction."""
-    payload, seed = "0.4@W-aft-stbd", 0
+    payload, seed = "0.4@W-aft-stbd", 1
     trim = sim_trim(bluerov, payload, seed, OPTIONS)
     proposal, estimate = trim.result.proposal, trim.result.estimate
     assert isinstance(proposal, Proposal) and estimate is not None
