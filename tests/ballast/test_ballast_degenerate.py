@@ -119,7 +119,7 @@ def test_node_limit_before_any_solution(sabertooth: Profile,
         return OptimizeResult(status=4, x=None, fun=None,
                               message="model_status is Node limit reached")
 
-    monkeypatch.setattr(ballast_lp, "_solve_stage", no_solution_in_budget)
+    monkeypatch.setattr(ballast_lp, "solve", no_solution_in_budget)
     p = propose_ballast(with_net(sabertooth, *CASES["small"]), sabertooth, "milp")
     assert not p.success and not p.feasible and p.added_mass_kg == 0.0
     assert p.message.startswith("no solution at the 'net-buoyancy window' stage: search "
@@ -129,7 +129,7 @@ def test_node_limit_before_any_solution(sabertooth: Profile,
 def test_node_limit_keeps_the_best_found(sabertooth: Profile,
                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """A stage cut short with no solution of its own keeps the previous stage's."""
-    solve = ballast_lp._solve_stage
+    solve = ballast_lp.solve
 
     def ballast_stage_runs_out(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
                                 node_limit: int) -> OptimizeResult:
@@ -138,7 +138,7 @@ def test_node_limit_keeps_the_best_found(sabertooth: Profile,
                                   message="model_status is Node limit reached")
         return solve(c, A, b, upper, integrality, node_limit)
 
-    monkeypatch.setattr(ballast_lp, "_solve_stage", ballast_stage_runs_out)
+    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_runs_out)
     p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
     assert p.success
     assert "search limit reached at the 'ballast' stage: best found, not proven optimal" \

@@ -34,21 +34,17 @@ the ballast. scipy.optimize.linprog solves the continuous programmes,
 scipy.optimize.milp the integer ones.
 
 Why the integer programme needs the free allowance r (0 ≤ r ≤ :data:`ALLOWANCE_SHARE`
-of the moment resolution, :func:`moment_resolution`) in the lexicographic stages: whole
-pieces reach only a lattice of moments, so the least residual moment over the integers is
-a closest-point problem whose LP bound is 0 while its optimum is not; branch and bound
-cannot close that gap, and the next stage, holding that optimum, is a needle-in-a-haystack
-search. Residuals well below what the estimate can resolve barely change the chance that
-the true vehicle is level, so they are free: the level optimum is then 0, proven by the LP
-bound at once. Not the whole 1σ: the aim (the tolerance less 1.96σ) plus a free 1σ would
-let the fewest-pieces stage place the prediction 0.96σ inside the tolerance, where the
-true vehicle is outside on that axis one time in six; with a quarter, one in twenty-three
-(on the Sabertooth's float corrections, σ ≈ 0.11° against 0.25°: 37 → 39 of 40 seeds
-level after the loop, ``bench/bench_closed_loop.py``). The same holds when
-t·m_z is tiny (little static stability) or zero. Every integer solve also has a budget
-of branch-and-bound nodes (deterministic: a replay proposes exactly what the live run
-did, on any machine) and a time limit as the backstop; when either is reached the best
-solution found is used and the result says so.
+of :func:`moment_resolution`) in the lexicographic stages: whole pieces reach only a
+lattice of moments, so the least residual moment over the integers is a closest-point
+problem whose LP bound is 0 while its optimum is not; branch and bound cannot close that
+gap, and the next stage, holding that optimum, is a needle-in-a-haystack search.
+Residuals well below what the estimate resolves barely change the chance that the true
+vehicle is level, so they are free (also when t·m_z is tiny or zero). Not the whole 1σ:
+with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces stage place
+the prediction where the true vehicle is off level on that axis one time in six; a
+quarter, one in twenty-three. Every integer solve has a budget of branch-and-bound nodes,
+no time limit (a replay proposes exactly what the live run did, on any machine); when it
+is reached the best solution found is used and the result says so.
 """
 
 from __future__ import annotations
@@ -56,26 +52,21 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from trimd.ballast.check import MIN_GM_M
-from trimd.ballast.solver_output import solver_stdout_to_log
+from trimd.ballast.highs import cut_short, solve
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.types import FloatArray
-
-if TYPE_CHECKING:
-    from scipy.optimize import OptimizeResult
 
 __all__ = ["ALLOWANCE_SHARE", "Item", "Programme", "Solution", "build_programme", "ideal_items",
            "moment_resolution", "piece_items", "solve_programme"]
 
 _N_SLACK = 6
-#: Relative optimality gap of every integer solve.
-_MIP_GAP = 1e-6
 #: Branch-and-bound nodes of the exactly-as-asked solve (r held at zero: where it finds
 #: nothing, the stages do in a few nodes; on the Sabertooth with 10 kg at AftSB 2000 nodes
 #: found nothing, 1.3 s of CPU per proposal) and by default of each later stage. Budgets,
@@ -332,25 +323,6 @@ def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: F
             handled)
 
 
-def _solve_stage(c: FloatArray, A: FloatArray, b: FloatArray, upper: FloatArray,
-                 integrality: NDArray[np.int_] | None, node_limit: int) -> OptimizeResult:
-    from scipy.optimize import Bounds, LinearConstraint, linprog, milp  # 0.5 s: when solving
-
-    with solver_stdout_to_log():
-        if integrality is None:
-            return linprog(c, A_ub=A, b_ub=b, method="highs",
-                           bounds=np.column_stack([np.zeros_like(upper), upper]))
-        return milp(c, constraints=LinearConstraint(A, -np.inf, b), integrality=integrality,
-                    bounds=Bounds(0.0, upper),
-                    options={"mip_rel_gap": _MIP_GAP, "node_limit": node_limit})
-
-
-def _cut_short(res: OptimizeResult) -> bool:
-    """Did the solver stop at a limit (status 1) or its node budget? (scipy reports
-    HiGHS's node limit as status 4 with the model status in the message.)"""
-    return bool(res.status == 1 or (res.status == 4 and "limit reached" in res.message))
-
-
 def _solve_stages(prog: Programme, upper: FloatArray,
                   objectives: Sequence[tuple[str, FloatArray]], integer: NDArray[np.int_] | None,
                   node_limit: int) -> Solution:
@@ -362,13 +334,13 @@ def _solve_stages(prog: Programme, upper: FloatArray,
     x: FloatArray | None = None
     cut = []
     for name, c in objectives:
-        res = _solve_stage(c, A, b, upper, integer, node_limit)
-        if _cut_short(res):
+        res = solve(c, A, b, upper, integer, node_limit)
+        if cut_short(res):
             cut.append(name)
         if res.x is not None:
             x, fun = res.x, float(res.fun)
-        elif x is None or not _cut_short(res):
-            why = "search limit reached before any solution" if _cut_short(res) else res.message
+        elif x is None or not cut_short(res):
+            why = "search limit reached before any solution" if cut_short(res) else res.message
             return Solution(False, f"no solution at the '{name}' stage: {why}",
                             np.zeros(len(prog.items)), "search limit" if cut else "")
         else:

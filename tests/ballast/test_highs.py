@@ -8,7 +8,7 @@ import os
 
 import pytest
 
-from trimd.ballast.solver_output import solver_stdout_to_log
+from trimd.ballast.highs import solver_stdout_to_log
 
 
 def test_native_output_during_a_solve_goes_to_the_log(
@@ -16,7 +16,7 @@ def test_native_output_during_a_solve_goes_to_the_log(
     """What Python printed before stays on standard output, in order; what native code
     writes to descriptor 1 during the solve is logged; afterwards descriptor 1 is standard
     output again."""
-    caplog.set_level(logging.DEBUG, logger="trimd.ballast.solver_output")
+    caplog.set_level(logging.DEBUG, logger="trimd.ballast.highs")
     print("before")
     with solver_stdout_to_log():
         os.write(1, b"HighsMipSolverData::transformNewIntegerFeasibleSolution\n")
