@@ -33,18 +33,19 @@ be met; otherwise lexicographically, each optimum held for the next: the window 
 the ballast. scipy.optimize.linprog solves the continuous programmes,
 scipy.optimize.milp the integer ones.
 
-Why the integer programme needs the free allowance r (0 ≤ r ≤ :data:`ALLOWANCE_SHARE`
-of :func:`moment_resolution`) in the lexicographic stages: whole pieces reach only a
-lattice of moments, so the least residual moment over the integers is a closest-point
-problem whose LP bound is 0 while its optimum is not; branch and bound cannot close that
-gap, and the next stage, holding that optimum, is a needle-in-a-haystack search.
-Residuals well below what the estimate resolves barely change the chance that the true
-vehicle is level, so they are free (also when t·m_z is tiny or zero). Not the whole 1σ:
-with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces stage place
-the prediction where the true vehicle is off level on that axis one time in six; a
-quarter, one in twenty-three. Every integer solve has a budget of branch-and-bound nodes,
-no time limit (a replay proposes exactly what the live run did, on any machine); when it
-is reached the best solution found is used and the result says so.
+Why the integer programme needs the free allowance r (0 ≤ r ≤ :data:`ALLOWANCE_SHARE` of
+:func:`moment_resolution`) in the lexicographic stages: whole pieces reach only a lattice
+of moments, so the least residual moment over the integers is a closest-point problem
+whose LP bound is 0 while its optimum is not; branch and bound cannot close that gap, and
+the next stage, holding that optimum, is a needle-in-a-haystack search. Residuals well
+below what the estimate resolves barely change the chance that the true vehicle is level,
+so they are free. Where the tolerance's moment t·m_z exceeds the 1σ, only a quarter of it:
+with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces stage place the
+prediction where the true vehicle is off level on that axis one time in six; a quarter,
+one in twenty-three. Where it does not (little or no static stability), the whole 1σ, or
+the search is slow and no better. Every integer solve has a budget of branch-and-bound
+nodes, no time limit (a replay proposes exactly what the live run did, on any machine);
+when it is reached the best solution found is used and the result says so.
 """
 
 from __future__ import annotations
@@ -75,8 +76,8 @@ STRICT_NODES = 200
 STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
-#: The share of :func:`moment_resolution` the lexicographic stages leave free (module
-#: docstring).
+#: The share of :func:`moment_resolution` the lexicographic stages leave free where the
+#: tolerance's moment exceeds it (module docstring).
 ALLOWANCE_SHARE = 0.25
 
 
@@ -278,7 +279,9 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
     rows = [row for part in parts for row in part[0]]
     rhs = [v for part in parts for v in part[1]]
     integer = np.array([it.count is not None for it in items] + [False] * _N_SLACK, dtype=int)
-    resolution = ALLOWANCE_SHARE * moment_resolution(estimate) if np.any(integer) else 0.0
+    resolution = moment_resolution(estimate) if np.any(integer) else 0.0
+    if t * float(estimate.q[3]) > resolution:   # the tolerance resolved: aim near level
+        resolution *= ALLOWANCE_SHARE
     upper = np.r_[units, math.inf, math.inf, [math.inf if window_pct is not None else 0.0] * 2,
                   resolution, resolution]
     slack = np.zeros((_N_SLACK, n + _N_SLACK))
