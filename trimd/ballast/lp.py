@@ -39,12 +39,13 @@ of moments, so the least residual moment over the integers is a closest-point pr
 whose LP bound is 0 while its optimum is not; branch and bound cannot close that gap, and
 the next stage, holding that optimum, is a needle-in-a-haystack search. Residuals well
 below what the estimate resolves barely change the chance that the true vehicle is level,
-so they are free. Where the tolerance's moment t·m_z exceeds a quarter of the 1σ, only
-that quarter: with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces
-stage place the prediction where the true vehicle is off level on that axis one time in
-six; a quarter, one in twenty-three. Where it does not (little or no static stability),
-the whole 1σ: aims finer than the tolerance's moment mean nothing, and their search took
-15–25 s. Every integer solve has a budget of branch-and-bound nodes, no time limit (a
+so they are free. Not the whole 1σ where ballast can make the vehicle statically stable:
+with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces stage place the
+prediction where the true vehicle is off level on that axis one time in six; a quarter,
+one in twenty-three. Where it cannot (no passive trim to aim near), the whole 1σ: its
+search took 15–25 s with a quarter. With little static stability a quarter makes the
+search slow (≈ 20 s for the Sabertooth at W·z_g − B·z_b = 5 N·m), and aims near level all
+the same. Every integer solve has a budget of branch-and-bound nodes, no time limit (a
 replay proposes exactly what the live run did, on any machine); when it
 is reached the best solution found is used and the result says so.
 """
@@ -77,8 +78,8 @@ STRICT_NODES = 200
 STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
-#: The share of :func:`moment_resolution` the lexicographic stages leave free where the
-#: tolerance's moment exceeds that share of it (module docstring).
+#: The share of :func:`moment_resolution` the lexicographic stages leave free when ballast
+#: can make the vehicle statically stable (module docstring).
 ALLOWANCE_SHARE = 0.25
 
 
@@ -281,7 +282,7 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
     rhs = [v for part in parts for v in part[1]]
     integer = np.array([it.count is not None for it in items] + [False] * _N_SLACK, dtype=int)
     resolution = moment_resolution(estimate) if np.any(integer) else 0.0
-    if t * float(estimate.q[3]) > ALLOWANCE_SHARE * resolution:   # aim near level
+    if levelable:   # a passive trim to aim near (module docstring)
         resolution *= ALLOWANCE_SHARE
     upper = np.r_[units, math.inf, math.inf, [math.inf if window_pct is not None else 0.0] * 2,
                   resolution, resolution]
