@@ -145,8 +145,8 @@ def floated_vehicle(f: FloatResult, estimate: StaticEstimate, loads: Sequence[Sl
     H = np.array([[0.0, 1.0, 0.0, t_theta / c_phi], [0.0, 0.0, 1.0, -t_phi]])
     J = np.array([[m_z * t_theta * t_phi / c_phi, m_z / (c_phi * math.cos(theta)**2)],
                   [-m_z / c_phi**2, 0.0]])   # ∂(H q) / ∂(φ, θ)
-    R = J @ np.diag([math.radians(f.roll_std_deg)**2,
-                     math.radians(f.pitch_std_deg)**2]) @ J.T
+    angle_cov = np.diag([math.radians(f.roll_std_deg)**2, math.radians(f.pitch_std_deg)**2])
+    R = J @ angle_cov @ J.T
     S = H @ P @ H.T + R
     innovation = -H @ q_p
     if float(innovation @ np.linalg.solve(S, innovation)) <= _FLOAT_CONSISTENT:
@@ -163,8 +163,7 @@ def floated_vehicle(f: FloatResult, estimate: StaticEstimate, loads: Sequence[Sl
         G[2] = (0.0, t_phi, -J[1, 0], 0.0)
         cov = np.zeros((4, 4))
         cov[:2, :2] = P[np.ix_((0, 3), (0, 3))]
-        cov[2:, 2:] = np.diag([math.radians(f.roll_std_deg)**2,
-                               math.radians(f.pitch_std_deg)**2])
+        cov[2:, 2:] = angle_cov
         q_cov = G @ cov @ G.T
         how = ("the x/y net moments from the attitude it floats at (no thrust map; NOT as "
                "predicted: the prediction left out), W − B and W·z_g − B·z_b the "

@@ -2,14 +2,13 @@
 programmes, ``milp`` for the integer ones), with its native output kept off trimd's
 standard output.
 
-HiGHS now and then prints a debug line from C straight to
-file descriptor 1 whatever its display options ("HighsMipSolverData::
-transformNewIntegerFeasibleSolution tmpSolver.run();", HiGHS issue 2783): on a hard
-search it would land between the JSON lines of ``trimd run --json`` or the headless
-progress. :func:`solver_stdout_to_log` points descriptor 1 at a temporary file for the
-length of a solve and logs what came, at debug level. A solve runs in the session's own
-thread, which is the only one that writes to standard output (the terminal UI draws on
-standard error).
+HiGHS now and then prints a debug line from C straight to file descriptor 1 whatever its
+display options ("HighsMipSolverData:: transformNewIntegerFeasibleSolution
+tmpSolver.run();", HiGHS issue 2783): on a hard search it would land between the JSON
+lines of ``trimd run --json`` or the headless progress. :func:`solver_stdout_to_log`
+points descriptor 1 at a temporary file for the length of a solve and logs what came, at
+debug level. A solve runs in the session's own thread, which is the only one that writes
+to standard output (the terminal UI draws on standard error).
 """
 
 from __future__ import annotations

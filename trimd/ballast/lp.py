@@ -46,8 +46,8 @@ one in twenty-three. Where it cannot (no passive trim to aim near), the whole 1�
 search took 15–25 s with a quarter. With little static stability a quarter makes the
 search slow (≈ 20 s for the Sabertooth at W·z_g − B·z_b = 5 N·m), and aims near level all
 the same. Every integer solve has a budget of branch-and-bound nodes, no time limit (a
-replay proposes exactly what the live run did, on any machine); when it
-is reached the best solution found is used and the result says so.
+replay proposes exactly what the live run did, on any machine); when it is reached the
+best solution found is used and the result says so.
 """
 
 from __future__ import annotations

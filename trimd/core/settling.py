@@ -95,8 +95,8 @@ EFFORT_WAIVER_S = 10.0
 #: the drift line only wanders (:meth:`StreamSteadiness.only_wanders`).
 WANDER_RATIO = 5.0
 #: The roll and pitch rates and the attitude's distance from its set-point are judged by
-#: their mean over this trailing window [s]: a vehicle turning towards its set-point keeps its rate,
-#: wander about it averages out.
+#: their mean over this trailing window [s]: a vehicle turning towards its set-point keeps
+#: its rate, wander about it averages out.
 RATE_WINDOW_S = 2.0
 #: Samples each ratio test needs before it can call a stream settled.
 MIN_RATIO_SAMPLES = 12
