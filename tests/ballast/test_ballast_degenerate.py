@@ -23,7 +23,7 @@ import trimd.ballast.lp as ballast_lp
 from tests.ballast.test_ballast import estimate_for
 from trimd.app.report import format_proposal
 from trimd.ballast.check import equilibrium_attitude
-from trimd.ballast.lp import moment_resolution
+from trimd.ballast.lp import ALLOWANCE_SHARE, build_programme, moment_resolution, piece_items
 from trimd.ballast.propose import METHODS, Proposal, proposal_to_dict, propose_ballast
 from trimd.cli.main import main
 from trimd.core.errors import DataError
@@ -109,6 +109,19 @@ def test_little_static_stability(sabertooth: Profile, method: str) -> None:
         assert np.abs(p.trim.net_moment_Nm[:2]).max() <= moment_resolution(est) + 0.022
     elif method == "general":
         assert p.feasible and abs(p.trim.roll_deg) < 1e-4 and abs(p.trim.pitch_deg) < 1e-4
+
+
+@pytest.mark.parametrize(("m_z", "share"), [(5.0, 1.0), (467.0, ALLOWANCE_SHARE)])
+def test_the_free_allowance_is_a_quarter_where_the_pieces_can_aim_near_level(
+        sabertooth: Profile, m_z: float, share: float) -> None:
+    """At 5 N·m the 0.25° band (0.022 N·m) and a quarter of 1σ are 1 % of the smallest
+    piece's moment (2.2 N·m): the whole 1σ is free. At the bench's 467 N·m the band is
+    2.0 N·m: a quarter."""
+    est = with_net(sabertooth, 40.0, (-20.0, 10.0, m_z))
+    items = piece_items(sabertooth)
+    prog = build_programme(est, sabertooth, items, level_tol_deg=0.25, window_pct=None)
+    free = prog.upper[len(items) + 4:len(items) + 6]
+    assert free == pytest.approx([share * moment_resolution(est)] * 2)
 
 
 def test_node_limit_before_any_solution(sabertooth: Profile,

@@ -39,15 +39,15 @@ of moments, so the least residual moment over the integers is a closest-point pr
 whose LP bound is 0 while its optimum is not; branch and bound cannot close that gap, and
 the next stage, holding that optimum, is a needle-in-a-haystack search. Residuals well
 below what the estimate resolves barely change the chance that the true vehicle is level,
-so they are free. Not the whole 1σ where ballast can make the vehicle statically stable:
-with the aim at the tolerance less 1.96σ, a free 1σ lets the fewest-pieces stage place the
-prediction where the true vehicle is off level on that axis one time in six; a quarter,
-one in twenty-three. Where it cannot (no passive trim to aim near), the whole 1σ: its
-search took 15–25 s with a quarter. With little static stability a quarter makes the
-search slow (≈ 20 s for the Sabertooth at W·z_g − B·z_b = 5 N·m), and aims near level all
-the same. Every integer solve has a budget of branch-and-bound nodes, no time limit (a
-replay proposes exactly what the live run did, on any machine); when it is reached the
-best solution found is used and the result says so.
+so they are free. Not the whole 1σ where the pieces can aim near level (ballast can make
+the vehicle statically stable, and the level band t·m_z plus a quarter is at least
+:data:`FINE_LATTICE` of the smallest moment of one piece): with the aim at the tolerance
+less 1.96σ, a free 1σ lets the fewest-pieces stage place the prediction where the true
+vehicle is off level on that axis one time in six; a quarter, one in twenty-three. Where
+they cannot, the band is a needle among the pieces' moments (a quarter took 15–30 s per
+proposal: docs/ballast.md) and the whole 1σ is free. Every integer solve has a budget of
+branch-and-bound nodes, no time limit (a replay proposes exactly what the live run did, on
+any machine); when it is reached the best solution found is used and the result says so.
 """
 
 from __future__ import annotations
@@ -66,8 +66,9 @@ from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.types import FloatArray
 
-__all__ = ["ALLOWANCE_SHARE", "Item", "Programme", "Solution", "build_programme", "ideal_items",
-           "moment_resolution", "piece_items", "solve_programme"]
+__all__ = ["ALLOWANCE_SHARE", "FINE_LATTICE", "Item", "Programme", "Solution",
+           "build_programme", "ideal_items", "moment_resolution", "piece_items",
+           "solve_programme"]
 
 _N_SLACK = 6
 #: Branch-and-bound nodes of the exactly-as-asked solve (r held at zero: where it finds
@@ -78,9 +79,11 @@ STRICT_NODES = 200
 STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
-#: The share of :func:`moment_resolution` the lexicographic stages leave free when ballast
-#: can make the vehicle statically stable (module docstring).
+#: The share of :func:`moment_resolution` the lexicographic stages leave free where the
+#: pieces can aim near level: a level band of at least FINE_LATTICE of the smallest moment
+#: of one piece (module docstring).
 ALLOWANCE_SHARE = 0.25
+FINE_LATTICE = 0.1
 
 
 @dataclass(frozen=True)
@@ -221,6 +224,17 @@ def _levelable(estimate: StaticEstimate, items: Sequence[Item], profile: Profile
     return best > MIN_GM_M * estimate.weight_N
 
 
+def _aims_near_level(items: Sequence[Item], profile: Profile, band_Nm: float,
+                     resolution_Nm: float) -> bool:
+    """Whether the level band ``band_Nm`` = t·m_z [N·m] plus a quarter of the resolution
+    is at least :data:`FINE_LATTICE` of the smallest x/y moment one piece makes [N·m]."""
+    f, r = _moment_arms(items, profile)
+    moments = np.hypot(f * r[:, 0], f * r[:, 1])
+    finest = min((float(m) for m, it in zip(moments, items, strict=True)
+                  if m > 0.0 and it.count), default=0.0)
+    return band_Nm + ALLOWANCE_SHARE * resolution_Nm >= FINE_LATTICE * finest
+
+
 def _window_rows(items: Sequence[Item], profile: Profile, estimate: StaticEstimate,
                  window_pct: tuple[float, float]) -> tuple[list[FloatArray], list[float]]:
     g = profile.gravity_m_s2
@@ -282,7 +296,7 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
     rhs = [v for part in parts for v in part[1]]
     integer = np.array([it.count is not None for it in items] + [False] * _N_SLACK, dtype=int)
     resolution = moment_resolution(estimate) if np.any(integer) else 0.0
-    if levelable:   # a passive trim to aim near (module docstring)
+    if levelable and _aims_near_level(items, profile, t * float(estimate.q[3]), resolution):
         resolution *= ALLOWANCE_SHARE
     upper = np.r_[units, math.inf, math.inf, [math.inf if window_pct is not None else 0.0] * 2,
                   resolution, resolution]
