@@ -71,10 +71,8 @@ __all__ = ["ALLOWANCE_SHARE", "FINE_LATTICE", "Item", "Programme", "Solution",
            "solve_programme"]
 
 _N_SLACK = 6
-#: Branch-and-bound nodes of the exactly-as-asked solve (r held at zero: where it finds
-#: nothing, the stages do in a few nodes; on the Sabertooth with 10 kg at AftSB 2000 nodes
-#: found nothing, 1.3 s of CPU per proposal) and by default of each later stage. Budgets,
-#: not time limits: the proposal is the same on any machine, however loaded.
+#: Branch-and-bound nodes of the solve exactly as asked (slacks at zero) and by default of
+#: each later stage: budgets, not time limits (the same proposal on any machine).
 STRICT_NODES = 200
 STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
@@ -161,8 +159,9 @@ def piece_items(profile: Profile, installed: Sequence[InstalledPiece] = ()) -> l
 class Programme:
     """Rows A·x ≤ b, bounds, integrality and the objectives in priority order.
 
-    ``levelable`` is False when no ballast within the bounds makes m_z positive: then the
-    level rows only balance the moments (t = 0) and the exact solve is skipped.
+    ``exact`` is False when the solve with the slacks at zero cannot succeed: no ballast
+    within the bounds makes m_z positive (the level rows then only balance the moments,
+    t = 0), or whole pieces asked for t = 0 (their moments never balance exactly).
     """
 
     items: tuple[Item, ...]
@@ -171,7 +170,7 @@ class Programme:
     upper: FloatArray
     integrality: NDArray[np.int_]
     objectives: tuple[tuple[str, FloatArray], ...]
-    levelable: bool
+    exact: bool
 
 
 @dataclass(frozen=True)
@@ -315,7 +314,8 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
     if any(it.removal for it in items):
         A, b, upper, integer, objectives = _with_handling(items, A, b, upper, integer,
                                                           objectives)
-    return Programme(tuple(items), A, b, upper, integer, tuple(objectives), levelable)
+    return Programme(tuple(items), A, b, upper, integer, tuple(objectives),
+                     levelable and (t > 0 or not np.any(integer)))
 
 
 def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: FloatArray,
@@ -378,7 +378,7 @@ def solve_programme(prog: Programme, *, relax: bool = False,
     """Item amounts that meet the requirement at least ballast, or the best achievable.
 
     First with the slacks held at zero (one solve when the requirement can be met, within
-    :data:`STRICT_NODES` nodes at most; skipped when ``prog.levelable`` is False), else
+    :data:`STRICT_NODES` nodes at most; unless ``prog.exact`` is False), else
     lexicographically: window slack, level slack, ballast, each within ``node_limit``
     branch-and-bound nodes. ``relax`` drops integrality (the LP relaxation, solved by
     linprog). Deterministic: no time limit, so the answer does not depend on the machine.
@@ -387,7 +387,7 @@ def solve_programme(prog: Programme, *, relax: bool = False,
     n = len(prog.items)
     note = ""
     strict_nodes = min(STRICT_NODES, node_limit)
-    if prog.levelable:
+    if prog.exact:
         strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK), prog.upper[n + _N_SLACK:]]
         exact = _solve_stages(prog, strict, prog.objectives[-1:], integer, strict_nodes)
         if exact.success:
