@@ -13,7 +13,8 @@ items at their slots: the sim's ballast changes); the check on the same seed (th
 true vehicle): a verify hold (:func:`tests.helpers.sim_verify`) or a float check
 (:func:`tests.helpers.sim_float`, in the depth envelope of
 :data:`bench.bench_float.WIDE_ENVELOPE_M`, wider than the profiles': the simulator has no
-bottom); when it asks for one, the correction against the ballast installed now —
+bottom; as ``trimd float --correct`` runs it, collecting to the end unless it floats
+level); when it asks for one, the correction against the ballast installed now —
 from the verify hold when :func:`trimd.ballast.correct.needs_correction` (NOT level, or
 NOT as predicted: :func:`~trimd.ballast.correct.propose_correction`), from the float when
 its verdict is not "level" (:func:`~trimd.ballast.correct.propose_float_correction`) —
@@ -181,7 +182,7 @@ def float_check(t: Trial, target: StaticEstimate, since: tuple[SlotLoad, ...],
     since (``target`` and ``since`` play no part: the float measures the whole vehicle)."""
     g = t.profile.gravity_m_s2
     f = sim_float(t.profile, "+".join(filter(None, (t.payload, carried(fitted, g)))), t.seed,
-                  t.options, WIDE_ENVELOPE_M[t.profile.name])
+                  t.options, WIDE_ENVELOPE_M[t.profile.name], for_correction=True)
     r = f.floated
     if r is None:
         return Checked(None, f.result.reason)

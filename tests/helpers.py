@@ -352,17 +352,19 @@ class SimFloat:
 
 
 def sim_float(profile: Profile, payload: str, seed: int, options: str,
-              depth_excursion_m: float | None = None) -> SimFloat:
+              depth_excursion_m: float | None = None, for_correction: bool = False
+              ) -> SimFloat:
     """The float check (:class:`trimd.core.float_check.FloatCheck`), confirmed, on the
     in-process simulated vehicle ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` in a depth
-    envelope of ``depth_excursion_m`` [m] (default: the profile's). Same seed, same true
-    vehicle as the trim's."""
+    envelope of ``depth_excursion_m`` [m] (default: the profile's), ``for_correction`` as
+    the check takes it. Same seed, same true vehicle as the trim's."""
     async def go() -> SimFloat:
         url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
         link = await open_link(url, profile)
         assert isinstance(link, SimLink)
         session = float_session(link, profile, [], FloatRequest(
-            profile.name, confirmed=True, depth_excursion_m=depth_excursion_m),
+            profile.name, confirmed=True, depth_excursion_m=depth_excursion_m,
+            for_correction=for_correction),
             wall_clock=False)
         try:
             result = await session.run()

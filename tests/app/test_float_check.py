@@ -33,6 +33,7 @@ from trimd.app.float_check import (
     float_correction,
     float_from_settings,
     float_session,
+    float_settings,
     store_float_check,
 )
 from trimd.app.history import History
@@ -278,8 +279,13 @@ def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_pat
     assert recorded_float_check(floated) == {"depth_excursion_m": 1.5}
     check = float_from_settings(bluerov, {"depth_excursion_m": 1.5}, "x")
     assert check.depth_excursion_m == 1.5 and check.guard.depth_excursion_m == 1.5
-    with pytest.raises(DataError, match="x: the recorded float check is malformed"):
-        float_from_settings(bluerov, {"depth_excursion_m": -1}, "x")
+    assert not check.for_correction       # recorded before the setting existed
+    correcting = FloatCheck(bluerov, depth_excursion_m=2.0, for_correction=True)
+    again = float_from_settings(bluerov, float_settings(correcting), "x")
+    assert again.for_correction and again.depth_excursion_m == 2.0
+    for bad in ({"depth_excursion_m": -1}, {"depth_excursion_m": 1.5, "for_correction": 1}):
+        with pytest.raises(DataError, match="x: the recorded float check is malformed"):
+            float_from_settings(bluerov, bad, "x")
 
 
 @pytest.mark.slow

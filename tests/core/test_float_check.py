@@ -99,6 +99,28 @@ def commands(log: list[tuple[float, Output]]) -> list[object]:
     return [o for _, o in log if not isinstance(o, Notice)]
 
 
+@pytest.mark.parametrize(("trim", "longer"), [((0.3, -0.2), False), ((2.5, 0.4), True)])
+def test_a_float_for_a_correction_collects_to_the_end_unless_level(
+        bluerov: Profile, trim: tuple[float, float], longer: bool) -> None:
+    """Not level: its angles feed a correction, so it collects to collect_max_s (the
+    attitude reference's wander averages down); level: it stops as soon as any float."""
+    results = []
+    for for_correction in (False, True):
+        check = FloatCheck(bluerov, confirmed=True, for_correction=for_correction)
+        run(check, Floater(trim))
+        assert check.phase is Phase.DONE, check.reason
+        assert isinstance(check.verification, FloatResult)
+        results.append(check.verification)
+    plain, corrected = results
+    span = [r.t_end_s - r.t_start_s for r in results]
+    if longer:
+        assert span[1] >= bluerov.procedure.collect_max_s > 2 * span[0], span
+        assert corrected.verdict is plain.verdict is Verdict.NOT_LEVEL
+        assert abs(corrected.roll_deg - trim[0]) < 0.02      # 20 Hz noise of 0.05°
+    else:
+        assert corrected == plain
+
+
 @pytest.mark.parametrize(("trim", "verdict"), [((0.3, -0.2), Verdict.LEVEL),
                                                 ((2.5, 0.4), Verdict.NOT_LEVEL)])
 def test_finds_the_passive_trim_and_judges_it(bluerov: Profile, trim: tuple[float, float],

@@ -121,9 +121,10 @@ class AfterTrim:
     async def float_session(self, presenters: list[AnyPresenter]
                             ) -> Session[Never, FloatResult]:
         """A float check (:class:`trimd.core.float_check.FloatCheck`, the profile's depth
-        envelope) on the link opened again (not started). LinkError when the link does not
-        open, OSError when the recording cannot be created (the link is closed again)."""
-        check = FloatCheck(self.profile, confirmed=self.confirmed)
+        envelope; for a correction, which the next steps offer unless it floats level) on
+        the link opened again (not started). LinkError when the link does not open,
+        OSError when the recording cannot be created (the link is closed again)."""
+        check = FloatCheck(self.profile, confirmed=self.confirmed, for_correction=True)
         return await self._session(check, "float", float_settings(check), presenters)
 
     async def _session(self, procedure: Machine[PT, VT], kind: str, block: JsonObject,

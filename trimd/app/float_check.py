@@ -49,27 +49,35 @@ class FloatRequest:
     depth_excursion_m : the largest depth change from the start [m]; None: the profile's
         ``max_depth_excursion_m``.
     record : where to record the session (a ``.tlog``); None: not recorded.
+    for_correction : a correction follows unless it floats level (``--correct``): collect
+        to the end (:class:`~trimd.core.float_check.FloatCheck`).
     """
 
     profile_ref: str
     confirmed: bool = False
     depth_excursion_m: float | None = None
     record: Path | None = None
+    for_correction: bool = False
 
 
 def float_settings(check: FloatCheck) -> dict[str, Any]:
     """What a float check's recording says of it: the settings its machine is built from."""
-    return {"depth_excursion_m": check.depth_excursion_m}
+    return {"depth_excursion_m": check.depth_excursion_m,
+            "for_correction": check.for_correction}
 
 
 def float_from_settings(profile: Profile, settings: dict[str, Any], source: str, *,
                         confirmed: bool = False) -> FloatCheck:
-    """The float check of recorded ``settings`` (:func:`float_settings`); DataError naming
-    ``source`` when they are malformed."""
+    """The float check of recorded ``settings`` (:func:`float_settings`; without
+    ``for_correction``, as recorded before it existed: False); DataError naming ``source``
+    when they are malformed."""
     limit = settings.get("depth_excursion_m")
-    if not isinstance(limit, int | float) or not (math.isfinite(limit) and limit > 0):
+    correcting = settings.get("for_correction", False)
+    if (not isinstance(limit, int | float) or not (math.isfinite(limit) and limit > 0)
+            or not isinstance(correcting, bool)):
         raise DataError(f"{source}: the recorded float check is malformed ({settings!r})")
-    return FloatCheck(profile, confirmed=confirmed, depth_excursion_m=float(limit))
+    return FloatCheck(profile, confirmed=confirmed, depth_excursion_m=float(limit),
+                      for_correction=correcting)
 
 
 def float_session(link: Link, profile: Profile, presenters: Sequence[AnyPresenter],
@@ -77,7 +85,8 @@ def float_session(link: Link, profile: Profile, presenters: Sequence[AnyPresente
                   ) -> Session[Never, FloatResult]:
     """The float check's session on ``link``, recorded where ``request`` says."""
     check = FloatCheck(profile, confirmed=request.confirmed,
-                       depth_excursion_m=request.depth_excursion_m)
+                       depth_excursion_m=request.depth_excursion_m,
+                       for_correction=request.for_correction)
     recorder = None
     if request.record is not None:
         recorder = TlogRecorder(request.record, profile,

@@ -95,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_record:
         record = Path(args.record) if args.record else default_record_path(profile)
     request = FloatRequest(args.profile, confirmed=args.yes,
-                           depth_excursion_m=args.max_depth_excursion, record=record)
+                           depth_excursion_m=args.max_depth_excursion, record=record,
+                           for_correction=target is not None)
     result = asyncio.run(run_float_check(lambda: open_link(args.link, profile), profile,
                                          request, [HeadlessPresenter(json_lines=args.json)]))
     if result.phase is not Phase.DONE:

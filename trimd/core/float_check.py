@@ -12,7 +12,9 @@ turns to its passive trim. Settle: until the means of the last two windows of
 :attr:`~trimd.core.floating.FloatTiming.window_s` agree to within what the axis's
 relaxation time allows (:func:`~trimd.core.floating.remaining_transient_deg`), the last
 window then being collected already. Collect: until roll and pitch are known to
-:data:`~trimd.core.floating.STOP_SHARE` of the level tolerance, or ``collect_max_s``, or the
+:data:`~trimd.core.floating.STOP_SHARE` of the level tolerance (for a float whose angles
+feed a correction, ``for_correction``: only once it floats level, the one verdict that
+asks for no correction), or ``collect_max_s``, or the
 depth has used :data:`DEPTH_STOP_SHARE` of its envelope (a vehicle that is not neutrally
 buoyant sinks or rises all the while; the result then takes at least two batches,
 reaching back into the settled windows, or, still settling once two windows have been
@@ -45,6 +47,7 @@ from trimd.core.floating import (
     MIN_BATCHES,
     SETTLED_SHARE,
     FloatResult,
+    Verdict,
     float_result,
     float_timing,
     known_well_enough,
@@ -83,11 +86,18 @@ class FloatCheck(Phases[Never, FloatResult]):
     depth_excursion_m : the largest depth change from the start [m] (default: the
         profile's ``max_depth_excursion_m``); the float stops at
         :data:`DEPTH_STOP_SHARE` of it.
+    for_correction : the angles feed a correction unless the vehicle floats level: then
+        collect to ``collect_max_s`` or the depth envelope. The attitude reference's
+        error wanders over tens of seconds (docs/method.md §8), so the longer mean is
+        nearer the truth; the ± still carries the whole ``attitude_error_deg``, since no
+        float can tell a constant part of it from the wander.
     """
 
     def __init__(self, profile: Profile, *, confirmed: bool = False,
-                 depth_excursion_m: float | None = None) -> None:
+                 depth_excursion_m: float | None = None, for_correction: bool = False
+                 ) -> None:
         self.profile = profile
+        self.for_correction = for_correction
         self.proc = profile.procedure
         self.depth_excursion_m = (self.proc.max_depth_excursion_m if depth_excursion_m is None
                                   else depth_excursion_m)
@@ -220,7 +230,8 @@ class FloatCheck(Phases[Never, FloatResult]):
     def _collect(self, elapsed: float) -> list[Output[Never, FloatResult]]:
         result = self._result("")
         enough = (result.t_end_s - result.t_start_s >= MIN_BATCHES * self.timing.batch_s
-                  and known_well_enough(result))
+                  and known_well_enough(result)
+                  and (not self.for_correction or result.verdict is Verdict.LEVEL))
         if enough:
             return self._done(result)
         if elapsed >= self.proc.collect_max_s:
