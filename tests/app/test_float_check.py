@@ -288,6 +288,38 @@ def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_pat
             float_from_settings(bluerov, bad, "x")
 
 
+def test_trimd_float_correct_from_the_command_line_records_and_replays(
+        tmp_path: Path, bluerov: Profile, capsys: pytest.CaptureFixture[str]) -> None:
+    """The operator's loop in the shell: ``trimd run`` (stored in the history), ``trimd
+    ballast apply``, ``trimd float --correct``. The Heavy of seed 1 floats NOT level with
+    the trim's ballast on, so the float collects to the end of its window and ends with the
+    correction; its recording says it was for a correction and replays to the same float."""
+    link = f"sim:payload=0.4@W-aft-stbd{{}},seed=1,{OPTIONS}"
+    assert main(["run", "--link", link.format(""), "--profile", "bluerov2-heavy",
+                 "--headless", "--yes", "--json", "--no-record"]) == 0
+    trim = tmp_path / "trim.json"
+    trim.write_text(capsys.readouterr().out.splitlines()[-1])
+    assert main(["ballast", "apply", "--profile", "bluerov2-heavy", "--estimate",
+                 str(trim)]) == 0
+    proposal = json.loads(trim.read_text())["proposal"]
+    log = tmp_path / "float.tlog"
+    capsys.readouterr()
+    code = main(["float", "--link", link.format("+" + ballast_payload(proposal, bluerov)),
+                 "--profile", "bluerov2-heavy", "--yes", "--json",
+                 "--max-depth-excursion", "2", "--record", str(log), "--correct"])
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    floated = next(x for x in lines if x["type"] == "float")
+    assert code == 1 and floated["verdict"] == "not level", floated
+    assert lines[-1]["type"] == "correction"
+    assert recorded_float_check(log) == {"depth_excursion_m": 2.0, "for_correction": True}
+    # collected to the end: the depth envelope or collect_max_s, not the verdict
+    assert ("depth" in floated["stopped"]
+            or floated["t_end_s"] - floated["t_start_s"] >= bluerov.procedure.collect_max_s)
+    assert main(["replay", str(log), "--headless", "--json"]) == 0   # a result: DONE
+    replayed = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert next(x for x in replayed if x["type"] == "float") == floated
+
+
 @pytest.mark.slow
 def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -> None:
     """``trimd float`` over MAVLink against ``trimd sim --serve`` (ArduSub's MANUAL with
