@@ -104,14 +104,17 @@ def test_a_float_for_a_correction_collects_to_the_end_unless_level(
         bluerov: Profile, trim: tuple[float, float], longer: bool) -> None:
     """Not level: its angles feed a correction, so it collects to collect_max_s (the
     attitude reference's wander averages down); level: it stops as soon as any float."""
-    results = []
+    results, said = [], []
     for for_correction in (False, True):
         check = FloatCheck(bluerov, confirmed=True, for_correction=for_correction)
-        run(check, Floater(trim))
+        log = run(check, Floater(trim))
         assert check.phase is Phase.DONE, check.reason
         assert isinstance(check.verification, FloatResult)
         results.append(check.verification)
+        said.append([o.text for _, o in log if isinstance(o, Notice) and o.kind == "info"])
     plain, corrected = results
+    assert said == [[], ["not level so far: collecting on to collect_max_s (120 s) or the "
+                         "depth envelope, for the correction"] if longer else []]
     span = [r.t_end_s - r.t_start_s for r in results]
     if longer:
         assert span[1] >= bluerov.procedure.collect_max_s > 2 * span[0], span

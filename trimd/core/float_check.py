@@ -98,6 +98,7 @@ class FloatCheck(Phases[Never, FloatResult]):
                  ) -> None:
         self.profile = profile
         self.for_correction = for_correction
+        self._collecting_on = False    # said that it collects on for the correction
         self.proc = profile.procedure
         self.depth_excursion_m = (self.proc.max_depth_excursion_m if depth_excursion_m is None
                                   else depth_excursion_m)
@@ -229,14 +230,18 @@ class FloatCheck(Phases[Never, FloatResult]):
 
     def _collect(self, elapsed: float) -> list[Output[Never, FloatResult]]:
         result = self._result("")
-        enough = (result.t_end_s - result.t_start_s >= MIN_BATCHES * self.timing.batch_s
-                  and known_well_enough(result)
-                  and (not self.for_correction or result.verdict is Verdict.LEVEL))
-        if enough:
+        known = (result.t_end_s - result.t_start_s >= MIN_BATCHES * self.timing.batch_s
+                 and known_well_enough(result))
+        if known and (not self.for_correction or result.verdict is Verdict.LEVEL):
             return self._done(result)
         if elapsed >= self.proc.collect_max_s:
             return self._done(self._result(f"collect_max_s ({self.proc.collect_max_s:g} s) "
                                            "reached"))
+        if known and not self._collecting_on:
+            self._collecting_on = True
+            return [Notice(self._t, "info", f"{result.verdict.value} so far: collecting on to "
+                           f"collect_max_s ({self.proc.collect_max_s:g} s) or the depth "
+                           "envelope, for the correction")]
         return []
 
     def _reach_back(self, start_s: float) -> None:
