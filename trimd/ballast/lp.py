@@ -44,8 +44,8 @@ the vehicle statically stable, and the level band t·m_z plus a quarter is at le
 :data:`FINE_LATTICE` of the smallest moment of one piece): with the aim at the tolerance
 less 1.96σ, a free 1σ lets the fewest-pieces stage place the prediction where the true
 vehicle is off level on that axis one time in six; a quarter, one in twenty-three. Where
-they cannot, the band is a needle among the pieces' moments (a quarter took 15–30 s per
-proposal: docs/ballast.md) and the whole 1σ is free. Every integer solve has a budget of
+they cannot, the band is a needle among the pieces' moments (a quarter took up to 18 s of
+CPU per proposal: docs/ballast.md) and the whole 1σ is free. Every integer solve has a budget of
 branch-and-bound nodes, no time limit (a replay proposes exactly what the live run did, on
 any machine); when it is reached the best solution found is used and the result says so.
 """
@@ -78,9 +78,9 @@ STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
 #: The share of :func:`moment_resolution` the lexicographic stages leave free where the
-#: pieces can aim near level: a level band of at least FINE_LATTICE of the smallest moment
-#: of one piece (module docstring).
+#: pieces can aim near level (module docstring).
 ALLOWANCE_SHARE = 0.25
+#: They can when the level band is at least this share of the smallest moment of one piece.
 FINE_LATTICE = 0.1
 
 
