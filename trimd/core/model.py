@@ -6,7 +6,7 @@ Fossen (2011) notation, SI units, body frame FRD, world frame NED. Pure numpy.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -159,20 +159,56 @@ def thrust_configuration(thrusters: Sequence[Thruster]) -> FloatArray:
     return T
 
 
-def _table_points(table: ThrustTable) -> tuple[FloatArray, FloatArray]:
-    """PWM [µs] and thrust [N] points of one table, sorted, with its deadband edges at 0 N."""
-    pwm = np.array([*table.pwm_us, *table.deadband_us])
-    thrust = np.array([*table.thrust_N, 0.0, 0.0])
-    order = np.argsort(pwm, kind="stable")
-    return pwm[order], thrust[order]
+Points = tuple[FloatArray, FloatArray]
+#: The points of :func:`_table_points` and :func:`_table_at` already built, keyed by the
+#: table's or curve's identity and the voltage (−1 for a table): a trim, a watch or a
+#: replay reads every thruster sample through the same few curves, and sorting (and
+#: hashing) a curve's tables per sample cost more than the interpolation. Each entry
+#: holds its table or curve, so that no identity is reused while cached; the arrays are
+#: read-only, being shared.
+_POINTS: dict[tuple[int, float], tuple[object, Points]] = {}
+#: Entries kept before :data:`_POINTS` starts again.
+_POINTS_MAX = 512
 
 
-def _table_at(curve: ThrustCurve, voltage_V: float) -> tuple[FloatArray, FloatArray]:
-    """PWM [µs] and thrust [N] points of ``curve`` at ``voltage_V`` (deadband edges = 0 N).
+def _cached(owner: object, voltage_V: float, build: Callable[[], Points]) -> Points:
+    """``build()``'s points for ``owner`` at ``voltage_V``, built once (:data:`_POINTS`)."""
+    key = (id(owner), voltage_V)
+    hit = _POINTS.get(key)
+    if hit is not None and hit[0] is owner:
+        return hit[1]
+    points = build()
+    for a in points:
+        a.flags.writeable = False
+    if len(_POINTS) >= _POINTS_MAX:
+        _POINTS.clear()
+    _POINTS[key] = (owner, points)
+    return points
+
+
+def _table_points(table: ThrustTable) -> Points:
+    """PWM [µs] and thrust [N] points of one table, sorted, with its deadband edges at 0 N
+    (read-only arrays)."""
+    def build() -> Points:
+        pwm = np.array([*table.pwm_us, *table.deadband_us])
+        thrust = np.array([*table.thrust_N, 0.0, 0.0])
+        order = np.argsort(pwm, kind="stable")
+        return pwm[order], thrust[order]
+    return _cached(table, -1.0, build)
+
+
+def _table_at(curve: ThrustCurve, voltage_V: float) -> Points:
+    """PWM [µs] and thrust [N] points of ``curve`` at ``voltage_V`` (deadband edges = 0 N;
+    read-only arrays).
 
     Between two tables the thrust is interpolated linearly in voltage on a common PWM
     grid; outside the tabulated voltages the nearest table is used.
     """
+    return _cached(curve, voltage_V, lambda: _points_between(curve, voltage_V))
+
+
+def _points_between(curve: ThrustCurve, voltage_V: float) -> Points:
+    """:func:`_table_at`'s points, built."""
     tables = curve.tables
     volts = [t.voltage_V for t in tables]
     if voltage_V <= volts[0]:

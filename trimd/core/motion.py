@@ -126,9 +126,9 @@ class MotionGate:
         self.rate_tol = math.radians(profile.procedure.rate_tol_deg_s)
         self.observer = SpeedObserver(profile)
         self._phi = self._theta = 0.0
-        self._effort: deque[tuple[float, ...]] = deque()
-        self._velocity: deque[tuple[float, ...]] = deque()
-        self._heading: deque[tuple[float, ...]] = deque()
+        self._effort = Window(2)
+        self._velocity = Window(1)
+        self._heading = Window(1)
 
     def effort(self, t_s: float, tau: FloatArray) -> None:
         """τ [N, N·m] of one thruster sample. The speed model is driven by the net force
@@ -137,22 +137,21 @@ class MotionGate:
         tilt, the thrust map), and the model coasts on drag alone."""
         g = restoring_matrix(self._phi, self._theta)[:2] @ self.q_prior
         net = (float(tau[0] - g[0]), float(tau[1] - g[1]))
-        _push(self._effort, (t_s, *net), t_s - EFFORT_WINDOW_S)
-        mean = np.mean([e[1:] for e in self._effort], axis=0)
-        pushing = np.abs(mean) > self.force_floor
-        self.observer.update(t_s, (net[0] if pushing[0] else 0.0,
-                                   net[1] if pushing[1] else 0.0))
+        self._effort.push((t_s, *net), t_s - EFFORT_WINDOW_S)
+        mean_x, mean_y = self._effort.mean()
+        self.observer.update(t_s, (net[0] if abs(mean_x) > self.force_floor else 0.0,
+                                   net[1] if abs(mean_y) > self.force_floor else 0.0))
 
     def velocity(self, v: Velocity) -> None:
-        _push(self._velocity, (v.t_s, math.hypot(v.u, v.v)), v.t_s - EFFORT_WINDOW_S)
+        self._velocity.push((v.t_s, math.hypot(v.u, v.v)), v.t_s - EFFORT_WINDOW_S)
 
     def attitude(self, a: Attitude) -> None:
         self._phi, self._theta = a.phi, a.theta
         psi = a.psi
-        if self._heading:   # unwrapped, so a turn through ±180° is one line
-            last = self._heading[-1][1]
+        if self._heading.items:   # unwrapped, so a turn through ±180° is one line
+            last = self._heading.items[-1][1]
             psi = last + math.remainder(psi - last, math.tau)
-        _push(self._heading, (a.t_s, psi), a.t_s - LONG_WINDOW_S)
+        self._heading.push((a.t_s, psi), a.t_s - LONG_WINDOW_S)
 
     def why_moving(self, t_s: float) -> str | None:
         """Why the vehicle is not at rest at ``t_s`` [s] (module docstring), or None;
@@ -163,14 +162,12 @@ class MotionGate:
         return why
 
     def _why(self, t_s: float) -> str | None:
-        effort = [e for e in self._effort if e[0] >= t_s - EFFORT_WINDOW_S]
-        if effort:
-            mean = np.mean([e[1:] for e in effort], axis=0)
-            if float(np.max(np.abs(mean))) > self.force_floor:
-                return TRANSIT
-        dvl = [v for t, v in self._velocity if t >= t_s - EFFORT_WINDOW_S]
-        if dvl and t_s - self._velocity[-1][0] <= VELOCITY_AGE_S:
-            if float(np.mean(dvl)) > MAX_SPEED_M_S:
+        mean = self._effort.mean(since=t_s - EFFORT_WINDOW_S)
+        if mean and max(abs(m) for m in mean) > self.force_floor:
+            return TRANSIT
+        dvl = self._velocity.mean(since=t_s - EFFORT_WINDOW_S)
+        if dvl and t_s - self._velocity.items[-1][0] <= VELOCITY_AGE_S:
+            if dvl[0] > MAX_SPEED_M_S:
                 return MOVING_DVL
         else:
             speed = self.observer.speed
@@ -180,20 +177,75 @@ class MotionGate:
 
     def _turning(self, t_s: float) -> bool:
         """The heading's rate over the long window of the stretch (module docstring)."""
-        h = np.array(self._heading)
-        if len(h) < 3 or t_s - h[0, 0] < 0.9 * LONG_WINDOW_S:
+        h = self._heading
+        if len(h.items) < 3 or t_s - h.items[0][0] < 0.9 * LONG_WINDOW_S:
             return False
-        return abs(_slope(h)) > self.rate_tol
+        return abs(h.slope()) > self.rate_tol
 
 
-def _push(window: deque[tuple[float, ...]], item: tuple[float, ...], oldest: float) -> None:
-    window.append(item)
-    while window[0][0] < oldest:
-        window.popleft()
+class Window:
+    """Samples (t, x₁ … x_k) of a trailing time window [s] with their running sums, so
+    that each sample costs the same however long the window: the mean of each x and the
+    least-squares slope of x₁ over t. The sums are taken about the first sample since the
+    window (re)started and are summed afresh once as many samples have left as it holds,
+    so rounding does not build up."""
 
+    def __init__(self, k: int) -> None:
+        self.items: deque[tuple[float, ...]] = deque()
+        self._k = k
+        self._restart()
 
-def _slope(tx: FloatArray) -> float:
-    """Least-squares slope of column 1 over column 0."""
-    t = tx[:, 0] - tx[:, 0].mean()
-    tt = float(t @ t)
-    return float(t @ (tx[:, 1] - tx[:, 1].mean()) / tt) if tt > 0 else 0.0
+    def _restart(self) -> None:
+        first = self.items[0] if self.items else (0.0,) * (self._k + 1)
+        self._origin = first
+        self._n = self._left = 0
+        self._sums = [0.0] * self._k          # Σx
+        self._st = self._stt = self._stx = 0.0  # Σt, Σt², Σt·x₁
+        for item in self.items:
+            self._add(item, 1)
+
+    def _add(self, item: tuple[float, ...], sign: int) -> None:
+        t0, *x0 = self._origin
+        t = item[0] - t0
+        self._n += sign
+        for i in range(self._k):
+            self._sums[i] += sign * (item[i + 1] - x0[i])
+        self._st += sign * t
+        self._stt += sign * t * t
+        self._stx += sign * t * (item[1] - x0[0])
+
+    def push(self, item: tuple[float, ...], oldest: float) -> None:
+        """Add ``item`` (t first) and drop the samples older than ``oldest`` [s]."""
+        if not self.items:
+            self.items.append(item)
+            self._restart()
+        else:
+            self.items.append(item)
+            self._add(item, 1)
+        while self.items[0][0] < oldest:
+            self._add(self.items.popleft(), -1)
+            self._left += 1
+        if self._left >= len(self.items):
+            self._restart()
+
+    def clear(self) -> None:
+        self.items.clear()
+        self._restart()
+
+    def mean(self, since: float = -math.inf) -> tuple[float, ...]:
+        """The mean of each x over the samples from ``since`` [s] on (empty: none)."""
+        n, sums = self._n, list(self._sums)
+        _, *x0 = self._origin
+        for item in self.items:     # the oldest, already out of a later window
+            if item[0] >= since:
+                break
+            n -= 1
+            for i in range(self._k):
+                sums[i] -= item[i + 1] - x0[i]
+        return tuple(x0[i] + sums[i] / n for i in range(self._k)) if n > 0 else ()
+
+    def slope(self) -> float:
+        """The least-squares slope of x₁ over t [unit/s] (0 when t does not vary)."""
+        n = self._n
+        tt = self._stt - self._st * self._st / n
+        return (self._stx - self._st * self._sums[0] / n) / tt if tt > 0 else 0.0
