@@ -214,7 +214,7 @@ class TlogRecorder:
             self._write(s.t_s, v, v.attitude_encode(ms, s.phi, s.theta, s.psi, s.p, s.q, s.r))
             return Attitude(s.t_s, *(_f32(x) for x in (s.phi, s.theta, s.psi, s.p, s.q, s.r)))
         if isinstance(s, Thrusters):
-            pwm = [int(np.clip(round(p), 0, 65535)) for p in s.pwm_us]
+            pwm = [min(max(round(p), 0), 65535) for p in s.pwm_us]
             servos = [0] * 16
             for ch, p in zip(self._channels, pwm, strict=True):
                 servos[ch - 1] = p
@@ -227,7 +227,7 @@ class TlogRecorder:
             self._write(s.t_s, v, v.vfr_hud_encode(0, 0, 0, 0, -s.depth_m, 0))
             return Depth(s.t_s, -_f32(-s.depth_m))
         if isinstance(s, Battery):
-            mv = int(np.clip(round(s.voltage_V * 1000), 0, 65535))
+            mv = min(max(round(s.voltage_V * 1000), 0), 65535)
             self._write(s.t_s, v, v.sys_status_encode(0, 0, 0, 0, mv, -1, -1, 0, 0, 0, 0, 0, 0))
             return Battery(s.t_s, mv / 1000.0)
         if isinstance(s, Velocity):
