@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import asyncio
 import tempfile
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -59,6 +59,7 @@ from trimd.core.errors import EstimationError, LinkError
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
+from trimd.drivers.sim.vehicle import SimVehicle
 
 OPTIONS = "disturb=real,truth=perturbed"
 #: profile → the known weight of its calibration: inventory piece, count, slot. Weights
@@ -130,11 +131,13 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str, weight: K
                                              db=db, vehicle="bench", wall_clock=False))
 
 
-def _trim(profile: Profile, payload: str, seed: int, options: str
-          ) -> tuple[Run, tuple[float, ...]]:
+def judged_trim(profile: Profile, payload: str, seed: int, options: str,
+                estimate_with: Callable[[SimVehicle], Profile] | None = None
+                ) -> tuple[Run, tuple[float, ...]]:
     """The trim of ``seed`` judged, and the noise and band shares of the variance of q
-    (:class:`Seed`; NaN when it did not end with an estimate)."""
-    trial = sim_trim(profile, payload, seed, options)
+    (:class:`Seed`; NaN when it did not end with an estimate); ``estimate_with`` as
+    :func:`tests.helpers.sim_trim`'s."""
+    trial = sim_trim(profile, payload, seed, options, estimate_with=estimate_with)
     est = trial.result.estimate
     share = np.full(8, np.nan)
     if est is not None and est.q_cov_noise is not None and est.q_cov_band is not None:
@@ -151,7 +154,7 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
     """The seed (module docstring); at the tiny size each hold collects for less
     (:func:`bench.size.sized_profile`)."""
     profile = sized_profile(load_profile(name))
-    before, before_share = _trim(profile, payload, seed, options)
+    before, before_share = judged_trim(profile, payload, seed, options)
     weight = known_weight(profile)
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(tmp) / "trimd.db"
@@ -163,7 +166,7 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
         sd = np.sqrt(np.diag(good.posterior.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         calibrated = calibrated_profile(db, "bench", profile)
-        after, after_share = _trim(calibrated, payload, seed, options)
+        after, after_share = judged_trim(calibrated, payload, seed, options)
         out = Seed(seed, before, after, _verdict(good.outcome.accepted), good.outcome.sigma,
                    narrowed, shares=(before_share, after_share))
         try:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -280,17 +280,21 @@ class SimTrim:
 
 
 def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
-             method: str = "milp") -> SimTrim:
+             method: str = "milp",
+             estimate_with: Callable[[SimVehicle], Profile] | None = None) -> SimTrim:
     """Run the whole trim procedure, headless and confirmed, on the in-process simulated
     vehicle ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (e.g. ``options="disturb=real,
     truth=perturbed"``), proposing ballast by ``method``. Time is the simulator's alone
-    (no wall-clock Ticks), so a seed gives the same result every time."""
+    (no wall-clock Ticks), so a seed gives the same result every time. The simulator is
+    built from ``profile``; trimd estimates with it too, or with ``estimate_with(vehicle)``
+    (a profile that knows some of the simulated vehicle's truth)."""
     async def go() -> SimTrim:
         url = f"sim:payload={payload},seed={seed}" + (f",{options}" if options else "")
         link = await open_link(url, profile)
         assert isinstance(link, SimLink)
-        session = Session(link, profile, recorder=None, presenters=[], confirmed=True,
-                          propose=lambda est: propose_ballast(est, profile, method=method),
+        used = profile if estimate_with is None else estimate_with(link.vehicle)
+        session = Session(link, used, recorder=None, presenters=[], confirmed=True,
+                          propose=lambda est: propose_ballast(est, used, method=method),
                           wall_clock=False)
         try:
             return SimTrim(await session.run(), link.vehicle)

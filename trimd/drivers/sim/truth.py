@@ -17,10 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.profile import Profile, ThrustCurve
+from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.drivers.sim.config import SimConfig
 
-__all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "perturb_profile"]
+__all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "perturb_profile",
+           "true_thrusters"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
@@ -87,15 +88,24 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
                                                                          strict=True)),
                         band_offsets_us=tuple((float(lo), float(hi)) for lo, hi in band)
                         if config.esc_band_us else ())
-    offsets = error.band_offsets_us or ((0.0, 0.0),) * len(profile.thrusters)
-    thrusters = tuple(dataclasses.replace(t, curve=offset_band(_scaled(t.curve, *f), *b))
-                      for t, f, b in zip(profile.thrusters, error.thrust_factors, offsets,
-                                         strict=True))
     x_b, y_b, z_b = profile.r_b_m
     r_b = (x_b + dx, y_b + dy, z_b + dz)
     true = dataclasses.replace(profile, buoyancy_N=profile.buoyancy_N * error.buoyancy_factor,
-                               r_b_m=r_b, thrusters=thrusters)
+                               r_b_m=r_b, thrusters=true_thrusters(profile, error))
     return true, error
+
+
+def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
+                   bands: bool = True) -> tuple[Thruster, ...]:
+    """The thrusters of ``profile`` with their true curves: each scaled by its
+    ``offset.thrust_factors`` (``gains``) and its dead band moved by its
+    ``offset.band_offsets_us`` (``bands``). With both: what the simulator flies; with one,
+    a thrust map known in part (``bench/bench_thrust_map_ceiling.py``)."""
+    n = len(profile.thrusters)
+    factors = offset.thrust_factors if gains else ((1.0, 1.0),) * n
+    moved = offset.band_offsets_us if bands and offset.band_offsets_us else ((0.0, 0.0),) * n
+    return tuple(dataclasses.replace(t, curve=offset_band(_scaled(t.curve, *f), *b))
+                 for t, f, b in zip(profile.thrusters, factors, moved, strict=True))
 
 
 def _truth_seed(config: SimConfig) -> int:
