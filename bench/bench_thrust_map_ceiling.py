@@ -22,8 +22,9 @@ Printed per case and trim: the RMS error of W − B [N] and of each net moment
 [mm-equivalent], the share of 95 % intervals covering the truth and the mean 1σ, beside
 issue 24's targets (:data:`bench.bench_calibration.TARGETS`). ``TRIMD_CEILING_SEEDS``
 (default 30), ``TRIMD_CEILING_OPTIONS``, ``TRIMD_CEILING_CASES``,
-``TRIMD_COVERAGE_PROCESSES`` as in :mod:`bench.bench_calibration`. One seed takes ≈ 60 s
-of one core (the Heavy): seven trims and eight level holds of ``collect_max_s``.
+``TRIMD_COVERAGE_PROCESSES`` as in :mod:`bench.bench_calibration`. One seed takes ≈ 32 s
+(Heavy) and ≈ 43 s (Sabertooth) of one core: seven trims and eight level holds of
+``collect_max_s``.
 """
 
 from __future__ import annotations

@@ -6,12 +6,13 @@ Fossen (2011) notation, SI units, body frame FRD, world frame NED. Pure numpy.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.profile import Profile, ThrustCurve, Thruster, ThrustTable
+from trimd.core.curve_points import table_at, table_points
+from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.core.types import FloatArray
 
 __all__ = [
@@ -159,88 +160,18 @@ def thrust_configuration(thrusters: Sequence[Thruster]) -> FloatArray:
     return T
 
 
-Points = tuple[FloatArray, FloatArray]
-#: The points of :func:`_table_points` and :func:`_table_at` already built, keyed by the
-#: table's or curve's identity and the voltage (−1 for a table): a trim, a watch or a
-#: replay reads every thruster sample through the same few curves, and sorting (and
-#: hashing) a curve's tables per sample cost more than the interpolation. Each entry
-#: holds its table or curve, so that no identity is reused while cached; the arrays are
-#: read-only, being shared.
-_POINTS: dict[tuple[int, float], tuple[object, Points]] = {}
-#: Entries kept before :data:`_POINTS` starts again.
-_POINTS_MAX = 512
-
-
-def _cached(owner: object, voltage_V: float, build: Callable[[], Points]) -> Points:
-    """``build()``'s points for ``owner`` at ``voltage_V``, built once (:data:`_POINTS`)."""
-    key = (id(owner), voltage_V)
-    hit = _POINTS.get(key)
-    if hit is not None and hit[0] is owner:
-        return hit[1]
-    points = build()
-    for a in points:
-        a.flags.writeable = False
-    if len(_POINTS) >= _POINTS_MAX:
-        _POINTS.clear()
-    _POINTS[key] = (owner, points)
-    return points
-
-
-def _table_points(table: ThrustTable) -> Points:
-    """PWM [µs] and thrust [N] points of one table, sorted, with its deadband edges at 0 N
-    (read-only arrays)."""
-    def build() -> Points:
-        pwm = np.array([*table.pwm_us, *table.deadband_us])
-        thrust = np.array([*table.thrust_N, 0.0, 0.0])
-        order = np.argsort(pwm, kind="stable")
-        return pwm[order], thrust[order]
-    return _cached(table, -1.0, build)
-
-
-def _table_at(curve: ThrustCurve, voltage_V: float) -> Points:
-    """PWM [µs] and thrust [N] points of ``curve`` at ``voltage_V`` (deadband edges = 0 N;
-    read-only arrays).
-
-    Between two tables the thrust is interpolated linearly in voltage on a common PWM
-    grid; outside the tabulated voltages the nearest table is used.
-    """
-    return _cached(curve, voltage_V, lambda: _points_between(curve, voltage_V))
-
-
-def _points_between(curve: ThrustCurve, voltage_V: float) -> Points:
-    """:func:`_table_at`'s points, built."""
-    tables = curve.tables
-    volts = [t.voltage_V for t in tables]
-    if voltage_V <= volts[0]:
-        return _table_points(tables[0])
-    if voltage_V >= volts[-1]:
-        return _table_points(tables[-1])
-    k = int(np.searchsorted(volts, voltage_V)) - 1
-    (p0, f0), (p1, f1) = _table_points(tables[k]), _table_points(tables[k + 1])
-    w = (voltage_V - volts[k]) / (volts[k + 1] - volts[k])
-    grid = np.union1d(p0, p1)
-    band = (np.array(tables[k].deadband_us) * (1 - w)
-            + np.array(tables[k + 1].deadband_us) * w)
-    thrust = np.interp(grid, p0, f0) * (1 - w) + np.interp(grid, p1, f1) * w
-    inside = (grid >= band[0]) & (grid <= band[1])  # zero thrust in the closed band
-    grid = np.concatenate([grid[~inside], band])
-    thrust = np.concatenate([thrust[~inside], [0.0, 0.0]])
-    order = np.argsort(grid, kind="stable")
-    return grid[order], thrust[order]
-
-
 def _thrust_between(curve: ThrustCurve, k: int, pwm_us: FloatArray, w: FloatArray
                     ) -> FloatArray:
     """Thrust [N] between tables ``k`` and ``k + 1``, one voltage weight per command.
 
     ``pwm_us`` [µs] and ``w`` (0 at table ``k``, 1 at table ``k + 1``) have the same
-    shape. Equal to ``np.interp`` on the :func:`_table_at` points of each command's
-    voltage, without building those points per command: the neighbours of each PWM on
-    the common grid are looked up once, and a neighbour inside that voltage's (closed)
-    deadband is replaced by the deadband edge at 0 N.
+    shape. Equal to ``np.interp`` on the :func:`~trimd.core.curve_points.table_at` points
+    of each command's voltage, without building those points per command: the neighbours
+    of each PWM on the common grid are looked up once, and a neighbour inside that
+    voltage's (closed) deadband is replaced by the deadband edge at 0 N.
     """
     t0, t1 = curve.tables[k], curve.tables[k + 1]
-    (p0, f0), (p1, f1) = _table_points(t0), _table_points(t1)
+    (p0, f0), (p1, f1) = table_points(t0), table_points(t1)
     grid = np.union1d(p0, p1)
     a, b = np.interp(grid, p0, f0), np.interp(grid, p1, f1)
     lo = t0.deadband_us[0] * (1 - w) + t1.deadband_us[0] * w
@@ -286,15 +217,15 @@ def thrust_from_pwm(curve: ThrustCurve, pwm_us: ArrayLike, voltage_V: ArrayLike
     pwm = np.asarray(pwm_us, float)
     v = np.asarray(voltage_V, float)
     if v.ndim == 0:
-        f: FloatArray = np.interp(pwm, *_table_at(curve, float(v)))
+        f: FloatArray = np.interp(pwm, *table_at(curve, float(v)))
         return f
     pwm, v = np.broadcast_arrays(pwm, v)
     volts = np.array([t.voltage_V for t in curve.tables])
     out = np.empty(pwm.shape)
     first, last = v <= volts[0], v >= volts[-1]
-    out[first] = np.interp(pwm[first], *_table_points(curve.tables[0]))
-    out[last] = np.interp(pwm[last], *_table_points(curve.tables[-1]))
-    k = np.searchsorted(volts, v) - 1  # as in _table_at
+    out[first] = np.interp(pwm[first], *table_points(curve.tables[0]))
+    out[last] = np.interp(pwm[last], *table_points(curve.tables[-1]))
+    k = np.searchsorted(volts, v) - 1  # as in table_at
     for i in range(len(volts) - 1):
         sel = ~first & ~last & (k == i)
         w = (v[sel] - volts[i]) / (volts[i + 1] - volts[i])
@@ -307,7 +238,7 @@ def pwm_from_thrust(curve: ThrustCurve, thrust_N: ArrayLike, voltage_V: float) -
 
     Zero thrust maps to the neutral PWM; a thrust beyond the table saturates at its end.
     """
-    pwm, thrust = _table_at(curve, voltage_V)
+    pwm, thrust = table_at(curve, voltage_V)
     f = np.asarray(thrust_N, float)
     zero = np.flatnonzero(thrust == 0.0)
     lo, hi = int(zero[0]), int(zero[-1])
