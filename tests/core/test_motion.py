@@ -20,6 +20,7 @@ from trimd.core.motion import (
     TRANSIT,
     TURNING,
     MotionGate,
+    Window,
 )
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
@@ -157,3 +158,29 @@ def test_effort_the_trim_leaves_unexplained_is_no_motion(sabertooth: Profile) ->
         t = 120.0 + k / RATE_HZ
         gate.effort(t, np.array([g_x + 1.5 * gate.force_floor, 0.0, 0.0, 0.0, 0.0, 0.0]))
     assert gate.why_moving(t) == TRANSIT
+
+
+def test_a_window_gives_the_mean_and_slope_of_its_samples_and_forgets_a_nan() -> None:
+    """The running sums agree with numpy over the samples left in the window (also after
+    many turnovers, far from the time origin), and a NaN counts only while it is in it."""
+    rng = np.random.default_rng(0)
+    w = Window(2)
+    t = 1e5
+    for k in range(5000):
+        t += 0.05 + 0.02 * rng.random()
+        w.push((t, 3.0 + rng.standard_normal(), 0.01 * t + rng.standard_normal()), t - 2.0)
+        if k % 997 == 996:
+            left = np.array(w.items)
+            assert np.allclose(w.mean(), left[:, 1:].mean(axis=0), rtol=0, atol=1e-9)
+            assert w.mean(since=left[3, 0]) == pytest.approx(left[3:, 1:].mean(axis=0))
+            tt = left[:, 0] - left[:, 0].mean()
+            slope = tt @ (left[:, 1] - left[:, 1].mean()) / (tt @ tt)
+            assert w.slope() == pytest.approx(slope, abs=1e-9)
+    w.push((t + 0.1, math.nan, 0.0), t - 1.9)
+    w.push((t + 0.2, 5.0, 1.0), t - 1.8)
+    assert math.isnan(w.mean()[0])
+    w.clear()   # summed afresh, then a NaN that leaves long before a turnover
+    for k in range(40):
+        w.push((t + 0.1 * k, math.nan if k == 5 else 5.0, 1.0), t + 0.1 * k - 3.0)
+        assert math.isnan(w.mean()[0]) == (5 <= k < 36), k
+    assert w.mean() == (5.0, 1.0)

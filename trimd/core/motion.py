@@ -52,7 +52,7 @@ from trimd.core.settling import LONG_WINDOW_S, RATE_WINDOW_S
 from trimd.core.types import FloatArray
 
 __all__ = ["COASTING", "EFFORT_WINDOW_S", "HYDRO_SPREAD", "MAX_SPEED_M_S", "MOVING_DVL",
-           "TRANSIT", "TURNING", "VELOCITY_AGE_S", "MotionGate", "SpeedObserver"]
+           "TRANSIT", "TURNING", "VELOCITY_AGE_S", "MotionGate", "SpeedObserver", "Window"]
 
 
 #: Largest horizontal speed of a vehicle at rest [m/s] (over ground by a DVL, through the
@@ -222,11 +222,14 @@ class Window:
         else:
             self.items.append(item)
             self._add(item, 1)
+        finite = True
         while self.items[0][0] < oldest:
-            self._add(self.items.popleft(), -1)
+            gone = self.items.popleft()
+            self._add(gone, -1)
             self._left += 1
-        if self._left >= len(self.items):
-            self._restart()
+            finite = finite and all(map(math.isfinite, gone))
+        if self._left >= len(self.items) or not finite:
+            self._restart()     # a NaN that left stays in the sums until summed afresh
 
     def clear(self) -> None:
         self.items.clear()
