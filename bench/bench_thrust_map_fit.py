@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from bench.bench_calibration import NOISE, OPTIONS, TARGETS, judged_trim, known_weight
+from bench.bench_safety import Stamps
 from bench.bench_sim_coverage import CASES, Run, picked, rms_errors, run_seeds, seeding
 from bench.bench_thrust_map_ceiling import FLOAT_PCT
 from bench.size import size, sized_profile
@@ -46,7 +46,7 @@ from trimd.core.profile_yaml import load_profile
 from trimd.core.samples import Sample, Thrusters
 from trimd.core.systematics import BAND_SIGMA_SHARE
 from trimd.core.types import FloatArray
-from trimd.drivers.sim.truth import offset_band, scaled_curve
+from trimd.drivers.sim.truth import TruthOffset, true_thrusters
 
 #: profile → the experiments: (slot, +1 the known weight of
 #: :data:`bench.bench_calibration.WEIGHTS`, −1 a float of the same size).
@@ -57,12 +57,11 @@ PLAN = {"bluerov2-heavy": (("W-front-stbd", 1), ("W-aft-port", -1), ("W-front-po
                            ("FrontSB", -1), ("AftP", 1), ("FrontP", -1), ("AftSB", 1))}
 
 
-class Outputs:
+class Outputs(Stamps):
     """A session recorder that keeps the thruster outputs it sees (and records nothing)."""
 
-    path = ""
-
     def __init__(self) -> None:
+        super().__init__()
         self.t: list[float] = []
         self.pwm: list[tuple[float, ...]] = []
 
@@ -70,23 +69,13 @@ class Outputs:
         if isinstance(sample, Thrusters):
             self.t.append(sample.t_s)
             self.pwm.append(sample.pwm_us)
-        return sample
+        return super().sample(sample)
 
     def held(self, hold: HoldSamples) -> FloatArray:
         """The outputs held onto each of ``hold``'s samples, shape (N, n) [µs]."""
         k = np.searchsorted(self.t, hold.t_s, side="right") - 1
         assert np.all(k >= 0) and np.all(hold.t_s - np.asarray(self.t)[k] <= MAX_THRUSTER_AGE_S)
         return np.asarray(self.pwm, float)[k]
-
-    def raw(self, *_: Any) -> None: ...
-
-    def command(self, *_: Any) -> None: ...
-
-    def notice(self, *_: Any) -> None: ...
-
-    def flush_due(self) -> None: ...
-
-    def close(self) -> None: ...
 
 
 def level_hold(profile: Profile, url: str) -> tuple[HoldSamples, FloatArray]:
@@ -106,16 +95,15 @@ def level_hold(profile: Profile, url: str) -> tuple[HoldSamples, FloatArray]:
 
 def fitted_thrusters(profile: Profile, z: FloatArray) -> tuple[Thruster, ...]:
     """The profile's thrusters with each curve scaled by 1 + σ_gain·z (forward, reverse)
-    and its band edges moved by σ_band·z [µs] (z in :mod:`trimd.core.systematics`' order)."""
+    and its band edges moved by σ_band·z [µs] (z in :mod:`trimd.core.systematics`' order),
+    as the simulator makes its true curves (:func:`trimd.drivers.sim.truth.true_thrusters`)."""
     forward, reverse, low, high = np.split(np.asarray(z, float), 4)
-    out = []
-    for i, t in enumerate(profile.thrusters):
-        gain = t.curve.uncertainty_pct / 100
-        band = t.curve.deadband_margin_us * BAND_SIGMA_SHARE
-        curve = offset_band(scaled_curve(t.curve, 1 + gain * forward[i], 1 + gain * reverse[i]),
-                            band * low[i], band * high[i])
-        out.append(dataclasses.replace(t, curve=curve))
-    return tuple(out)
+    gain = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    band = np.array([t.curve.deadband_margin_us * BAND_SIGMA_SHARE for t in profile.thrusters])
+    return true_thrusters(profile, TruthOffset(
+        1.0, (0.0, 0.0, 0.0),
+        tuple(zip(map(float, 1 + gain * forward), map(float, 1 + gain * reverse), strict=True)),
+        tuple(zip(map(float, band * low), map(float, band * high), strict=True))))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,7 +21,7 @@ from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.drivers.sim.config import SimConfig
 
 __all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "perturb_profile",
-           "scaled_curve", "true_thrusters"]
+           "true_thrusters"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
@@ -100,11 +100,12 @@ def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
     """The thrusters of ``profile`` with their true curves: each scaled by its
     ``offset.thrust_factors`` (``gains``) and its dead band moved by its
     ``offset.band_offsets_us`` (``bands``). With both: what the simulator flies; with one,
-    a thrust map known in part (``bench/bench_thrust_map_ceiling.py``)."""
+    a thrust map known in part (``bench/bench_thrust_map_ceiling.py``); with fitted
+    offsets, a fitted map (``bench/bench_thrust_map_fit.py``)."""
     n = len(profile.thrusters)
     factors = offset.thrust_factors if gains else ((1.0, 1.0),) * n
     moved = offset.band_offsets_us if bands and offset.band_offsets_us else ((0.0, 0.0),) * n
-    return tuple(dataclasses.replace(t, curve=offset_band(scaled_curve(t.curve, *f), *b))
+    return tuple(dataclasses.replace(t, curve=offset_band(_scaled(t.curve, *f), *b))
                  for t, f, b in zip(profile.thrusters, factors, moved, strict=True))
 
 
@@ -124,7 +125,7 @@ def _thrust_err_sizes(config: SimConfig, n: int) -> NDArray[np.float64]:
     return rng.uniform(k, config.thrust_err_max, size=(n, 2))
 
 
-def scaled_curve(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
+def _scaled(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
     """``curve`` with its positive thrusts × ``forward`` and negative ones × ``reverse``
     (the deadband and PWM range unchanged)."""
     return dataclasses.replace(curve, tables=tuple(
