@@ -11,12 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.helpers import equilibrium_holds, payload_truth
+from trimd.core.curve_error import offset_band
 from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, estimate_static, measurable_dofs
 from trimd.core.model import pwm_from_thrust, thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
-from trimd.drivers.sim.truth import offset_band
 
 
 @pytest.mark.parametrize("m_ext", [1.0, 5.0, 10.0, 15.0, 20.0])

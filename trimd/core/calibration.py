@@ -49,14 +49,17 @@ from numpy.typing import NDArray
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
 from trimd.core.longrun import mean_covariance
-from trimd.core.model import restoring_matrix
+from trimd.core.model import restoring_matrix, thrust_configuration
+from trimd.core.output_hist import OutputHistogram, output_histogram
 from trimd.core.profile import Profile
 from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
+from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
 from trimd.core.types import FloatArray
 
 __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "Outcome",
            "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
-           "calibration_hold", "experiment_rows", "gains", "posterior", "prior", "update"]
+           "calibration_hold", "change_model", "experiment_rows", "gains", "posterior", "prior",
+           "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
@@ -124,6 +127,8 @@ class CalibrationHold:
     tau_cov : covariance of that mean from noise and wander (long-run, of the residual
         τ − G(φ, θ)·q), shape (6, 6) [N², N²·m², N²·m].
     exposure : :func:`~trimd.core.systematics.thrust_exposure`, shape (4·n,) [N].
+    outputs : the hold's thruster outputs (:mod:`trimd.core.output_hist`); None for a hold
+        that kept none (recorded before holds kept them, or found in a log).
     """
 
     label: str
@@ -132,6 +137,7 @@ class CalibrationHold:
     tau: FloatArray
     tau_cov: FloatArray
     exposure: FloatArray
+    outputs: OutputHistogram | None = None
 
 
 def calibration_hold(hold: HoldSamples, profile: Profile, q: FloatArray) -> CalibrationHold:
@@ -142,7 +148,8 @@ def calibration_hold(hold: HoldSamples, profile: Profile, q: FloatArray) -> Cali
     e = hold.tau - np.einsum("nij,j->ni", restoring_matrix(hold.phi, hold.theta), q)
     return CalibrationHold(hold.label, float(np.mean(hold.phi)), float(np.mean(hold.theta)),
                            hold.tau.mean(axis=0), mean_covariance(e).interval_cov,
-                           thrust_exposure(hold, profile))
+                           thrust_exposure(hold, profile),
+                           None if hold.outputs is None else output_histogram(hold.outputs))
 
 
 @dataclass(frozen=True)
@@ -267,39 +274,54 @@ def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
             f"{', '.join(slots)} (position_m) and that the pieces went where recorded")
 
 
-def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
-           ) -> tuple[ThrustMapPosterior, Outcome]:
-    """``post`` updated by ``exp``, or ``post`` unchanged when ``exp`` disagrees with it
-    (χ² tail probability below :data:`REJECT_P`), with the outcome."""
+def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
+    """``exp`` as the fit sees it (:mod:`trimd.core.thrust_fit`)."""
+    y, H, R, rows = experiment_rows(exp, profile)
+    measured = (exp.after.tau - exp.before.tau)[rows]
+    return ChangeModel(exp.label, rows, y + measured, R,
+                       thrust_configuration(profile.thrusters)[rows], exp.before.outputs,
+                       exp.after.outputs, measured, H)
+
+
+def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
+             profile: Profile) -> Outcome:
+    """Whether ``exp`` agrees with ``post`` (χ² tail probability of its innovation at
+    least :data:`REJECT_P`), and what to say of it."""
     from scipy.stats import chi2, norm  # 1 s to import: only when a calibration is checked
 
-    y, H, R, rows = experiment_rows(exp, profile)
-    v = y - H @ post.mean
-    S = H @ post.cov @ H.T + R
-    S_inv = np.linalg.inv(S)
-    d2 = float(v @ S_inv @ v)
+    v, S = innovation(model, profile, post.mean, post.cov)
+    d2 = float(v @ np.linalg.solve(S, v))
     p = float(chi2.sf(d2, len(v)))
     sigma = float(norm.isf(p / 2)) if p > 0 else math.inf
     about = f"≈ {sigma:.1f}σ" if math.isfinite(sigma) else "beyond 37σ"  # p below 1e-300
     z = v / np.sqrt(np.diag(S))
     worst = int(np.argmax(np.abs(z)))
-    row = _ROW_NAMES[int(np.flatnonzero(rows)[worst])]
+    row = _ROW_NAMES[int(np.flatnonzero(model.rows)[worst])]
     unit = "N" if row.startswith("Z") else "N·m"
     off = (f"{row} off by {v[worst]:+.3g} {unit} = {z[worst]:+.1f}σ of its predicted "
            f"± {math.sqrt(S[worst, worst]):.2g} {unit}")
     if p < REJECT_P:
         earlier = (f"{post.experiments} earlier experiment(s)" if post.experiments
                    else "the profile's thrust map")
-        return post, Outcome(exp.label, False, d2, len(v), sigma, (
+        return Outcome(exp.label, False, d2, len(v), sigma, (
             f"calibration experiment {exp.label!r} disagrees with {earlier}: {off} "
             f"(χ² {d2:.1f} on {len(v)} rows, {about}); rejected, not learnt: "
             f"{_what_to_check(profile, exp.change)}"))
-    K = post.cov @ H.T @ S_inv
-    A = np.eye(len(post.mean)) - K @ H
-    cov = A @ post.cov @ A.T + K @ R @ K.T  # Joseph form: stays symmetric, positive
-    new = posterior(post.mean + K @ v, cov, post.experiments + 1)
-    return new, Outcome(exp.label, True, d2, len(v), sigma,
-                        f"calibration experiment {exp.label!r} learnt ({off}; {about})")
+    return Outcome(exp.label, True, d2, len(v), sigma,
+                   f"calibration experiment {exp.label!r} learnt ({off}; {about})")
+
+
+def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
+           ) -> tuple[ThrustMapPosterior, Outcome]:
+    """``post`` updated by ``exp`` (the fit with ``post`` as its prior), or ``post``
+    unchanged when ``exp`` disagrees with it (χ² tail probability below
+    :data:`REJECT_P`), with the outcome."""
+    model = change_model(exp, profile)
+    outcome = _checked(post, exp, model, profile)
+    if not outcome.accepted:
+        return post, outcome
+    mean, cov = fit([model], profile, Gaussian(post.mean, post.sqrt_cov), post.mean)
+    return posterior(mean, cov, post.experiments + 1), outcome
 
 
 @dataclass(frozen=True, eq=False)
@@ -317,11 +339,18 @@ class Calibration:
 
 def calibrate(experiments: Sequence[Experiment], profile: Profile) -> Calibration:
     """The profile's prior updated by ``experiments`` in order, each inconsistent one left
-    out (and said so in its :class:`Outcome`)."""
-    post, outcomes = prior(profile), []
+    out (and said so in its :class:`Outcome`): each is checked against those accepted
+    before it, then all accepted are fitted afresh from the prior."""
+    post, outcomes, accepted = prior(profile), [], []
+    start = Gaussian(post.mean, post.sqrt_cov)
     for exp in experiments:
-        post, outcome = update(post, exp, profile)
+        model = change_model(exp, profile)
+        outcome = _checked(post, exp, model, profile)
         outcomes.append(outcome)
+        if outcome.accepted:
+            accepted.append(model)
+            mean, cov = fit(accepted, profile, start, post.mean)
+            post = posterior(mean, cov, len(accepted))
     return Calibration(post, tuple(outcomes))
 
 

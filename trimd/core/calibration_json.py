@@ -4,6 +4,8 @@ key names, radians and N, N·m)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from trimd.core.calibration import (
@@ -15,6 +17,7 @@ from trimd.core.calibration import (
     posterior,
 )
 from trimd.core.errors import DataError
+from trimd.core.output_hist import OutputHistogram
 from trimd.core.types import FloatArray, JsonObject
 
 __all__ = ["experiment_from_dict", "experiment_to_dict", "gain_to_dict", "hold_from_dict",
@@ -29,10 +32,15 @@ def gain_to_dict(g: Gain) -> JsonObject:
 
 
 def hold_to_dict(h: CalibrationHold) -> JsonObject:
-    """JSON-ready dict of a calibration hold (what the trim history stores)."""
+    """JSON-ready dict of a calibration hold (what the trim history stores); its outputs,
+    when it kept them, as each thruster's distinct PWM [µs] and their sample counts."""
+    out = h.outputs
     return {"label": h.label, "roll_rad": h.phi_rad, "pitch_rad": h.theta_rad,
             "tau_N_Nm": h.tau.tolist(), "tau_cov": h.tau_cov.tolist(),
-            "exposure_N": h.exposure.tolist()}
+            "exposure_N": h.exposure.tolist()} | ({} if out is None else {"outputs": {
+                "pwm_us": [p.astype(int).tolist() for p in out.pwm_us],
+                "counts": [c.astype(int).tolist() for c in out.counts],
+                "voltage_V": out.voltage_V}})
 
 
 def _array(d: JsonObject, key: str, shape: tuple[int, ...], source: str) -> FloatArray:
@@ -45,13 +53,35 @@ def _array(d: JsonObject, key: str, shape: tuple[int, ...], source: str) -> Floa
     return a
 
 
+def _outputs(d: JsonObject, n: int, source: str) -> OutputHistogram | None:
+    """The output histogram of a hold's dict (None when it kept none); DataError naming
+    ``source`` when it is malformed."""
+    if "outputs" not in d:
+        return None
+    o = d["outputs"]
+    where = f"{source}: outputs"
+    try:
+        pwm = tuple(np.asarray(p, float).reshape(-1) for p in o["pwm_us"])
+        counts = tuple(np.asarray(c, float).reshape(-1) for c in o["counts"])
+        voltage = float(o["voltage_V"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataError(f"{where}: not an output histogram ({exc})") from None
+    if (len(pwm) != n or len(counts) != n or not math.isfinite(voltage)
+            or any(p.shape != c.shape or not p.size or not np.all(np.isfinite(p))
+                   or not np.all(c > 0) for p, c in zip(pwm, counts, strict=True))):
+        raise DataError(f"{where}: {n} thrusters' PWM and positive counts of one length "
+                        "each expected")
+    return OutputHistogram(pwm, counts, voltage)
+
+
 def hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
     """The hold of :func:`hold_to_dict`'s dict; DataError naming ``source``."""
-    exposure = _array(d, "exposure_N", (), source)
+    exposure = _array(d, "exposure_N", (), source).reshape(-1)
     return CalibrationHold(str(d.get("label", "")), float(_array(d, "roll_rad", (), source)),
                            float(_array(d, "pitch_rad", (), source)),
                            _array(d, "tau_N_Nm", (6,), source),
-                           _array(d, "tau_cov", (6, 6), source), exposure.reshape(-1))
+                           _array(d, "tau_cov", (6, 6), source), exposure,
+                           _outputs(d, len(exposure) // 4, source))
 
 
 def experiment_to_dict(exp: Experiment) -> JsonObject:

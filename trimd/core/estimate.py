@@ -72,9 +72,9 @@ from trimd.core.systematics import (
 )
 from trimd.core.types import FloatArray
 
-__all__ = ["LEVEL_RAD", "MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HoldRecord",
-           "HoldSamples", "HoldSummary", "StaticEstimate", "check_samples", "estimate_static",
-           "is_level", "measurable_dofs", "net_estimate"]
+__all__ = ["LEVEL_RAD", "MIN_RELATIVE_SINGULAR", "MOMENT_ROWS", "TAU_NAMES", "HeldOutputs",
+           "HoldRecord", "HoldSamples", "HoldSummary", "StaticEstimate", "check_samples",
+           "estimate_static", "is_level", "measurable_dofs", "net_estimate"]
 
 TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")  # the components of τ (SNAME)
 _PARAM_NAMES = ("the net vertical force W − B", "x_g", "y_g", "z_g")
@@ -85,6 +85,16 @@ MIN_RELATIVE_SINGULAR = 0.02
 LEVEL_RAD = float(np.radians(3.0))
 #: The moment rows (K, M, N) of τ and G(φ, θ).
 MOMENT_ROWS = np.array([False, False, False, True, True, True])
+
+
+@dataclass(frozen=True, eq=False)
+class HeldOutputs:
+    """The thruster outputs behind a hold's thrust, one row per sample: each thruster's
+    PWM [µs] (shape (N, n), the profile's thruster order) and the battery voltage [V]
+    (shape (N,)) held onto the sample, as its thrust was read through the curves."""
+
+    pwm_us: FloatArray
+    voltage_V: FloatArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +111,9 @@ class HoldSamples:
         profile's thruster order [N], τ = T·f (:func:`trimd.core.model.thrusts_from_pwm`);
         None when τ did not come from the profile's thrust curves (then the curves'
         uncertainty does not enter the ±).
+    outputs : the outputs that thrust was read from; None where they were not kept (a
+        hold found in a log). A calibration fits the thrust map to them
+        (:mod:`trimd.core.thrust_fit`), and applies what it learnt through them.
     """
 
     t_s: FloatArray
@@ -109,20 +122,25 @@ class HoldSamples:
     tau: FloatArray
     label: str = ""
     thrust: FloatArray | None = None
+    outputs: HeldOutputs | None = None
 
     def take(self, index: FloatArray, label: str | None = None) -> HoldSamples:
         """The samples at ``index`` (an integer index or a boolean mask), named ``label``
         (this hold's label when None)."""
+        out = self.outputs
         return HoldSamples(self.t_s[index], self.phi[index], self.theta[index],
                            self.tau[index], self.label if label is None else label,
-                           None if self.thrust is None else self.thrust[index])
+                           None if self.thrust is None else self.thrust[index],
+                           None if out is None else HeldOutputs(out.pwm_us[index],
+                                                                out.voltage_V[index]))
 
 
 @dataclass
 class HoldRecord:
     """A hold's samples while they are collected (growing lists), frozen into
     :class:`HoldSamples` at the end: the set-point roll and pitch [rad], and per sample its
-    time [s], roll and pitch [rad], τ [N, N·m] and each thruster's thrust [N]."""
+    time [s], roll and pitch [rad], τ [N, N·m], each thruster's thrust [N] and the outputs
+    it was read from (PWM [µs], battery voltage [V])."""
 
     phi: float
     theta: float
@@ -130,12 +148,17 @@ class HoldRecord:
     att: list[tuple[float, float]] = field(default_factory=list)
     tau: list[FloatArray] = field(default_factory=list)
     thrust: list[FloatArray] = field(default_factory=list)
+    pwm: list[tuple[float, ...]] = field(default_factory=list)
+    volts: list[float] = field(default_factory=list)
 
     def samples(self, label: str) -> HoldSamples:
         a = np.array(self.att, dtype=float).reshape(-1, 2)
+        n = len(self.t)
         return HoldSamples(np.array(self.t), a[:, 0], a[:, 1],
                            np.array(self.tau).reshape(-1, 6), label,
-                           np.array(self.thrust).reshape(len(self.t), -1))
+                           np.array(self.thrust).reshape(n, -1),
+                           HeldOutputs(np.array(self.pwm, float).reshape(n, -1),
+                                       np.array(self.volts, float)))
 
 
 def measurable_dofs(profile: Profile) -> tuple[bool, ...]:

@@ -185,8 +185,8 @@ class Procedure(Phases[P, V]):
 
     def _hold_sample(self, a: Attitude, settling: HoldSettling) -> list[Output[P, V]]:
         """An attitude sample during a hold: settle, collect, move on."""
-        thrust = self._held.thrust(a.t_s)
-        if not settling.attitude(a, thrust is not None) or thrust is None:
+        thrust, outputs = self._held.thrust(a.t_s), self._held.outputs
+        if not settling.attitude(a, thrust is not None) or thrust is None or outputs is None:
             return []
         tau = self._held.T @ thrust
         if self.phase is Phase.SETTLE:
@@ -198,6 +198,8 @@ class Procedure(Phases[P, V]):
         hold.att.append((a.phi, a.theta))
         hold.tau.append(tau)
         hold.thrust.append(thrust)
+        hold.pwm.append(outputs.pwm_us)
+        hold.volts.append(self._held.voltage_V)
         return self._maybe_next_hold()
 
     # ---------------------------------------------------------------- phases

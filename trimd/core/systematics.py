@@ -10,6 +10,7 @@ into the weights and the sandwich covariance.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from trimd.core.curve_error import BAND_SIGMA_SHARE, thrusters_with_errors
 from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance
@@ -24,6 +26,7 @@ from trimd.core.model import (
     band_offset_sensitivity,
     restoring_matrix_jacobian,
     thrust_configuration,
+    thrusts_from_pwm,
 )
 from trimd.core.profile import Profile
 from trimd.core.types import FloatArray
@@ -36,9 +39,6 @@ __all__ = ["BAND_SIGMA_SHARE", "attitude_error_factors", "band_notes", "drift_mo
            "thrust_map_std"]
 
 _TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")
-#: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
-#: offset anywhere within ± the margin (uniform: 1/√3).
-BAND_SIGMA_SHARE = 1 / math.sqrt(3)
 
 
 def thrust_exposure(hold: HoldSamples, profile: Profile) -> FloatArray:
@@ -102,12 +102,23 @@ def thrust_map_factors(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.b
 def thrust_map_bias(holds: Sequence[HoldSamples], used: Sequence[NDArray[np.bool_]],
                     profile: Profile) -> list[FloatArray]:
     """Per hold, what the calibration (the profile's ``thrust_map``) adds to its mean τ on
-    the rows used [N, N·m]: F·μ, F the prior factors and μ the posterior mean of the
-    errors in prior σ (the true thrust is the profile map's plus this). Zero without one."""
-    if profile.thrust_map is None:
+    the rows used [N, N·m] (the true thrust is the profile map's plus this); zero without
+    one. A hold that kept its outputs reads them again through the curves with the
+    posterior mean μ of the errors (:func:`trimd.core.curve_error.thrusters_with_errors`);
+    one that did not moves by F·μ, F its prior factors."""
+    post = profile.thrust_map
+    if post is None:
         return [np.zeros(int(r.sum())) for r in used]
-    return [exposure_factors(thrust_exposure(h, profile), r, profile) @ profile.thrust_map.mean
-            for h, r in zip(holds, used, strict=True)]
+    T = thrust_configuration(profile.thrusters)
+    fitted = dataclasses.replace(profile, thrusters=thrusters_with_errors(profile, post.mean))
+    out = []
+    for h, r in zip(holds, used, strict=True):
+        if h.outputs is None or h.thrust is None:
+            out.append(exposure_factors(thrust_exposure(h, profile), r, profile) @ post.mean)
+        else:
+            f = thrusts_from_pwm(fitted, h.outputs.pwm_us, h.outputs.voltage_V) - h.thrust
+            out.append(T[r] @ f.mean(axis=0))
+    return out
 
 
 def thrust_map_std(hold: HoldSamples, rows: NDArray[np.bool_], profile: Profile

@@ -115,7 +115,7 @@ class SimConfig:
     esc_band_us : each edge of each thruster's true dead band (its ESC's) lies up to this
         far from the profile's, uniform in ±esc_band_us per thruster and edge [µs], and
         the curve beyond it on that side moves with it (an ESC whose neutral and clock
-        are off: :func:`~trimd.drivers.sim.truth.offset_band`).
+        are off: :func:`~trimd.core.curve_error.offset_band`).
     esc_hunt : a thruster whose output falls inside its true dead band hunts at the band's
         edge, as an autopilot's integrator makes it do: it reports the first PWM out of
         the band on the output's side while the thrust it delivers (time-averaged over the

@@ -17,10 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.profile import Profile, ThrustCurve, Thruster
+from trimd.core.curve_error import curve_with_errors
+from trimd.core.profile import Profile, Thruster
 from trimd.drivers.sim.config import SimConfig
 
-__all__ = ["TruthOffset", "implied_mass", "offset_band", "passive_trim_deg", "perturb_profile",
+__all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile",
            "true_thrusters"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
@@ -105,7 +106,7 @@ def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
     n = len(profile.thrusters)
     factors = offset.thrust_factors if gains else ((1.0, 1.0),) * n
     moved = offset.band_offsets_us if bands and offset.band_offsets_us else ((0.0, 0.0),) * n
-    return tuple(dataclasses.replace(t, curve=offset_band(_scaled(t.curve, *f), *b))
+    return tuple(dataclasses.replace(t, curve=curve_with_errors(t.curve, f, b))
                  for t, f, b in zip(profile.thrusters, factors, moved, strict=True))
 
 
@@ -123,32 +124,6 @@ def _thrust_err_sizes(config: SimConfig, n: int) -> NDArray[np.float64]:
         return np.full((n, 2), k)
     rng = np.random.default_rng([_truth_seed(config), _THRUST_SIZE_STREAM])
     return rng.uniform(k, config.thrust_err_max, size=(n, 2))
-
-
-def _scaled(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
-    """``curve`` with its positive thrusts × ``forward`` and negative ones × ``reverse``
-    (the deadband and PWM range unchanged)."""
-    return dataclasses.replace(curve, tables=tuple(
-        dataclasses.replace(table, thrust_N=tuple(f * (forward if f > 0 else reverse)
-                                                  for f in table.thrust_N))
-        for table in curve.tables))
-
-
-def offset_band(curve: ThrustCurve, low_us: float, high_us: float) -> ThrustCurve:
-    """``curve`` as an ESC whose zero band is offset: every table point below neutral and
-    the band's low edge move by ``low_us``, every point above neutral and the high edge by
-    ``high_us`` [µs] (positive: later in PWM). Near the band the thrust of one PWM then
-    differs by up to the edge thrust, further out by the curve's slope times the offset."""
-    if not (low_us or high_us):
-        return curve
-    neutral = curve.neutral_us
-    tables = []
-    for table in curve.tables:
-        lo, hi = table.deadband_us
-        tables.append(dataclasses.replace(
-            table, deadband_us=(lo + low_us, hi + high_us),
-            pwm_us=tuple(p + (high_us if p > neutral else low_us) for p in table.pwm_us)))
-    return dataclasses.replace(curve, tables=tuple(tables))
 
 
 def passive_trim_deg(net: ArrayLike) -> tuple[float, float]:
