@@ -5,7 +5,7 @@ Per seed and case (:data:`bench.bench_sim_coverage.CASES`; a vehicle that its pr
 does not describe exactly, ``truth=perturbed``: thrust curves 5 % off, ESC bands up to
 4 µs off with outputs hunting at their edge): a full trim with the profile alone
 (:func:`tests.helpers.sim_trim`); a deliberate calibration of the same vehicle
-(:func:`trimd.app.calibrate.calibrate_with_weight`, ``trimd calibrate``'s use case, into a
+(:func:`trimd.app.calibrate.calibrate_with_weights`, ``trimd calibrate``'s use case, into a
 trim history of the seed's own: a level hold, the known weight of :data:`WEIGHTS` — pieces
 of the profile's inventory, their net weight in water and its 1σ as the inventory says —
 hung at its slot, a second level hold); the trim again with the calibrated profile
@@ -51,7 +51,7 @@ from bench.bench_sim_coverage import (
 )
 from bench.size import size, sized_profile
 from tests.helpers import sim_trim
-from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
+from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
 from trimd.core.calibration import DETERMINED, prior, update
@@ -127,8 +127,8 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str, weight: K
         return open_link(f"sim:payload={payload}{extra},seed={seed + (first + len(opened)) * NOISE}"
                          f",truth_seed={seed},{options}", profile)
 
-    return asyncio.run(calibrate_with_weight(opener, profile, weight, lambda _text: True,
-                                             db=db, vehicle="bench", wall_clock=False))
+    return asyncio.run(calibrate_with_weights(opener, profile, [weight], lambda _text: True,
+                                              db=db, vehicle="bench", wall_clock=False))
 
 
 def judged_trim(profile: Profile, payload: str, seed: int, options: str,
@@ -167,15 +167,16 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         calibrated = calibrated_profile(db, "bench", profile)
         after, after_share = judged_trim(calibrated, payload, seed, options)
-        out = Seed(seed, before, after, _verdict(good.outcome.accepted), good.outcome.sigma,
+        out = Seed(seed, before, after, _verdict(good.outcomes[0].accepted),
+                   good.outcomes[0].sigma,
                    narrowed, shares=(before_share, after_share))
         try:
             wrong = calibrate(profile, payload, seed, options, weight, HEAVIER * weight.kg, 2, db)
         except (EstimationError, LinkError) as exc:
             return replace(out, wrong=f"no experiment: {exc}")
-    alone = update(prior(profile), wrong.experiment, profile)[1]
-    return replace(out, wrong=_verdict(wrong.outcome.accepted),
-                   wrong_prior=_verdict(alone.accepted), wrong_sigma=wrong.outcome.sigma)
+    alone = update(prior(profile), wrong.experiments[0], profile)[1]
+    return replace(out, wrong=_verdict(wrong.outcomes[0].accepted),
+                   wrong_prior=_verdict(alone.accepted), wrong_sigma=wrong.outcomes[0].sigma)
 
 
 def _count(values: list[str], what: str) -> str:

@@ -6,29 +6,30 @@ scaled by its gains and its ESC band shifted by its offsets to the experiments' 
 thruster outputs (:mod:`trimd.core.thrust_fit`). Per seed and case (``truth=perturbed``,
 realistic disturbances): the trim with the profile alone, then with the calibration of
 the first half and of all of :data:`PLAN`'s experiments (a weight and a float of the same
-size at each corner, each between two level holds of ``collect_max_s``, as
-:func:`trimd.app.calibrate.calibration_experiment` makes them), judged by the TRUE q, and
+size at each corner: ``trimd calibrate``'s series,
+:func:`trimd.app.calibrate.calibrate_with_weights`, nine level holds of ``collect_max_s``
+sharing eight experiments), judged by the TRUE q, and
 the share of 95 % intervals covering it.
 
 ``TRIMD_FIT_SEEDS`` (default 16), ``TRIMD_FIT_CASES``, ``TRIMD_COVERAGE_PROCESSES`` as in
 :mod:`bench.bench_calibration`. One seed takes ≈ 40 s of one core (the Heavy): three trims
-and sixteen level holds.
+and nine level holds.
 """
 
 from __future__ import annotations
 
 import asyncio
 import dataclasses
+from collections.abc import Awaitable
 
 from bench.bench_calibration import NOISE, OPTIONS, TARGETS, judged_trim, known_weight
 from bench.bench_sim_coverage import CASES, Run, coverage, picked, rms_errors, run_seeds, seeding
 from bench.bench_thrust_map_ceiling import FLOAT_PCT
 from bench.size import size, sized_profile
-from trimd.app.calibrate import KnownWeight, calibration_experiment, level_hold_procedure
+from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
-from trimd.app.session import Session
 from trimd.core.calibration import calibrate
-from trimd.core.estimate import HoldSamples
+from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 
@@ -41,19 +42,25 @@ PLAN = {"bluerov2-heavy": (("W-front-stbd", 1), ("W-aft-port", -1), ("W-front-po
                            ("FrontSB", -1), ("AftP", 1), ("FrontP", -1), ("AftSB", 1))}
 
 
-def level_hold(profile: Profile, url: str) -> HoldSamples:
-    """One level hold on ``url``: its samples (with the thruster outputs behind them)."""
-    async def go() -> HoldSamples:
-        link = await open_link(url, profile)
-        try:
-            result = await Session(link, profile, recorder=None, presenters=[],
-                                   procedure=level_hold_procedure(profile, confirmed=True),
-                                   wall_clock=False).run()
-        finally:
-            await link.close()
-        assert result.verification is not None, result.reason
-        return result.verification
-    return asyncio.run(go())
+def series(profile: Profile, payload: str, seed: int, options: str,
+           weights: list[KnownWeight]) -> CalibrationRun:
+    """trimd's calibration with the series ``weights`` of the vehicle of ``seed``, each
+    level hold another dive's noise and disturbances (``seed`` + k·NOISE), stored
+    nowhere."""
+    opened: list[str] = []
+
+    def opener() -> Awaitable[Link]:
+        extra = ""
+        if opened:
+            w = weights[len(opened) - 1]
+            x, y, z = profile.slot(w.slot).position_m
+            extra = f"+{w.kg:.6f}@{x},{y},{z}"
+        opened.append(extra)
+        return open_link(f"sim:payload={payload}{extra},seed={seed + len(opened) * NOISE},"
+                         f"truth_seed={seed},{options}", profile)
+
+    return asyncio.run(calibrate_with_weights(opener, profile, weights, lambda _text: True,
+                                              db=None, vehicle="bench", wall_clock=False))
 
 
 def run(name: str, payload: str, seed: int, options: str) -> tuple[tuple[str, Run], ...]:
@@ -63,24 +70,15 @@ def run(name: str, payload: str, seed: int, options: str) -> tuple[tuple[str, Ru
     weight = known_weight(profile)
     runs = [("profile alone", judged_trim(profile, payload, seed, options)[0])]
     plan = PLAN[name][:size(len(PLAN[name]), 1)]
-    experiments = []
-    for k, (slot, sign) in enumerate(plan):
-        x, y, z = profile.slot(slot).position_m
-        kg = sign * weight.kg
-
-        def url(extra: str, dive: int) -> str:
-            return (f"sim:payload={payload}{extra},seed={seed + dive * NOISE},"
-                    f"truth_seed={seed},{options}")
-        before = level_hold(profile, url("", 2 * k + 1))
-        after = level_hold(profile, url(f"+{kg:.6f}@{x},{y},{z}", 2 * k + 2))
-        experiments.append(calibration_experiment(before, after, profile, KnownWeight(
-            kg, slot, weight.uncertainty_pct if sign > 0 else FLOAT_PCT)))
-        if k + 1 in (len(plan) // 2, len(plan)):
-            cal = calibrate(experiments, profile)
-            calibrated = dataclasses.replace(profile, thrust_map=cal.posterior)
-            label = f"{cal.posterior.experiments} of {k + 1} experiments learnt"
-            runs.append((label, judged_trim(profile, payload, seed, options,
-                                            lambda _v, p=calibrated: p)[0]))
+    done = series(profile, payload, seed, options, [
+        KnownWeight(sign * weight.kg, slot, weight.uncertainty_pct if sign > 0 else FLOAT_PCT)
+        for slot, sign in plan])
+    for k in sorted({max(1, len(plan) // 2), len(plan)}):
+        cal = calibrate(done.experiments[:k], profile)
+        calibrated = dataclasses.replace(profile, thrust_map=cal.posterior)
+        label = f"{cal.posterior.experiments} of {k} experiments learnt"
+        runs.append((label, judged_trim(profile, payload, seed, options,
+                                        lambda _v, p=calibrated: p)[0]))
     return tuple(runs)
 
 

@@ -20,7 +20,7 @@ from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
 from tests.helpers import carried, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
-from trimd.app.calibrate import KnownWeight, calibrate_with_weight, hold_from_record, hold_record
+from trimd.app.calibrate import KnownWeight, calibrate_with_weights, hold_from_record, hold_record
 from trimd.app.connect import open_link
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History
@@ -131,21 +131,24 @@ def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
         assert len(h.experiments("rov")) == 1 and len(h.level_holds("rov")) == 3
 
 
-def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: Profile
-                                                      ) -> None:
+def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, bluerov: Profile
+                                                             ) -> None:
     """``trimd calibrate``'s use case on the perturbed Heavy: a level hold, 0.5 kg (in
-    water) hung at W-front-stbd, a second level hold. The experiment is learnt and
-    stored, its gains cover the TRUE curves' errors, and the two holds' recordings
-    reproduce it bit for bit (given in the wrong order, they are refused); the same holds
-    with the weight never hung are rejected, not learnt."""
+    water) hung at W-front-stbd, a second level hold, the weight swapped for a float of
+    0.5 kgf lift at W-aft-port, a third. Both experiments are learnt and stored as they are
+    made, the gains cover the TRUE curves' errors, and the holds' recordings reproduce
+    them bit for bit (given out of order, they are refused); the same holds with nothing
+    ever hung are rejected, not learnt, and the operator who does not hang the second
+    weight stops the series with the first experiment kept."""
     db = tmp_path / "trimd.db"
     opened: list[str] = []
-    weight = KnownWeight(0.5, "W-front-stbd")
-    x, y, z = bluerov.slot(weight.slot).position_m
+    weights = (KnownWeight(0.5, "W-front-stbd"), KnownWeight(-0.5, "W-aft-port", 5.0))
+    hung_at = [""] + [f"+{w.kg}@{','.join(map(str, bluerov.slot(w.slot).position_m))}"
+                      for w in weights]
 
     def link(hung: bool) -> Callable[[], Awaitable[Link]]:
         async def open_() -> Link:
-            extra = f"+0.5@{x},{y},{z}" if hung and opened else ""
+            extra = hung_at[len(opened)] if hung else ""
             opened.append(extra)
             return await open_link(f"sim:payload={PAYLOAD}{extra},seed={SEED},{OPTIONS}",
                                    bluerov)
@@ -155,50 +158,59 @@ def test_a_deliberate_calibration_with_a_known_weight(tmp_path: Path, bluerov: P
     yaml_text = read_profile_text(bluerov.name)[0]
 
     def record(hold: dict[str, object]) -> TlogRecorder:
-        return TlogRecorder(tmp_path / f"{hold['hold']}.tlog", bluerov, yaml_text,
+        return TlogRecorder(tmp_path / f"hold{hold['hold']}.tlog", bluerov, yaml_text,
                             calibration_hold=hold)
 
-    done = asyncio.run(calibrate_with_weight(link(True), bluerov, weight,
-                                             lambda text: asked.append(text) or True,
-                                             db=db, vehicle="rov", wall_clock=False,
-                                             record=record))
-    assert opened == ["", f"+0.5@{x},{y},{z}"] and "W-front-stbd" in asked[0]
-    assert done.outcome.accepted, done.outcome.message
+    done = asyncio.run(calibrate_with_weights(link(True), bluerov, weights,
+                                              lambda text: asked.append(text) or True,
+                                              db=db, vehicle="rov", wall_clock=False,
+                                              record=record))
+    assert opened == hung_at and "hang 0.5 kg" in asked[0] and "W-front-stbd" in asked[0]
+    assert "take 0.5 kg (its weight in water) at slot W-front-stbd off" in asked[1]
+    assert "the float of 0.5 kgf lift at slot W-aft-port" in asked[1]
+    assert [o.accepted for o in done.outcomes] == [True, True], done.outcomes
+    assert done.posterior.experiments == 2 and not done.stopped
     n = len(bluerov.thrusters)
     sd = np.sqrt(np.diag(done.posterior.cov))[:2 * n]
     truth = true_gain_errors(bluerov, SEED)
     assert np.any(sd < 0.9) and np.all(np.abs(done.posterior.mean[:2 * n] - truth) <= 1.96 * sd)
     with History(db) as h:
-        assert [r.values["accepted"] for r in h.experiments("rov")] == [True]
-    before, after = str(tmp_path / "before.tlog"), str(tmp_path / "after.tlog")
-    again = asyncio.run(replay_calibration(before, after, None))
-    assert (again.outcome.chi2, again.outcome.message) == (done.outcome.chi2,
-                                                           done.outcome.message)
+        assert [r.values["accepted"] for r in h.experiments("rov")] == [True, True]
+    paths = [str(tmp_path / f"hold{k}.tlog") for k in range(3)]
+    again = asyncio.run(replay_calibration(paths, None))
+    assert ([(o.chi2, o.message) for o in again.outcomes]
+            == [(o.chi2, o.message) for o in done.outcomes])
     assert np.array_equal(again.posterior.mean, done.posterior.mean)
     out = io.StringIO()
-    replayed, _ = asyncio.run(replay_session(before, replay_profile(before, None)[0],
+    replayed, _ = asyncio.run(replay_session(paths[0], replay_profile(paths[0], None)[0],
                                              speed=None, method="milp",
                                              presenters=[HeadlessPresenter(out)]))
     assert replayed.level_hold is not None and "level hold (" in out.getvalue()
     assert f"{len(replayed.level_hold.t_s)} steady samples" in out.getvalue()
-    with pytest.raises(DataError, match="give the hold before the weight first, then"):
-        asyncio.run(replay_calibration(after, before, None))
+    with pytest.raises(DataError, match="give the recordings in the order of their holds"):
+        asyncio.run(replay_calibration([paths[1], paths[0]], None))
     opened.clear()
-    never = asyncio.run(calibrate_with_weight(link(False), bluerov, weight, lambda text: True,
-                                              db=None, vehicle="rov", wall_clock=False))
-    assert not never.outcome.accepted
-    assert "the known weight 0.5 kg" in never.outcome.message
+    answers = iter([True, False])
+    never = asyncio.run(calibrate_with_weights(link(False), bluerov, weights,
+                                               lambda text: next(answers), db=None,
+                                               vehicle="rov", wall_clock=False))
+    assert [o.accepted for o in never.outcomes] == [False]
+    assert "the known weight 0.5 kg" in never.outcomes[0].message
+    assert never.stopped == "stopped by the operator after 1 of 2 weights"
 
 
 def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
     """What a calibration hold's recording says of itself reads back, and a record that is
     not one (an unknown hold, a slot that is no name, a weight that is no finite number)
     is a DataError naming its source."""
-    weight = KnownWeight(0.5, "W-front-stbd", 2.0)
-    assert hold_from_record(hold_record("after", weight), "x") == ("after", weight)
-    for bad in ({**hold_record("before", weight), "hold": "during"},
-                {**hold_record("before", weight), "slot": 3},
-                {**hold_record("before", weight), "kg": float("nan")},
-                {"hold": "before"}):
+    series = (KnownWeight(0.5, "W-front-stbd", 2.0), KnownWeight(-0.5, "W-aft-port", 5.0))
+    assert hold_from_record(hold_record(2, series), "x") == (2, series)
+    old = {"hold": "after", "kg": 0.5, "slot": "W-front-stbd", "uncertainty_pct": 2.0}
+    assert hold_from_record(old, "x") == (1, series[:1])  # recorded before series
+    for bad in ({**hold_record(0, series), "hold": "during"},
+                {**hold_record(0, series), "hold": 3},
+                {**hold_record(0, series), "weights": [{"kg": 0.5, "slot": 3}]},
+                {**hold_record(0, series), "weights": [{**old, "kg": float("nan")}]},
+                {**old, "kg": float("nan")}, {"hold": "before"}):
         with pytest.raises(DataError, match="x: the recorded calibration hold is malformed"):
             hold_from_record(bad, "x")

@@ -43,8 +43,8 @@ def test_float_correct_alone_without_the_history_says_to_give_the_trim(
 
 
 @pytest.mark.parametrize(("args", "said"), [
-    ([], "--link, --mass required (or --replay BEFORE AFTER)"),
-    (["--link", "sim:"], "--mass required (or --replay BEFORE AFTER)"),
+    ([], "--link, --mass required (or --replay HOLD1 HOLD2 …)"),
+    (["--link", "sim:"], "--mass required (or --replay HOLD1 HOLD2 …)"),
     (["--link", "sim:", "--mass", "0.5"], "expected KG@SLOT, e.g. 0.5@W-front-stbd"),
 ])
 def test_calibrate_says_what_it_needs(args: list[str], said: str, tmp_path: Path,

@@ -1,18 +1,23 @@
 """A deliberate calibration of the thrust map (``trimd calibrate``, docs/method.md §7): a
 level hold, the operator hangs a known weight at a known ballast slot, a second level
-hold. The two holds and the weight are one calibration experiment, checked against the
-vehicle's calibration so far and stored in its trim history like those of
-``ballast apply`` and a verify hold (:mod:`trimd.app.history.calibration`).
+hold; optionally a series: the operator then swaps the weight for the next known one
+(another slot, a float) before each further level hold. Each two consecutive holds and
+the change of weight between them are a calibration experiment, checked against the
+vehicle's calibration so far (and the series' earlier experiments) and stored in its trim
+history like those of ``ballast apply`` and a verify hold
+(:mod:`trimd.app.history.calibration`). A weight and a float at each corner make the
+vertical thrusters cross their dead band, whose edges the fit then sees.
 
 Each hold is a session of its own on the link opened again (the verify hold's
 procedure: the profile's first hold, level), so the vehicle is released while the weight
-is hung, and a recording of its own that says which hold it is and what weight was hung:
-:func:`trimd.app.replay.replay_calibration` reproduces the experiment and its outcome from
-the two. Each collects for the profile's whole ``collect_max_s``, not until the trim's
-stop rule is met: that rule stops once the noise is below the thrust map's share of the
-±, while the experiment's noise is what it cannot tell from the thrust map's errors (on
-the simulated Sabertooth a level hold's mean Z ± 2.6–18 N after 10 s, ≈ 0.9 N after
-180 s). Confirmation is the caller's: both holds command the vehicle without asking again.
+is hung, and a recording of its own that says which hold of the series it is and what
+weights the series hangs: :func:`trimd.app.replay.replay_calibration` reproduces the
+experiments and their outcomes from them. Each collects for the profile's whole
+``collect_max_s``, not until the trim's stop rule is met: that rule stops once the noise
+is below the thrust map's share of the ±, while the experiment's noise is what it cannot
+tell from the thrust map's errors (on the simulated Sabertooth a level hold's mean Z
+± 2.6–18 N after 10 s, ≈ 0.9 N after 180 s). Confirmation is the caller's: every hold
+commands the vehicle without asking again.
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from pathlib import Path
 from typing import Never
 
 from trimd.app.history import History
-from trimd.app.history.calibration import store_experiment
+from trimd.app.history.calibration import store_experiment, stored_calibration
 from trimd.app.session import Presenter, Recorder, Session
 from trimd.core.calibration import (
     Experiment,
@@ -44,12 +49,12 @@ from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 
-__all__ = ["HOLDS", "CalibrationRun", "KnownWeight", "calibrate_with_weight",
-           "calibration_experiment", "check_against_profile", "hold_from_record", "hold_record",
-           "level_hold_procedure"]
+__all__ = ["CalibrationRun", "KnownWeight", "calibrate_with_weights", "calibration_experiment",
+           "check_against_profile", "hold_from_record", "hold_record", "level_hold_procedure",
+           "swap_text"]
 
-#: The two level holds of a calibration, in order, as their recordings name them.
-HOLDS = ("before", "after")
+#: The two holds of a one-weight calibration as recordings before the series named them.
+_OLD_HOLDS = ("before", "after")
 #: 1σ of the height of the centre of gravity's net moment [N·m] assumed for the level
 #: fit's q, which enters only through the two holds' small difference in attitude.
 _M_Z_STD = 1.0
@@ -58,7 +63,8 @@ _M_Z_STD = 1.0
 @dataclass(frozen=True)
 class KnownWeight:
     """A weight hung for a calibration: its net downward force in water as ``kg``
-    [kgf], at ballast slot ``slot``, known to ``uncertainty_pct`` [%, 1σ]."""
+    [kgf; negative: a float's lift], at ballast slot ``slot``, known to
+    ``uncertainty_pct`` [%, 1σ]."""
 
     kg: float
     slot: str
@@ -67,13 +73,15 @@ class KnownWeight:
 
 @dataclass(frozen=True, eq=False)
 class CalibrationRun:
-    """A deliberate calibration's experiment, what became of it, the vehicle's
-    calibration after it, and the profile it was made with."""
+    """A deliberate calibration's experiments in order, what became of each, the
+    vehicle's calibration after them, the profile they were made with, and why the series
+    stopped early ("" when it ran to its end)."""
 
-    experiment: Experiment
-    outcome: Outcome
+    experiments: tuple[Experiment, ...]
+    outcomes: tuple[Outcome, ...]
     posterior: ThrustMapPosterior
     profile: Profile
+    stopped: str = ""
 
 
 def level_hold_procedure(profile: Profile, *, confirmed: bool) -> Procedure[Never, HoldSamples]:
@@ -88,19 +96,38 @@ def _the_hold(hold: HoldSamples) -> HoldSamples:
     return hold
 
 
-def hold_record(which: str, weight: KnownWeight) -> dict[str, object]:
-    """What a calibration hold's recording says of itself (``which`` of :data:`HOLDS`)."""
-    return {"hold": which, "kg": weight.kg, "slot": weight.slot,
-            "uncertainty_pct": weight.uncertainty_pct}
+def hold_record(index: int, series: Sequence[KnownWeight]) -> dict[str, object]:
+    """What a calibration hold's recording says of itself: which hold of the series it is
+    (0: before any weight) and the series' weights in order."""
+    return {"hold": index, "weights": [{"kg": w.kg, "slot": w.slot,
+                                        "uncertainty_pct": w.uncertainty_pct} for w in series]}
 
 
-def hold_from_record(d: dict[str, object], source: str) -> tuple[str, KnownWeight]:
-    """Which hold and the weight from :func:`hold_record`'s dict; DataError naming
-    ``source`` when it is not one."""
-    which, slot, kg, pct = (d.get(k) for k in ("hold", "slot", "kg", "uncertainty_pct"))
-    if (which in HOLDS and isinstance(slot, str) and isinstance(kg, int | float)
-            and isinstance(pct, int | float) and math.isfinite(kg) and math.isfinite(pct)):
-        return str(which), KnownWeight(float(kg), slot, float(pct))
+def _weight_of(d: object) -> KnownWeight | None:
+    if not isinstance(d, dict):
+        return None
+    slot, kg, pct = (d.get(k) for k in ("slot", "kg", "uncertainty_pct"))
+    if (isinstance(slot, str) and isinstance(kg, int | float) and isinstance(pct, int | float)
+            and math.isfinite(kg) and math.isfinite(pct)):
+        return KnownWeight(float(kg), slot, float(pct))
+    return None
+
+
+def hold_from_record(d: dict[str, object], source: str
+                     ) -> tuple[int, tuple[KnownWeight, ...]]:
+    """Which hold and the series from :func:`hold_record`'s dict (or a one-weight
+    calibration's recording from before series: its hold "before" or "after" and its
+    weight); DataError naming ``source`` when it is not one."""
+    which = d.get("hold")
+    if which in _OLD_HOLDS:
+        weight = _weight_of(d)
+        if weight is not None:
+            return _OLD_HOLDS.index(str(which)), (weight,)
+    elif isinstance(which, int) and not isinstance(which, bool) and isinstance(
+            d.get("weights"), list):
+        series = [_weight_of(w) for w in d["weights"]]  # type: ignore[attr-defined]
+        if series and 0 <= which <= len(series) and all(w is not None for w in series):
+            return which, tuple(w for w in series if w is not None)
     raise DataError(f"{source}: the recorded calibration hold is malformed ({d!r})")
 
 
@@ -120,60 +147,101 @@ async def _level_hold(open_link: Callable[[], Awaitable[Link]], profile: Profile
     return result.verification
 
 
+def _change(profile: Profile, weight: KnownWeight, count: int) -> PieceChange:
+    """``count`` (±1) of the known ``weight`` at its slot."""
+    return PieceChange(profile.slot(weight.slot).name, f"{weight.kg:g} kg", count,
+                       weight.kg * profile.gravity_m_s2, weight.uncertainty_pct)
+
+
 def calibration_experiment(before: HoldSamples, after: HoldSamples, profile: Profile,
-                           weight: KnownWeight) -> Experiment:
-    """The experiment of the level holds ``before`` and ``after`` hanging ``weight``."""
-    slot = profile.slot(weight.slot)
-    change = (PieceChange(slot.name, f"{weight.kg:g} kg", 1, weight.kg * profile.gravity_m_s2,
-                          weight.uncertainty_pct),)
+                           hung: KnownWeight, removed: KnownWeight | None = None) -> Experiment:
+    """The experiment of the level holds ``before`` and ``after``, between which
+    ``removed`` was taken off (None: nothing) and ``hung`` hung."""
+    change = ((_change(profile, removed, -1),) if removed else ()) + (
+        _change(profile, hung, 1),)
     fit = estimate_segment(before, profile)
     q_cov = fit.q_cov.copy()
     q_cov[3, 3] += _M_Z_STD**2
     q_after = fit.q + ballast_change(profile, change)[0]
-    return Experiment(f"calibrate {weight.kg:g} kg at {slot.name}",
+    moved = f"{removed.kg:g} kg at {change[0].slot} → " if removed else ""
+    return Experiment(f"calibrate {moved}{hung.kg:g} kg at {change[-1].slot}",
                       calibration_hold(before, profile, fit.q),
                       calibration_hold(after, profile, q_after), change, fit.q, q_cov)
 
 
-def check_against_profile(exp: Experiment, profile: Profile) -> CalibrationRun:
-    """``exp`` checked against the profile's own thrust map (its calibration, else the
-    prior), stored nowhere."""
-    post, outcome = update(profile.thrust_map or prior(profile), exp, profile)
-    return CalibrationRun(exp, outcome, post, profile)
+def check_against_profile(experiments: Sequence[Experiment], profile: Profile,
+                          stopped: str = "") -> CalibrationRun:
+    """``experiments`` checked in order against the profile's own thrust map (its
+    calibration, else the prior) and each other, stored nowhere."""
+    post, outcomes = profile.thrust_map or prior(profile), []
+    for exp in experiments:
+        post, outcome = update(post, exp, profile)
+        outcomes.append(outcome)
+    return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile, stopped)
 
 
-async def calibrate_with_weight(open_link: Callable[[], Awaitable[Link]], profile: Profile,
-                                weight: KnownWeight, hung: Callable[[str], bool], *,
-                                db: Path | None, vehicle: str,
-                                presenters: Sequence[Presenter[Never, HoldSamples]] | None = None,
-                                wall_clock: bool = True,
-                                record: Callable[[dict[str, object]], Recorder | None]
-                                | None = None) -> CalibrationRun:
-    """The level hold, ``hung(text)`` (the operator hangs the weight and says so: False
-    aborts with UsageError), the second level hold, and the experiment checked and stored
-    under ``vehicle`` in the history ``db`` (None: checked against the profile's own
-    thrust map, and not stored). ``record`` gives each hold's recorder from what the
-    recording says of it (:func:`hold_record`; None: not recorded). ProfileError for a slot
-    the profile does not have; LinkError, EstimationError when a hold fails."""
-    slot = profile.slot(weight.slot)
-    if not (math.isfinite(weight.kg) and weight.kg != 0):
-        raise UsageError(f"--mass {weight.kg:g}@{slot.name}: a weight of 0 kg calibrates "
-                         "nothing", "trimd calibrate")
+def swap_text(hung: KnownWeight, removed: KnownWeight | None, profile: Profile) -> str:
+    """What the operator does before the next hold: take ``removed`` off, hang ``hung``."""
+    def what(w: KnownWeight) -> str:
+        return (f"{w.kg:g} kg (its weight in water)" if w.kg > 0
+                else f"the float of {-w.kg:g} kgf lift") + f" at slot {profile.slot(w.slot).name}"
+    off = f"take {what(removed)} off; " if removed else ""
+    return f"{off}hang {what(hung)}, clear of the thrusters, then confirm"
+
+
+async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profile: Profile,
+                                 weights: Sequence[KnownWeight], hung: Callable[[str], bool],
+                                 *, db: Path | None, vehicle: str,
+                                 presenters: Sequence[Presenter[Never, HoldSamples]] | None
+                                 = None, wall_clock: bool = True,
+                                 record: Callable[[dict[str, object]], Recorder | None]
+                                 | None = None) -> CalibrationRun:
+    """A level hold, then per weight of ``weights``: ``hung(text)`` (the operator takes
+    the previous weight off, hangs this one and says so), a level hold, and the experiment
+    of the two holds checked and stored under ``vehicle`` in the history ``db`` (None:
+    checked against the profile's own thrust map, and not stored) as soon as it is made.
+    ``hung`` False before the first weight aborts with UsageError; later it stops the
+    series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
+    ``record`` gives each hold's recorder from what its recording says of it
+    (:func:`hold_record`; None: not recorded). ProfileError for a slot the profile does
+    not have; UsageError for a weight of 0 kg; LinkError, EstimationError when a hold
+    fails."""
+    for w in weights:
+        slot = profile.slot(w.slot)
+        if not (math.isfinite(w.kg) and w.kg != 0):
+            raise UsageError(f"--mass {w.kg:g}@{slot.name}: a weight of 0 kg calibrates "
+                             "nothing", "trimd calibrate")
+    if not weights:
+        raise UsageError("no weight to calibrate with: give --mass KG@SLOT", "trimd calibrate")
     shown = list(presenters or [])
 
-    def recorder(which: str) -> Recorder | None:
-        return record(hold_record(which, weight)) if record else None
+    def level_hold(k: int) -> Awaitable[HoldSamples]:
+        return _level_hold(open_link, profile, shown, wall_clock, f"level hold {k + 1}",
+                           record(hold_record(k, weights)) if record else None)
 
-    before = await _level_hold(open_link, profile, shown, wall_clock, "the first level hold",
-                               recorder(HOLDS[0]))
-    if not hung(f"hang {weight.kg:g} kg (its weight in water) at slot {slot.name}, clear of "
-                "the thrusters, then confirm"):
-        raise UsageError("calibration aborted: the weight was not hung", "trimd calibrate")
-    after = await _level_hold(open_link, profile, shown, wall_clock, "the second level hold",
-                              recorder(HOLDS[1]))
-    exp = calibration_experiment(before, after, profile, weight)
-    if db is None:
-        return check_against_profile(exp, profile)
-    with History(db) as history:  # a rejected experiment leaves the calibration as it was
-        post, outcome = store_experiment(history, vehicle, profile, exp)
-    return CalibrationRun(exp, outcome, post, profile)
+    post = profile.thrust_map or prior(profile)
+    if db is not None:
+        with History(db) as history:
+            post = stored_calibration(history, vehicle, profile).posterior
+    holds = [await level_hold(0)]
+    experiments: list[Experiment] = []
+    outcomes: list[Outcome] = []
+    for k, weight in enumerate(weights):
+        removed = weights[k - 1] if k else None
+        if not hung(swap_text(weight, removed, profile)):
+            if not k:
+                raise UsageError("calibration aborted: the weight was not hung",
+                                 "trimd calibrate")
+            return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile,
+                                  f"stopped by the operator after {k} of {len(weights)} "
+                                  "weights")
+        holds.append(await level_hold(k + 1))
+        exp = calibration_experiment(holds[-2], holds[-1], profile, weight, removed)
+        if db is None:
+            post, outcome = update(post, exp, profile)
+        else:  # a rejected experiment leaves the calibration as it was
+            with History(db) as history:
+                post, outcome = store_experiment(history, vehicle, profile, exp, post)
+        experiments.append(exp)
+        outcomes.append(outcome)
+    return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile)

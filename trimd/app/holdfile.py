@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.core.errors import DataError
-from trimd.core.estimate import HoldSamples
+from trimd.core.estimate import HeldOutputs, HoldSamples
 from trimd.core.holdfinder import find_holds
 from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.profile import Profile
@@ -75,16 +75,20 @@ def _read_table(path: Path) -> HoldFile:
 
 
 def _tau(table: HoldFile, profile: Profile
-         ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-    """τ of every row, and each thruster's thrust when τ comes from the PWM columns."""
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, HeldOutputs | None]:
+    """τ of every row, and each thruster's thrust and the outputs it was read from when τ
+    comes from the PWM columns."""
     cols = table.columns
     if all(c in cols for c in TAU_COLUMNS):
-        return np.column_stack([cols[c] for c in TAU_COLUMNS]), None
+        return np.column_stack([cols[c] for c in TAU_COLUMNS]), None, None
     pwm_cols = [f"pwm_{t.channel}" for t in profile.thrusters]
     if profile.thrusters and all(c in cols for c in pwm_cols):
         pwm = np.column_stack([cols[c] for c in pwm_cols])
         thrust = thrusts_from_pwm(profile, pwm, cols.get("battery_V"))
-        return thrust @ thrust_configuration(profile.thrusters).T, thrust
+        volts = np.broadcast_to(cols.get("battery_V", profile.nominal_voltage_V),
+                                (len(pwm),)).astype(float)
+        return (thrust @ thrust_configuration(profile.thrusters).T, thrust,
+                HeldOutputs(pwm, volts))
     missing = [c for c in TAU_COLUMNS if c not in cols]
     missing_pwm = [c for c in pwm_cols if c not in cols]
     raise DataError(f"{table.path}: missing columns: give {', '.join(missing)} "
@@ -104,11 +108,12 @@ def holds_from_table(table: HoldFile, profile: Profile) -> list[HoldSamples]:
         raise DataError(f"{table.path}: time_s goes backwards at line "
                         f"{int(np.argmax(np.diff(t) < 0)) + 3}")
     phi, theta = np.radians(cols["roll_deg"]), np.radians(cols["pitch_deg"])
-    tau, thrust = _tau(table, profile)
+    tau, thrust, outputs = _tau(table, profile)
 
     def hold(idx: NDArray[np.intp], label: str) -> HoldSamples:
         return HoldSamples(t[idx], phi[idx], theta[idx], tau[idx], label,
-                           None if thrust is None else thrust[idx])
+                           None if thrust is None else thrust[idx],
+                           None if outputs is None else outputs.take(idx))
 
     if "hold" in cols:
         ids = cols["hold"]
@@ -119,7 +124,7 @@ def holds_from_table(table: HoldFile, profile: Profile) -> list[HoldSamples]:
     # every row is a sample of each stream; body rates are not in the table
     attitude = [Attitude(float(ti), float(p), float(q), 0.0, 0.0, 0.0, 0.0)
                 for ti, p, q in zip(t, phi, theta, strict=True)]
-    holds = find_holds(attitude, t, tau, profile, thrust)
+    holds = find_holds(attitude, t, tau, profile, thrust, outputs)
     if not holds:
         proc = profile.procedure
         raise DataError(f"{table.path}: no steady hold found (no stretch of at least "

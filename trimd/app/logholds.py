@@ -63,9 +63,10 @@ def log_holds(samples: Sequence[Sample], profile: Profile) -> list[FoundHold]:
         raise DataError(f"never armed in a mode that holds attitude ({held}); modes seen: "
                         f"{', '.join(modes) or 'none'}")
     t = np.array([s.t_s for s in thr])
-    thrust, ok = thrust_at(profile, t, thr, [s for s in samples if isinstance(s, Battery)])
+    thrust, ok, outputs = thrust_at(profile, t, thr,
+                                    [s for s in samples if isinstance(s, Battery)])
     tau = thrust[ok] @ thrust_configuration(profile.thrusters).T
-    found = locate_holds(att, t[ok], tau, profile, thrust[ok])
+    found = locate_holds(att, t[ok], tau, profile, thrust[ok], outputs.take(ok))
     if not found:
         proc = profile.procedure
         raise DataError(f"no attitude plateau settled: each needs {proc.min_steady_s:g} s "

@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import yaml
 
 from trimd.app.calibrate import (
-    HOLDS,
     CalibrationRun,
+    KnownWeight,
     calibration_experiment,
     check_against_profile,
     hold_from_record,
@@ -105,35 +105,44 @@ async def replay_session(path: str, profile: Profile, *, speed: float | None,
     return await session.run(), link
 
 
-async def replay_calibration(before: str, after: str, name: str | None) -> CalibrationRun:
-    """A deliberate calibration reproduced from the recordings of its two level holds
-    (:mod:`trimd.app.calibrate`): each hold replayed, the experiment with the recorded
-    weight, checked against the thrust map the live session had (recorded with it), as
-    the live one was; stored nowhere. DataError when the two are not the holds before and
-    after the same weight; EstimationError when a hold does not replay to a steady one."""
+async def replay_calibration(paths: Sequence[str], name: str | None) -> CalibrationRun:
+    """A deliberate calibration reproduced from the recordings of its level holds, in
+    order (:mod:`trimd.app.calibrate`): each hold replayed, the experiments of each two
+    consecutive holds with the recorded weights, checked in order against the thrust map
+    the live session had (recorded with it), as the live ones were; stored nowhere.
+    DataError when the recordings are not the holds of one series in order (a series cut
+    short replays as far as its recordings go); EstimationError when a hold does not
+    replay to a steady one."""
+    if len(paths) < 2:
+        raise DataError("a calibration replays from two or more recordings of its level "
+                        "holds, in order")
     holds: list[HoldSamples] = []
-    weights, profiles = [], []
-    for which, path in zip(HOLDS, (before, after), strict=True):
+    profiles = []
+    series: tuple[KnownWeight, ...] = ()
+    for k, path in enumerate(paths):
         d = recorded_calibration_hold(path)
         if d is None:
             raise DataError(f"{path}: not a recording of a calibration's level hold (trimd "
                             "calibrate records one per hold)")
-        recorded, weight = hold_from_record(d, path)
-        if recorded != which:
-            raise DataError(f"{path}: the calibration's hold {recorded} the weight, given "
-                            f"as the one {which} it: give the hold before the weight first, "
-                            "then the one after")
-        weights.append(weight)
+        index, weights = hold_from_record(d, path)
+        if k and weights != series:
+            raise DataError(f"{paths[0]} and {path} record different weights: not holds of "
+                            "one calibration")
+        if index != k:
+            raise DataError(f"{path}: hold {index + 1} of its calibration, given as hold "
+                            f"{k + 1}: give the recordings in the order of their holds, the "
+                            "one before any weight first")
+        series = weights
         profiles.append(replay_profile(path, name)[0])
         result, _ = await replay_session(path, profiles[-1], speed=None, presenters=[],
                                          method="milp")
         if result.phase is not Phase.DONE or not isinstance(result.verification, HoldSamples):
-            raise EstimationError(f"{path}: the {which} hold did not replay to a steady "
+            raise EstimationError(f"{path}: level hold {k + 1} did not replay to a steady "
                                   f"hold: {result.reason}")
         holds.append(result.verification)
-    if weights[0] != weights[1]:
-        raise DataError(f"{before} and {after} record different weights ({weights[0]} and "
-                        f"{weights[1]}): not the two holds of one calibration")
-    return check_against_profile(calibration_experiment(holds[0], holds[1], profiles[0],
-                                                        weights[0]),
-                                 profiles[0])
+    experiments = [calibration_experiment(holds[k], holds[k + 1], profiles[0], series[k],
+                                          series[k - 1] if k else None)
+                   for k in range(len(holds) - 1)]
+    stopped = ("" if len(holds) == len(series) + 1 else
+               f"replayed {len(holds) - 1} of the series' {len(series)} weights")
+    return check_against_profile(experiments, profiles[0], stopped)

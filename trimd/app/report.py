@@ -131,7 +131,7 @@ def format_level_hold(hold: HoldSamples) -> str:
     z, k, m = np.mean(hold.tau[:, 2:5], axis=0)
     return (f"level hold ({len(hold.t_s)} steady samples, {hold.t_s[0]:.1f} – "
             f"{hold.t_s[-1]:.1f} s): mean τ Z {z:+.3f} N, K {k:+.3f} N·m, M {m:+.3f} N·m; "
-            "a calibration is both holds: trimd calibrate --replay BEFORE AFTER")
+            "a calibration is all its holds: trimd calibrate --replay HOLD1 HOLD2 …")
 
 
 def format_float(r: FloatResult) -> str:

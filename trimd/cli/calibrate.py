@@ -1,10 +1,11 @@
-"""``trimd calibrate --link URL --profile P --mass KG@SLOT``: a deliberate calibration of
-the thrust map (:mod:`trimd.app.calibrate`; docs/method.md §7): a level hold, the operator
-hangs a known weight at a known slot, a second level hold; the experiment is checked
-and stored in the vehicle's trim history, and every later session of the vehicle uses it.
-Each hold is recorded (``-calibrate-before`` / ``-calibrate-after`` in the log's name);
-``trimd calibrate --replay BEFORE AFTER`` reproduces the experiment and its outcome from
-the two recordings.
+"""``trimd calibrate --link URL --profile P --mass KG@SLOT [--mass KG@SLOT …]``: a
+deliberate calibration of the thrust map (:mod:`trimd.app.calibrate`; docs/method.md §7):
+a level hold, the operator hangs a known weight at a known slot, a second level hold; with
+more ``--mass``, the operator swaps the weight for the next before each further hold. Each
+experiment is checked and stored in the vehicle's trim history as soon as it is made, and
+every later session of the vehicle uses it. Each hold is recorded (``-calibrate-1``,
+``-calibrate-2``, … in the log's name); ``trimd calibrate --replay HOLD1 HOLD2 …``
+reproduces the experiments and their outcomes from the recordings.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weight
+from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
 from trimd.app.history.calibration import calibrated_profile
@@ -47,25 +48,27 @@ def register(sub: Subcommands) -> None:
                    "(required unless --replay)")
     p.add_argument("--profile", help="vehicle profile (YAML path or name; required unless "
                    "--replay: the recordings carry theirs)")
-    p.add_argument("--mass", metavar="KG@SLOT",
+    p.add_argument("--mass", metavar="KG@SLOT", action="append",
                    help="the weight's net downward force in water [kgf] (negative: a "
                    "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd "
-                   "(required unless --replay)")
+                   "(required unless --replay). Give it again for a series: before each "
+                   "further level hold you swap the weight for the next (a weight and a "
+                   "float at each corner teach the most, docs/method.md §7)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
     p.add_argument("--yes", action="store_true", help="command the vehicle without asking, "
-                   "and take the weight as hung once the first hold ends (headless)")
+                   "and take each weight as hung once the hold before it ends (headless)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--no-history", action="store_true",
                    help="check the experiment against the profile alone; store nothing")
     p.add_argument("--record", metavar="PATH", help="where to record the holds: PATH with "
-                   "-calibrate-before / -calibrate-after in its name (default: timestamped "
-                   "logs in the data directory's sessions/)")
+                   "-calibrate-1, -calibrate-2, … in its name (default: timestamped logs in "
+                   "the data directory's sessions/)")
     p.add_argument("--no-record", action="store_true", help="do not record the holds")
-    p.add_argument("--replay", nargs=2, metavar=("BEFORE", "AFTER"),
-                   help="reproduce a calibration from the recordings of its two holds: the "
-                   "experiment checked against the thrust map the live session had, stored "
-                   "nowhere")
+    p.add_argument("--replay", nargs="+", metavar="HOLD",
+                   help="reproduce a calibration from the recordings of its holds, in order "
+                   "(two or more): the experiments checked against the thrust map the live "
+                   "session had, stored nowhere")
     add_history_args(p)
     p.set_defaults(func=run)
 
@@ -92,7 +95,8 @@ def _recorder(args: argparse.Namespace, profile: Profile
     yaml_text = read_profile_text(args.profile)[0]
 
     def recorder(hold: dict[str, object]) -> TlogRecorder:
-        path = base.with_name(f"{base.stem}-calibrate-{hold['hold']}{base.suffix or '.tlog'}")
+        k = int(str(hold["hold"])) + 1
+        path = base.with_name(f"{base.stem}-calibrate-{k}{base.suffix or '.tlog'}")
         return TlogRecorder(path, profile, yaml_text, calibration_hold=hold)
 
     return recorder
@@ -102,15 +106,17 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
     """The calibration on the vehicle; None when the operator did not confirm it."""
     missing = [f"--{k}" for k in ("link", "profile", "mass") if not getattr(args, k)]
     if missing:
-        raise UsageError(f"{', '.join(missing)} required (or --replay BEFORE AFTER)",
+        raise UsageError(f"{', '.join(missing)} required (or --replay HOLD1 HOLD2 …)",
                          "trimd calibrate")
     profile = load_profile(args.profile)
-    weight = _weight(args.mass, args.uncertainty_pct)
-    profile.slot(weight.slot)  # a wrong slot fails before anything is commanded
+    weights = [_weight(m, args.uncertainty_pct) for m in args.mass]
+    for w in weights:
+        profile.slot(w.slot)  # a wrong slot fails before anything is commanded
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    if not args.yes and not _ask("two level holds: let trimd command the vehicle?"):
+    if not args.yes and not _ask(f"{len(weights) + 1} level holds: let trimd command the "
+                                 "vehicle?"):
         return None
     vehicle = vehicle_of(args, profile.name)
     db = None if args.no_history else Path(db_path(args))
@@ -122,27 +128,29 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
             return True
         return _ask(text)
 
-    return asyncio.run(calibrate_with_weight(lambda: open_link(args.link, profile), profile,
-                                             weight, hung, db=db, vehicle=vehicle,
-                                             record=_recorder(args, profile)))
+    run: CalibrationRun = asyncio.run(calibrate_with_weights(
+        lambda: open_link(args.link, profile), profile, weights, hung, db=db, vehicle=vehicle,
+        record=_recorder(args, profile)))
+    return run
 
 
 def run(args: argparse.Namespace) -> int:
     if args.replay:
-        before, after = args.replay
-        done: CalibrationRun | None = asyncio.run(replay_calibration(before, after, args.profile))
+        done: CalibrationRun | None = asyncio.run(replay_calibration(args.replay, args.profile))
     else:
         done = _live(args)
     if done is None:
         return 1
     vehicle = vehicle_of(args, done.profile.name)
     determined = [g for g in gains(done.posterior, done.profile) if g.determined]
-    lines = [done.outcome.message] + [
+    accepted = all(o.accepted for o in done.outcomes)
+    lines = [o.message for o in done.outcomes] + ([done.stopped] if done.stopped else []) + [
         f"  {g.thruster} {g.direction}: {g.mean_pct:+.1f} ± {g.std_pct:.1f} % "
         f"(prior ± {g.prior_std_pct:.1f} %)" for g in determined]
     print_result(args.json, {
-        "type": "calibration", "vehicle": vehicle, "accepted": done.outcome.accepted,
-        "message": done.outcome.message, "chi2": done.outcome.chi2,
-        "sigma": done.outcome.sigma, "experiments": done.posterior.experiments,
+        "type": "calibration", "vehicle": vehicle, "accepted": accepted,
+        "experiments_run": [{"label": o.label, "accepted": o.accepted, "message": o.message,
+                             "chi2": o.chi2, "sigma": o.sigma} for o in done.outcomes],
+        "stopped": done.stopped, "experiments": done.posterior.experiments,
         "gains": [gain_to_dict(g) for g in determined]}, "\n".join(lines))
-    return 0 if done.outcome.accepted else 1
+    return 0 if accepted and not done.stopped else 1

@@ -15,23 +15,24 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.errors import DataError
+from trimd.core.estimate import HeldOutputs
 from trimd.core.model import thrust_configuration, thrusts_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.resample import zoh_align
 from trimd.core.samples import Battery, Thrusters
 
-__all__ = ["MAX_THRUSTER_AGE_S", "HeldThrust", "tau_at", "thrust_at"]
+__all__ = ["MAX_THRUSTER_AGE_S", "HeldThrust", "outputs_at", "tau_at", "thrust_at"]
 
 #: Thruster outputs older than this [s] are not held onto a later time: a gap, not a value.
 #: ArduSub streams SERVO_OUTPUT_RAW at 2–10 Hz; a ground station may leave 1 Hz.
 MAX_THRUSTER_AGE_S = 1.0
 
 
-def thrust_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
-              batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
-              ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Each thruster's thrust [N] (along its positive direction, the profile's thruster
-    order) at the times ``t_s`` [s], and where it is valid.
+def outputs_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
+               batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
+               ) -> tuple[HeldOutputs, NDArray[np.bool_]]:
+    """The thruster outputs [µs] and battery voltage [V] held onto the times ``t_s`` [s]
+    (zero-order hold), and where they are valid.
 
     Rows without thruster outputs at most ``max_age_s`` old are NaN and not valid. The
     battery voltage is held the same way (no age limit); without it, or where it is not a
@@ -44,17 +45,27 @@ def thrust_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
     if bad:
         raise DataError(f"thruster samples with {sorted(bad)} outputs for a profile with "
                         f"{n_thr} thrusters")
-    thrust = np.full((len(t), n_thr), np.nan)
     if not thrusters:
-        return thrust, np.zeros(len(t), bool)
+        return (HeldOutputs(np.full((len(t), n_thr), np.nan), np.full(len(t), np.nan)),
+                np.zeros(len(t), bool))
     pwm = zoh_align(t, [s.t_s for s in thrusters], [s.pwm_us for s in thrusters],
                     max_age_s=max_age_s)
     volts = (zoh_align(t, [b.t_s for b in batteries], [b.voltage_V for b in batteries]).values
              if batteries else np.full(len(t), np.nan))
     volts = np.where(np.isfinite(volts) & (volts > 0), volts, profile.nominal_voltage_V)
-    ok = pwm.valid
-    thrust[ok] = thrusts_from_pwm(profile, pwm.values[ok], volts[ok])
-    return thrust, ok
+    return HeldOutputs(pwm.values.reshape(len(t), n_thr), volts), pwm.valid
+
+
+def thrust_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
+              batteries: Sequence[Battery] = (), *, max_age_s: float = MAX_THRUSTER_AGE_S
+              ) -> tuple[NDArray[np.float64], NDArray[np.bool_], HeldOutputs]:
+    """Each thruster's thrust [N] (along its positive direction, the profile's thruster
+    order) at the times ``t_s`` [s], where it is valid, and the outputs it was read from
+    (:func:`outputs_at`, whose rules it follows)."""
+    outputs, ok = outputs_at(profile, t_s, thrusters, batteries, max_age_s=max_age_s)
+    thrust = np.full(outputs.pwm_us.shape, np.nan)
+    thrust[ok] = thrusts_from_pwm(profile, outputs.pwm_us[ok], outputs.voltage_V[ok])
+    return thrust, ok, outputs
 
 
 def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
@@ -72,7 +83,7 @@ def tau_at(profile: Profile, t_s: ArrayLike, thrusters: Sequence[Thrusters],
     >>> valid.tolist(), tau[0].tolist() == [0.0] * 6
     ([True, False], True)
     """
-    thrust, ok = thrust_at(profile, t_s, thrusters, batteries, max_age_s=max_age_s)
+    thrust, ok, _ = thrust_at(profile, t_s, thrusters, batteries, max_age_s=max_age_s)
     tau = np.full((len(ok), 6), np.nan)
     if profile.thrusters:
         tau[ok] = thrust[ok] @ thrust_configuration(profile.thrusters).T

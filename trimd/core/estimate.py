@@ -53,6 +53,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -96,6 +97,10 @@ class HeldOutputs:
     pwm_us: FloatArray
     voltage_V: FloatArray
 
+    def take(self, index: NDArray[Any]) -> HeldOutputs:
+        """The rows at ``index`` (a boolean mask or an integer index)."""
+        return HeldOutputs(self.pwm_us[index], self.voltage_V[index])
+
 
 @dataclass(frozen=True, eq=False)
 class HoldSamples:
@@ -131,8 +136,7 @@ class HoldSamples:
         return HoldSamples(self.t_s[index], self.phi[index], self.theta[index],
                            self.tau[index], self.label if label is None else label,
                            None if self.thrust is None else self.thrust[index],
-                           None if out is None else HeldOutputs(out.pwm_us[index],
-                                                                out.voltage_V[index]))
+                           None if out is None else out.take(index))
 
 
 @dataclass

@@ -22,7 +22,7 @@ import numpy as np
 
 from trimd.core.decision import StopRule
 from trimd.core.effort import MAX_THRUSTER_AGE_S
-from trimd.core.estimate import HoldSamples
+from trimd.core.estimate import HeldOutputs, HoldSamples
 from trimd.core.profile import Profile
 from trimd.core.samples import Attitude
 from trimd.core.settling import UNSTEADY_GRACE_S, HoldSettling
@@ -107,20 +107,21 @@ def _plateau_samples(attitude: Sequence[Attitude], t_effort: FloatArray,
 
 
 def _hold(got: list[tuple[Attitude, int]], tau_effort: FloatArray,
-          thrust: FloatArray | None, label: str) -> HoldSamples:
+          thrust: FloatArray | None, outputs: HeldOutputs | None, label: str) -> HoldSamples:
     idx = np.array([i for _, i in got])
     return HoldSamples(np.array([a.t_s for a, _ in got]), np.array([a.phi for a, _ in got]),
                        np.array([a.theta for a, _ in got]), tau_effort[idx], label,
-                       thrust=None if thrust is None else thrust[idx])
+                       thrust=None if thrust is None else thrust[idx],
+                       outputs=None if outputs is None else outputs.take(idx))
 
 
 def find_segments(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
-                  profile: Profile, thrust: FloatArray | None = None
-                  ) -> list[tuple[HoldSamples, bool]]:
+                  profile: Profile, thrust: FloatArray | None = None,
+                  outputs: HeldOutputs | None = None) -> list[tuple[HoldSamples, bool]]:
     """Each steady plateau on its own (as :func:`find_holds` finds them, not merged by
     attitude), in time order, with whether it ended before the samples did (a plateau
     still going on at the last sample is not finished)."""
-    return [(_hold(got, tau_effort, thrust, f"segment {k + 1}"), ended)
+    return [(_hold(got, tau_effort, thrust, outputs, f"segment {k + 1}"), ended)
             for k, (_, _, got, ended) in enumerate(
                 _plateau_samples(attitude, t_effort, tau_effort, profile))]
 
@@ -135,7 +136,8 @@ class FoundHold:
 
 
 def locate_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
-                 profile: Profile, thrust: FloatArray | None = None) -> list[FoundHold]:
+                 profile: Profile, thrust: FloatArray | None = None,
+                 outputs: HeldOutputs | None = None) -> list[FoundHold]:
     """:func:`find_holds` with the plateaus each hold joins."""
     tol = math.radians(profile.procedure.attitude_tol_deg)
     groups: list[tuple[float, float, list[tuple[Attitude, int]], list[tuple[float, float]]]] = []
@@ -148,16 +150,19 @@ def locate_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort:
                 break
         else:
             groups.append((phi, theta, got, [span]))
-    return [FoundHold(_hold(got, tau_effort, thrust, f"hold {k + 1}"), tuple(spans))
+    return [FoundHold(_hold(got, tau_effort, thrust, outputs, f"hold {k + 1}"), tuple(spans))
             for k, (_, _, got, spans) in enumerate(groups)]
 
 
 def find_holds(attitude: Sequence[Attitude], t_effort: FloatArray, tau_effort: FloatArray,
-               profile: Profile, thrust: FloatArray | None = None) -> list[HoldSamples]:
+               profile: Profile, thrust: FloatArray | None = None,
+               outputs: HeldOutputs | None = None) -> list[HoldSamples]:
     """The steady holds in time-ordered ``attitude`` samples and thruster effort
     ``tau_effort`` (n, 6) [N, N·m] at its own times ``t_effort`` [s], labelled
     ``hold 1``, ``hold 2``, … in the order of their first sample; plateaus at the same
     attitude (within ``attitude_tol_deg``) are one hold. ``thrust`` (n, n_thrusters) [N],
     each thruster's thrust behind each effort sample, rides along into
-    :attr:`HoldSamples.thrust` (the thrust curves' share of the ±)."""
-    return [h.samples for h in locate_holds(attitude, t_effort, tau_effort, profile, thrust)]
+    :attr:`HoldSamples.thrust` (the thrust curves' share of the ±), and ``outputs``, the
+    outputs that thrust was read from, into :attr:`HoldSamples.outputs`."""
+    return [h.samples for h in locate_holds(attitude, t_effort, tau_effort, profile, thrust,
+                                            outputs)]

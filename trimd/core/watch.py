@@ -8,8 +8,7 @@ segments of at most ``max_segment_s``. Samples count while
 
 * the vehicle is armed (or its arming is not reported) in a mode whose class holds depth
   (:data:`DEPTH_HOLD_CLASSES`; all samples count when the source reports no mode), the
-  depth is held (its rate within
-  :data:`MAX_DEPTH_RATE_M_S`), and no pilot stick input (a
+  depth is held (its rate within :data:`MAX_DEPTH_RATE_M_S`), and no pilot stick input (a
   :class:`~trimd.core.samples.PilotInput`) came: for :data:`PILOT_QUIET_S` after the
   depth moved or the sticks did, nothing counts;
 * the vehicle is at rest in the water (:class:`trimd.core.motion.MotionGate`: no
@@ -255,13 +254,14 @@ class TrimWatch:
         open_start = None
         if self._thr:
             t = np.array([s.t_s for s in self._thr])
-            thrust, ok = thrust_at(self.profile, t, self._thr, self._bat)
-            tau = thrust[ok] @ self._T.T
+            thrust, ok, held = thrust_at(self.profile, t, self._thr, self._bat)
+            thrust, held = thrust[ok], held.take(ok)
+            tau = thrust @ self._T.T
             for k, run in enumerate(self._runs):
                 last = k == len(self._runs) - 1
                 if len(run) < 2:
                     continue
-                for hold, ended in find_segments(run, t[ok], tau, self.profile, thrust[ok]):
+                for hold, ended in find_segments(run, t[ok], tau, self.profile, thrust, held):
                     closed = ended or not last
                     if closed:  # the pilot ended it: leave out what the test saw late
                         hold = hold.take(hold.t_s <= hold.t_s[-1] - END_MARGIN_S)

@@ -85,10 +85,13 @@ def _change(before: Sequence[dict[str, Any]], now: Sequence[InstalledPiece]
 
 
 def store_experiment(history: History, vehicle: str, profile: Profile, exp: Experiment,
-                     t_unix: float | None = None) -> tuple[ThrustMapPosterior, Outcome]:
-    """Check ``exp`` against the vehicle's calibration so far, store it with what became of
-    it (and the gains after it), and return the calibration after it and the outcome."""
-    before = stored_calibration(history, vehicle, profile).posterior
+                     before: ThrustMapPosterior | None = None, t_unix: float | None = None
+                     ) -> tuple[ThrustMapPosterior, Outcome]:
+    """Check ``exp`` against the vehicle's calibration so far (``before``; None: as stored),
+    store it with what became of it (and the gains after it), and return the calibration
+    after it and the outcome."""
+    if before is None:
+        before = stored_calibration(history, vehicle, profile).posterior
     after, outcome = update(before, exp, profile)
     history.record_experiment(vehicle, time.time() if t_unix is None else t_unix, {
         "profile": profile.name, "experiment": experiment_to_dict(exp),
@@ -128,7 +131,7 @@ def record_level_hold(history: History, vehicle: str, profile: Profile,
             exp = Experiment(f"{last['source']} {last['record_id']} → {source} {record_id}",
                              hold_from_dict(last["hold"], where), summary, change,
                              np.asarray(last["q_N_Nm"], float), np.asarray(last["q_cov"], float))
-            outcome = store_experiment(history, vehicle, profile, exp, t)[1]
+            outcome = store_experiment(history, vehicle, profile, exp, t_unix=t)[1]
     history.record_level_hold(vehicle, t, {
         "profile": profile.name, "source": source, "record_id": record_id,
         "hold": hold_to_dict(summary), "q_N_Nm": q.tolist(), "q_cov": q_cov.tolist(),
