@@ -6,33 +6,37 @@ does not describe exactly, ``truth=perturbed``: thrust curves 5 % off, ESC bands
 4 µs off with outputs hunting at their edge): a full trim with the profile alone
 (:func:`tests.helpers.sim_trim`); a deliberate calibration of the same vehicle
 (:func:`trimd.app.calibrate.calibrate_with_weights`, ``trimd calibrate``'s use case, into a
-trim history of the seed's own: a level hold, the known weight of :data:`WEIGHTS` — pieces
-of the profile's inventory, their net weight in water and its 1σ as the inventory says —
-hung at its slot, a second level hold); the trim again with the calibrated profile
-(:func:`trimd.app.history.calibration.calibrated_profile`). The vehicle is the seed's
-(``truth_seed``), each calibration hold's noise and disturbances another dive's (``seed``
-+ k·:data:`NOISE`); both trims fly the seed's own, so that they differ by the calibration
-alone. Then a second calibration whose weight is :data:`HEAVIER` times what it is
-declared to be (the inventory entry 10 % light): it must be rejected as inconsistent,
-checked against the first (and, for comparison, against the profile's own thrust map).
+trim history of the seed's own): the series :data:`SERIES`, a level hold, then the known
+weight of :data:`WEIGHTS` — pieces of the profile's inventory, their net weight in water
+and its 1σ as the inventory says — and a float of the same lift (its 1σ
+:data:`FLOAT_PCT`) at each corner in turn, one level hold each; the trim again with the
+calibrated profile (:func:`trimd.app.history.calibration.calibrated_profile`). The
+vehicle is the seed's (``truth_seed``), each calibration hold's noise and disturbances
+another dive's (``seed`` + k·:data:`NOISE`); both trims fly the seed's own, so that they
+differ by the calibration alone. Then a second calibration, of the weight alone, whose
+weight is :data:`HEAVIER` times what it is declared to be (the inventory entry 10 %
+light): it must be rejected as inconsistent, checked against the first (and, for
+comparison, against the profile's own thrust map).
 
 Printed per case: the RMS error of W − B [N] and of the three net moments in
 mm-equivalent (error / nominal weight, as :mod:`bench.bench_sim_coverage`) and the share
 of 95 % intervals covering the truth, without and with the calibration, beside issue 24's
-targets (:data:`TARGETS`); the mean ± of each; how many calibrations were learnt and which
-thrust-map parameters they narrowed; how many wrong-weight calibrations were rejected.
+targets (:data:`TARGETS`); the mean ± of each; how many calibrations were learnt whole
+and which thrust-map parameters they narrowed; how many wrong-weight calibrations were
+rejected.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
-``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 20 s (Heavy)
-and ≈ 25 s (Sabertooth) of one core: two trims and four level holds of ``collect_max_s``.
+``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 50 s (Heavy)
+and ≈ 60 s (Sabertooth) of one core: two trims and eleven level holds of
+``collect_max_s``. At the tiny size the series is its first weight.
 """
 
 from __future__ import annotations
 
 import asyncio
 import tempfile
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -68,6 +72,16 @@ OPTIONS = "disturb=real,truth=perturbed"
 #: the Heavy the 5.4 N cross it whatever the buoyancy: W − B ≈ 0.3 ± 1.4 N before).
 WEIGHTS = {"bluerov2-heavy": ("lead-200g", 3, "W-front-stbd"),
            "sabertooth-dh2": ("lead-1kg", 5, "FrontSB")}
+#: profile → the calibration's series in order: (slot, +1 the known weight of
+#: :data:`WEIGHTS`, −1 a float of the same lift), a weight and a float at each corner, so
+#: that the vertical thrusters work on both sides of their dead bands (docs/method.md §7).
+SERIES = {"bluerov2-heavy": (("W-front-stbd", 1), ("W-aft-port", -1), ("W-front-port", 1),
+                             ("W-aft-stbd", -1), ("W-front-stbd", -1), ("W-aft-port", 1),
+                             ("W-front-port", -1), ("W-aft-stbd", 1)),
+          "sabertooth-dh2": (("FrontSB", 1), ("AftP", -1), ("FrontP", 1), ("AftSB", -1),
+                             ("FrontSB", -1), ("AftP", 1), ("FrontP", -1), ("AftSB", 1))}
+#: A float's 1σ [% of its lift].
+FLOAT_PCT = 5.0
 #: profile → issue 24's targets after one calibration, RMS over the seeds: W − B [N]
 #: (None: none stated) and each net moment [mm-equivalent].
 TARGETS: dict[str, tuple[float | None, float]] = {"bluerov2-heavy": (0.1, 0.3),
@@ -113,21 +127,33 @@ def known_weight(profile: Profile) -> KnownWeight:
                        piece.net_uncertainty_pct)
 
 
-def calibrate(profile: Profile, payload: str, seed: int, options: str, weight: KnownWeight,
-              hung_kg: float, first: int, db: Path) -> CalibrationRun:
-    """A deliberate calibration with ``weight`` declared and ``hung_kg`` [kg in water]
-    hung, of the vehicle of ``seed``, its holds the dives ``seed + (first + k)·NOISE``,
-    stored in ``db``."""
-    x, y, z = profile.slot(weight.slot).position_m
+def series(profile: Profile, count: int) -> list[KnownWeight]:
+    """The first ``count`` weights of the profile's :data:`SERIES`."""
+    weight = known_weight(profile)
+    return [KnownWeight(sign * weight.kg, slot,
+                        weight.uncertainty_pct if sign > 0 else FLOAT_PCT)
+            for slot, sign in SERIES[profile.name][:count]]
+
+
+def calibrate(profile: Profile, payload: str, seed: int, options: str,
+              weights: Sequence[KnownWeight], hung_kg: Sequence[float], first: int,
+              db: Path) -> CalibrationRun:
+    """A deliberate calibration with the series ``weights`` declared and ``hung_kg`` [kg in
+    water] hung instead, of the vehicle of ``seed``, its holds the dives
+    ``seed + (first + k)·NOISE``, stored in ``db``."""
     opened: list[str] = []
 
     def opener() -> Awaitable[Link]:
-        extra = f"+{hung_kg:.6f}@{x},{y},{z}" if opened else ""
+        extra = ""
+        if opened:
+            w = weights[len(opened) - 1]
+            x, y, z = profile.slot(w.slot).position_m
+            extra = f"+{hung_kg[len(opened) - 1]:.6f}@{x},{y},{z}"
         opened.append(extra)
         return open_link(f"sim:payload={payload}{extra},seed={seed + (first + len(opened)) * NOISE}"
                          f",truth_seed={seed},{options}", profile)
 
-    return asyncio.run(calibrate_with_weights(opener, profile, [weight], lambda _text: True,
+    return asyncio.run(calibrate_with_weights(opener, profile, weights, lambda _text: True,
                                               db=db, vehicle="bench", wall_clock=False))
 
 
@@ -155,23 +181,27 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
     (:func:`bench.size.sized_profile`)."""
     profile = sized_profile(load_profile(name))
     before, before_share = judged_trim(profile, payload, seed, options)
-    weight = known_weight(profile)
+    weights = series(profile, size(len(SERIES[name]), 1))
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(tmp) / "trimd.db"
         try:
-            good = calibrate(profile, payload, seed, options, weight, weight.kg, 0, db)
+            good = calibrate(profile, payload, seed, options, weights,
+                             [w.kg for w in weights], 0, db)
         except (EstimationError, LinkError) as exc:
             return Seed(seed, before, calibration=f"no experiment: {exc}",
                         shares=(before_share,))
-        sd = np.sqrt(np.diag(good.posterior.cov)).reshape(len(BLOCKS), -1)
-        narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         calibrated = calibrated_profile(db, "bench", profile)
+        post = calibrated.thrust_map or prior(profile)
+        sd = np.sqrt(np.diag(post.cov)).reshape(len(BLOCKS), -1)
+        narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         after, after_share = judged_trim(calibrated, payload, seed, options)
-        out = Seed(seed, before, after, _verdict(good.outcomes[0].accepted),
-                   good.outcomes[0].sigma,
+        learnt = sum(o.accepted for o in good.outcomes)
+        out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
+                   f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
                    narrowed, shares=(before_share, after_share))
         try:
-            wrong = calibrate(profile, payload, seed, options, weight, HEAVIER * weight.kg, 2, db)
+            wrong = calibrate(profile, payload, seed, options, weights[:1],
+                              [HEAVIER * weights[0].kg], len(weights) + 1, db)
         except (EstimationError, LinkError) as exc:
             return replace(out, wrong=f"no experiment: {exc}")
     alone = update(prior(profile), wrong.experiments[0], profile)[1]
@@ -235,8 +265,9 @@ def main() -> None:
     seeds, options = cfg.seeds, cfg.options
     for name, payload in picked(size(CASES, CASES[:1]), cfg.wanted):
         runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes)
-        print(f"{name}, {payload}, sim:{options}, calibration "
-              f"{known_weight(load_profile(name)).kg:.3f} kg at "
-              f"{WEIGHTS[name][2]}: {seeds} seeds, {wall:.1f} s wall per seed")
+        print(f"{name}, {payload}, sim:{options}, calibration: "
+              f"{known_weight(load_profile(name)).kg:.3f} kg and a float of its lift at each "
+              f"corner, {size(len(SERIES[name]), 1)} in all: {seeds} seeds, {wall:.1f} s "
+              "wall per seed")
         for line in report(runs, load_profile(name)):
             print(f"  {line}")

@@ -1,17 +1,13 @@
 """What a calibration of the thrust map could at best give (issue 24, docs/method.md §7):
-the same trim with the profile alone, after level calibration experiments, and with parts
-of the simulated vehicle's true thrust map handed to trimd.
+the same trim with the profile alone and with parts of the simulated vehicle's true
+thrust map handed to trimd (what trimd's own calibration gives:
+:mod:`bench.bench_calibration`).
 
 Per seed and case (:data:`bench.bench_sim_coverage.CASES`, ``truth=perturbed``: thrust
 curves 5 % off, ESC bands up to 4 µs off with outputs hunting at their edge), each trim
 the seed's own dive (:func:`bench.bench_calibration.judged_trim`), judged by the TRUE q:
 
 - ``profile``: the profile alone;
-- ``1 exp``, ``N exp``: with the calibration after the first and after all of
-  :data:`PLAN`'s deliberate experiments (:func:`bench.bench_calibration.calibrate`: a level
-  hold, the known weight — or a float of the same size, hung at a slot — a second level
-  hold), alternating sign and corner so that the vertical thrusters work on both sides of
-  their bands;
 - ``gains known``, ``bands known``, ``map known``: trimd estimates with the true curves'
   gains, the true ESC bands, or both (:func:`trimd.drivers.sim.truth.true_thrusters`),
   its ± still the profile's prior;
@@ -22,21 +18,18 @@ Printed per case and trim: the RMS error of W − B [N] and of each net moment
 [mm-equivalent], the share of 95 % intervals covering the truth and the mean 1σ, beside
 issue 24's targets (:data:`bench.bench_calibration.TARGETS`). ``TRIMD_CEILING_SEEDS``
 (default 30), ``TRIMD_CEILING_OPTIONS``, ``TRIMD_CEILING_CASES``,
-``TRIMD_COVERAGE_PROCESSES`` as in :mod:`bench.bench_calibration`. One seed takes ≈ 32 s
-(Heavy) and ≈ 43 s (Sabertooth) of one core: seven trims and eight level holds of
-``collect_max_s``.
+``TRIMD_COVERAGE_PROCESSES`` as in :mod:`bench.bench_calibration`. One seed takes ≈ 25 s
+(Heavy) and ≈ 30 s (Sabertooth) of one core: five trims.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
-from bench.bench_calibration import OPTIONS, TARGETS, calibrate, judged_trim, known_weight
+from bench.bench_calibration import OPTIONS, TARGETS, judged_trim
 from bench.bench_sim_coverage import (
     CASES,
     NAMES,
@@ -48,21 +41,12 @@ from bench.bench_sim_coverage import (
     seeding,
 )
 from bench.size import size, sized_profile
-from trimd.app.calibrate import KnownWeight
-from trimd.app.history.calibration import calibrated_profile
 from trimd.core.calibration import posterior
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.truth import true_thrusters
 from trimd.drivers.sim.vehicle import SimVehicle
 
-#: profile → the calibration experiments, in order: (slot, +1 the known weight of
-#: :data:`bench.bench_calibration.WEIGHTS`, −1 a float of the same size, known to 5 %).
-PLAN = {"bluerov2-heavy": (("W-front-stbd", 1), ("W-aft-port", -1), ("W-front-port", 1),
-                           ("W-aft-stbd", -1)),
-        "sabertooth-dh2": (("FrontSB", 1), ("AftP", -1), ("FrontP", 1), ("AftSB", -1))}
-#: A float's 1σ [% of its lift].
-FLOAT_PCT = 5.0
 #: The trims with the true thrust map in part: label → (gains, bands, exact).
 KNOWN = {"gains known": (True, False, False), "bands known": (False, True, False),
          "map known": (True, True, False), "map exact": (True, True, True)}
@@ -91,19 +75,7 @@ def run(name: str, payload: str, seed: int, options: str) -> tuple[tuple[str, Ru
     profile's and the exact map's only, each hold collecting for less
     (:func:`bench.size.sized_profile`)."""
     profile = sized_profile(load_profile(name))
-    weight = known_weight(profile)
     runs = [("profile", judged_trim(profile, payload, seed, options)[0])]
-    plan = PLAN[name][:size(len(PLAN[name]), 0)]
-    with tempfile.TemporaryDirectory() as tmp:
-        db = Path(tmp) / "trimd.db"
-        for k, (slot, sign) in enumerate(plan):
-            kg = sign * weight.kg
-            calibrate(profile, payload, seed, options,
-                      KnownWeight(kg, slot, weight.uncertainty_pct if sign > 0 else FLOAT_PCT),
-                      kg, 2 * k, db)
-            if k in (0, len(plan) - 1):
-                runs.append((f"{k + 1} exp", judged_trim(calibrated_profile(db, "bench", profile),
-                                                         payload, seed, options)[0]))
     for label, (gains, bands, exact) in KNOWN.items():
         if label in size(KNOWN, ("map exact",)):
             runs.append((label, judged_trim(profile, payload, seed, options, known_map(

@@ -100,9 +100,9 @@ def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
                    bands: bool = True) -> tuple[Thruster, ...]:
     """The thrusters of ``profile`` with their true curves: each scaled by its
     ``offset.thrust_factors`` (``gains``) and its dead band moved by its
-    ``offset.band_offsets_us`` (``bands``). With both: what the simulator flies; with one,
-    a thrust map known in part (``bench/bench_thrust_map_ceiling.py``); with fitted
-    offsets, a fitted map (``bench/bench_thrust_map_fit.py``)."""
+    ``offset.band_offsets_us`` (``bands``; :func:`trimd.core.curve_error.curve_with_errors`).
+    With both: what the simulator flies; with one, a thrust map known in part
+    (``bench/bench_thrust_map_ceiling.py``)."""
     n = len(profile.thrusters)
     factors = offset.thrust_factors if gains else ((1.0, 1.0),) * n
     moved = offset.band_offsets_us if bands and offset.band_offsets_us else ((0.0, 0.0),) * n
