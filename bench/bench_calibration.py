@@ -58,8 +58,9 @@ from tests.helpers import sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
-from trimd.core.calibration import DETERMINED, prior, update
+from trimd.core.calibration import prior, update
 from trimd.core.errors import EstimationError, LinkError
+from trimd.core.learnt import DETERMINED
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile

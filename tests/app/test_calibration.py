@@ -25,12 +25,12 @@ from trimd.core.calibration import (
     ballast_change,
     calibrate,
     calibration_hold,
-    gains,
     posterior,
 )
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.learnt import gains
 from trimd.core.link import Link
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile

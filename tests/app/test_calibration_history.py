@@ -31,10 +31,11 @@ from trimd.app.replay import replay_calibration, replay_profile, replay_session
 from trimd.app.session import Session, SessionResult
 from trimd.app.verify import VerifyTarget, verify_procedure
 from trimd.ballast.propose import Proposal
-from trimd.core.calibration import calibrate, gains
-from trimd.core.calibration_json import experiment_from_dict, gain_to_dict
+from trimd.core.calibration import calibrate
+from trimd.core.calibration_json import experiment_from_dict
 from trimd.core.errors import DataError
 from trimd.core.events import Phase
+from trimd.core.learnt import band_edge_to_dict, band_edges, gain_to_dict, gains
 from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
@@ -126,6 +127,11 @@ def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
     for g in determined:
         assert f"{g['thruster']} {g['direction']}: {g['mean_pct']:+.1f} ± " in text
     assert bool(determined) != ("none yet narrowed" in text)
+    edges = [band_edge_to_dict(b) for b in band_edges(direct, bluerov) if b.determined]
+    assert listed["band_edges"] == edges
+    for b in edges:
+        assert f"{b['thruster']} band {b['edge']} edge: {b['mean_us']:+.1f} ± " in text
+    assert bool(edges) == ("ESC dead-band edges" in text)
     assert after.store(verify()) is not None  # no ballast change since: no experiment
     with History(db) as h:
         assert len(h.experiments("rov")) == 1 and len(h.level_holds("rov")) == 3

@@ -16,6 +16,7 @@ from trimd.core.calibration_json import hold_from_dict, hold_to_dict
 from trimd.core.curve_error import thrusters_with_errors
 from trimd.core.errors import DataError
 from trimd.core.estimate import HeldOutputs, HoldSamples
+from trimd.core.learnt import band_edges, gains
 from trimd.core.model import band_at, thrust_configuration, thrusts_from_pwm
 from trimd.core.output_hist import mean_thrust, output_histogram
 from trimd.core.profile_yaml import load_profile
@@ -114,3 +115,17 @@ def test_a_hold_keeps_its_outputs_through_the_history_json_and_a_bad_one_is_refu
     d["outputs"]["counts"][2] = d["outputs"]["counts"][2][:-1]  # type: ignore[index]
     with pytest.raises(DataError, match="outputs"):
         hold_from_dict(d, "test")
+
+
+def test_what_a_calibration_learnt_is_said_in_the_units_of_each_parameter() -> None:
+    z = np.zeros(4 * N)
+    z[2 * N + 1], z[3 * N + 1] = 1.0, -2.0  # the second thruster's band edges, in prior σ
+    cov = np.eye(4 * N)
+    cov[3 * N + 1, 3 * N + 1] = 0.25
+    edges = {(b.thruster, b.edge): b for b in band_edges(posterior(z, cov, 1), PROFILE)}
+    name = PROFILE.thrusters[1].name
+    s = PROFILE.thrusters[1].curve.deadband_margin_us / np.sqrt(3)
+    low, high = edges[(name, "low")], edges[(name, "high")]
+    assert np.isclose(low.mean_us, s) and np.isclose(high.mean_us, -2 * s)
+    assert np.isclose(high.std_us, 0.5 * s) and high.determined and not low.determined
+    assert not any(g.determined for g in gains(posterior(z, cov, 1), PROFILE))

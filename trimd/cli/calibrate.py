@@ -25,9 +25,8 @@ from trimd.app.jsonlines import print_result
 from trimd.app.replay import replay_calibration
 from trimd.cli.argtypes import Subcommands
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
-from trimd.core.calibration import gains
-from trimd.core.calibration_json import gain_to_dict
 from trimd.core.errors import ProfileError, UsageError
+from trimd.core.learnt import band_edge_to_dict, band_edges, gain_to_dict, gains
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile, read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -143,14 +142,18 @@ def run(args: argparse.Namespace) -> int:
         return 1
     vehicle = vehicle_of(args, done.profile.name)
     determined = [g for g in gains(done.posterior, done.profile) if g.determined]
+    edges = [b for b in band_edges(done.posterior, done.profile) if b.determined]
     accepted = all(o.accepted for o in done.outcomes)
     lines = [o.message for o in done.outcomes] + ([done.stopped] if done.stopped else []) + [
         f"  {g.thruster} {g.direction}: {g.mean_pct:+.1f} ± {g.std_pct:.1f} % "
-        f"(prior ± {g.prior_std_pct:.1f} %)" for g in determined]
+        f"(prior ± {g.prior_std_pct:.1f} %)" for g in determined] + [
+        f"  {b.thruster} band {b.edge} edge: {b.mean_us:+.1f} ± {b.std_us:.1f} µs "
+        f"(prior ± {b.prior_std_us:.1f} µs)" for b in edges]
     print_result(args.json, {
         "type": "calibration", "vehicle": vehicle, "accepted": accepted,
         "experiments_run": [{"label": o.label, "accepted": o.accepted, "message": o.message,
                              "chi2": o.chi2, "sigma": o.sigma} for o in done.outcomes],
         "stopped": done.stopped, "experiments": done.posterior.experiments,
-        "gains": [gain_to_dict(g) for g in determined]}, "\n".join(lines))
+        "gains": [gain_to_dict(g) for g in determined],
+        "band_edges": [band_edge_to_dict(b) for b in edges]}, "\n".join(lines))
     return 0 if accepted and not done.stopped else 1

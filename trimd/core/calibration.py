@@ -56,19 +56,15 @@ from trimd.core.systematics import attitude_error_factors, exposure_factors, thr
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
 from trimd.core.types import FloatArray
 
-__all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Gain", "Outcome",
+__all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Outcome",
            "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
-           "calibration_hold", "change_model", "experiment_rows", "gains", "posterior", "prior",
-           "update"]
+           "calibration_hold", "change_model", "experiment_rows", "posterior", "prior", "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
 _ROW_NAMES = {2: "Z (W − B)", 3: "K (W·y_g − B·y_b)", 4: "M (W·x_g − B·x_b)"}
 #: An experiment whose innovation has a χ² tail probability below this is rejected.
 REJECT_P = 1e-3
-#: A gain counts as determined by the data when its posterior σ is below this share of
-#: its prior σ.
-DETERMINED = 0.9
 
 
 @dataclass(frozen=True, eq=False)
@@ -352,31 +348,3 @@ def calibrate(experiments: Sequence[Experiment], profile: Profile) -> Calibratio
             mean, cov = fit(accepted, profile, start, post.mean)
             post = posterior(mean, cov, len(accepted))
     return Calibration(post, tuple(outcomes))
-
-
-@dataclass(frozen=True)
-class Gain:
-    """One thruster's relative gain error in one direction [%], 1σ, prior and posterior."""
-
-    thruster: str
-    direction: str
-    mean_pct: float
-    std_pct: float
-    prior_std_pct: float
-
-    @property
-    def determined(self) -> bool:
-        """The data narrowed it (posterior σ below :data:`DETERMINED` of the prior)."""
-        return self.std_pct < DETERMINED * self.prior_std_pct
-
-
-def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
-    """Each thruster's gain error forward and reverse under ``post`` (true thrust =
-    (1 + gain)·the profile curve's)."""
-    n, out = len(profile.thrusters), []
-    for d, direction in enumerate(("forward", "reverse")):
-        for i, t in enumerate(profile.thrusters):
-            k, s = d * n + i, t.curve.uncertainty_pct
-            out.append(Gain(t.name, direction, float(post.mean[k]) * s,
-                            math.sqrt(float(post.cov[k, k])) * s, s))
-    return out

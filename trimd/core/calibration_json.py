@@ -11,7 +11,6 @@ import numpy as np
 from trimd.core.calibration import (
     CalibrationHold,
     Experiment,
-    Gain,
     PieceChange,
     ThrustMapPosterior,
     posterior,
@@ -20,15 +19,8 @@ from trimd.core.errors import DataError
 from trimd.core.output_hist import OutputHistogram
 from trimd.core.types import FloatArray, JsonObject
 
-__all__ = ["experiment_from_dict", "experiment_to_dict", "gain_to_dict", "hold_from_dict",
+__all__ = ["experiment_from_dict", "experiment_to_dict", "hold_from_dict",
            "hold_to_dict", "posterior_from_dict", "posterior_to_dict"]
-
-
-def gain_to_dict(g: Gain) -> JsonObject:
-    """JSON-ready dict of a gain (units in the key names)."""
-    return {"thruster": g.thruster, "direction": g.direction, "mean_pct": g.mean_pct,
-            "std_pct": g.std_pct, "prior_std_pct": g.prior_std_pct,
-            "determined": g.determined}
 
 
 def hold_to_dict(h: CalibrationHold) -> JsonObject:

@@ -35,16 +35,15 @@ from trimd.core.calibration import (
     ThrustMapPosterior,
     calibrate,
     calibration_hold,
-    gains,
     update,
 )
 from trimd.core.calibration_json import (
     experiment_from_dict,
     experiment_to_dict,
-    gain_to_dict,
     hold_from_dict,
     hold_to_dict,
 )
+from trimd.core.learnt import band_edge_to_dict, band_edges, gain_to_dict, gains
 from trimd.core.profile import InstalledPiece, Profile
 
 __all__ = ["calibrated_profile", "record_level_hold", "store_experiment",
@@ -98,7 +97,9 @@ def store_experiment(history: History, vehicle: str, profile: Profile, exp: Expe
         "accepted": outcome.accepted, "message": outcome.message,
         "chi2": outcome.chi2, "sigma": outcome.sigma,
         "calibration": {"experiments": after.experiments,
-                        "gains": [gain_to_dict(g) for g in gains(after, profile)]}})
+                        "gains": [gain_to_dict(g) for g in gains(after, profile)],
+                        "band_edges": [band_edge_to_dict(b)
+                                       for b in band_edges(after, profile)]}})
     return after, outcome
 
 

@@ -73,13 +73,14 @@ def _event_text(r: EventRecord) -> str:
 
 
 def _calibration_dict(history: History, vehicle: str) -> dict[str, Any]:
-    """The vehicle's calibration experiments and the gains the latest one left, those the
-    data determine."""
+    """The vehicle's calibration experiments and the gains and dead-band edges the latest
+    one left, those the data determine (experiments stored before band edges were: none)."""
     records = history.experiments(vehicle)
     latest = records[-1].values.get("calibration", {}) if records else {}
     return {"learnt": int(latest.get("experiments", 0)),
             "rejected": sum(1 for r in records if not r.values.get("accepted")),
             "gains": [g for g in latest.get("gains", []) if g.get("determined")],
+            "band_edges": [b for b in latest.get("band_edges", []) if b.get("determined")],
             "experiments": [{"id": r.id, **{k: x for k, x in _event_dict(r).items()
                                             if k not in ("experiment", "calibration")}}
                             for r in records]}
@@ -95,6 +96,12 @@ def _calibration_lines(history: History, vehicle: str) -> list[str]:
               f"{g['std_pct']:.1f} % (prior ± {g['prior_std_pct']:.1f} %)" for g in c["gains"]]
     if not c["gains"]:
         lines.append("  none yet narrowed below 90 % of its prior σ")
+    if c["band_edges"]:
+        lines.append("  and the ESC dead-band edges (offset from the profile's, later in PWM "
+                     "positive):")
+        lines += [f"  {b['thruster']} band {b['edge']} edge: {b['mean_us']:+.1f} ± "
+                  f"{b['std_us']:.1f} µs (prior ± {b['prior_std_us']:.1f} µs)"
+                  for b in c["band_edges"]]
     lines += [f"  {e['time_utc']}  {e['message']}" for e in c["experiments"]
               if not e["accepted"]]
     return lines
