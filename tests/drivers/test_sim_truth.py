@@ -74,6 +74,30 @@ def test_thrust_err_max_draws_each_error_between_the_bounds(bluerov: Profile) ->
     assert min(sizes) >= 0.05 and max(sizes) <= 0.1 and np.std(sizes) > 0.01, sizes
 
 
+def test_a_shape_error_changes_the_curve_along_it_and_nothing_else(bluerov: Profile) -> None:
+    """``thrust_shape_err=0.05``: beside the gain error, each true curve is off by up to
+    ±5 % near its band and ∓5 % at full thrust (no gain describes it); every other draw of the
+    seed is that of the same seed without it (a stream of its own)."""
+    v = bluerov.nominal_voltage_V
+    signs = []
+    for seed in range(3):
+        plain, shaped = (SimVehicle(bluerov, perturbed(seed, thrust_shape_err=e))
+                         for e in (0.0, 0.05))
+        assert dataclasses.replace(shaped.offset, shape_errors=()) == plain.offset
+        for i, (s_fwd, _) in enumerate(shaped.offset.shape_errors):
+            # 1 µs past the positive edge of the true band, and at full thrust
+            edge = plain.true_profile.thrusters[i].curve.tables[0].deadband_us[1] + 1
+            pwm = np.full((2, len(bluerov.thrusters)), 1500.0)
+            pwm[:, i] = edge, 1900.0
+            ratio = (thrusts_from_pwm(shaped.true_profile, pwm, v)[:, i]
+                     / thrusts_from_pwm(plain.true_profile, pwm, v)[:, i])
+            # the table's first point past the band is at ≈ 10 % of full thrust: most of s
+            assert abs(s_fwd) == 0.05 and 0.7 <= (ratio[0] - 1) / s_fwd <= 1.0
+            assert ratio[1] == pytest.approx(1 - s_fwd, abs=0.002)  # tables mixed by voltage
+            signs.append(s_fwd)
+    assert len(set(signs)) == 2
+
+
 @pytest.mark.parametrize("name", ["bluerov", "sabertooth"])
 def test_esc_bands_are_offset_and_an_output_inside_hunts_at_the_edge(
         name: str, request: pytest.FixtureRequest) -> None:

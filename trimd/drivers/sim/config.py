@@ -112,6 +112,12 @@ class SimConfig:
         random stream of its own, so the signs and every other draw stay those of
         ``thrust_err`` alone) instead of being exactly ``thrust_err`` [fraction]; not
         part of ``truth=perturbed`` (``thrust_err_max=0.1``: thrust curves 5–10 % off).
+    thrust_shape_err : each thruster's true curve is also off by an error that changes
+        along it, which no gain describes: its thrust f × (1 + s·(1 − 2·|f|/f_max)), f_max
+        the table's largest thrust that way, s = ±thrust_shape_err drawn per thruster and
+        direction from a random stream of its own (+s near the band, −s at full thrust: a
+        table off most near the band, a worn propeller losing most at full thrust)
+        [fraction]; not part of ``truth=perturbed``.
     esc_band_us : each edge of each thruster's true dead band (its ESC's) lies up to this
         far from the profile's, uniform in ±esc_band_us per thruster and edge [µs], and
         the curve beyond it on that side moves with it (an ESC whose neutral and clock
@@ -182,6 +188,7 @@ class SimConfig:
     cob_err_mm: float = 0.0
     thrust_err: float = 0.0
     thrust_err_max: float = 0.0
+    thrust_shape_err: float = 0.0
     esc_band_us: float = 0.0
     esc_hunt: bool = False
     leak_N_min: float = 0.0

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trimd.core.curve_error import curve_with_errors
-from trimd.core.profile import Profile, Thruster
+from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.drivers.sim.config import SimConfig
 
 __all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile",
@@ -26,6 +26,8 @@ __all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile",
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
+#: Random stream of the curves' shape errors (``SimConfig.thrust_shape_err``).
+_SHAPE_STREAM = 102
 #: Random stream of the thrust errors' sizes (``SimConfig.thrust_err_max``), apart from
 #: :data:`_STREAM` so that setting it leaves every other draw of a seed as it was.
 _THRUST_SIZE_STREAM = 101
@@ -43,12 +45,15 @@ class TruthOffset:
         (PWM above neutral) and a reverse output.
     band_offsets_us : per thruster, true − profile dead-band edge (low, high) [µs]; empty
         when the bands are the profile's.
+    shape_errors : per thruster, the curve's shape error s forward and reverse
+        (``SimConfig.thrust_shape_err``); empty when there is none.
     """
 
     buoyancy_factor: float
     r_b_offset_m: tuple[float, float, float]
     thrust_factors: tuple[tuple[float, float], ...]
     band_offsets_us: tuple[tuple[float, float], ...] = ()
+    shape_errors: tuple[tuple[float, float], ...] = ()
 
 
 def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, TruthOffset]:
@@ -71,7 +76,7 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
     (0.01, 5.0)
     """
     if not (config.buoyancy_err or config.cob_err_mm or config.thrust_err
-            or config.thrust_err_max or config.esc_band_us):
+            or config.thrust_err_max or config.esc_band_us or config.thrust_shape_err):
         n = len(profile.thrusters)
         return profile, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.0, 1.0),) * n)
     rng = np.random.default_rng([_truth_seed(config), _STREAM])
@@ -88,7 +93,8 @@ def perturb_profile(profile: Profile, config: SimConfig) -> tuple[Profile, Truth
                                              for (f, r), (kf, kr) in zip(signs, k,
                                                                          strict=True)),
                         band_offsets_us=tuple((float(lo), float(hi)) for lo, hi in band)
-                        if config.esc_band_us else ())
+                        if config.esc_band_us else (),
+                        shape_errors=_shape_errors(config, len(profile.thrusters)))
     x_b, y_b, z_b = profile.r_b_m
     r_b = (x_b + dx, y_b + dy, z_b + dz)
     true = dataclasses.replace(profile, buoyancy_N=profile.buoyancy_N * error.buoyancy_factor,
@@ -106,8 +112,34 @@ def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
     n = len(profile.thrusters)
     factors = offset.thrust_factors if gains else ((1.0, 1.0),) * n
     moved = offset.band_offsets_us if bands and offset.band_offsets_us else ((0.0, 0.0),) * n
-    return tuple(dataclasses.replace(t, curve=curve_with_errors(t.curve, f, b))
-                 for t, f, b in zip(profile.thrusters, factors, moved, strict=True))
+    shapes = offset.shape_errors if gains and offset.shape_errors else ((0.0, 0.0),) * n
+    return tuple(dataclasses.replace(t, curve=curve_with_errors(_shaped(t.curve, *s), f, b))
+                 for t, f, b, s in zip(profile.thrusters, factors, moved, shapes, strict=True))
+
+
+def _shaped(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
+    """``curve`` with each table's thrusts f × (1 + s·(1 − 2·|f|/f_max)), s ``forward`` for
+    positive and ``reverse`` for negative thrusts, f_max the table's largest that way."""
+    if not (forward or reverse):
+        return curve
+    tables = []
+    for table in curve.tables:
+        top = {True: max(table.thrust_N), False: -min(table.thrust_N)}
+        s = {True: forward, False: reverse}
+        tables.append(dataclasses.replace(table, thrust_N=tuple(
+            f * (1 + s[f > 0] * (1 - 2 * abs(f) / top[f > 0])) if top[f > 0] > 0 else f
+            for f in table.thrust_N)))
+    return dataclasses.replace(curve, tables=tuple(tables))
+
+
+def _shape_errors(config: SimConfig, n: int) -> tuple[tuple[float, float], ...]:
+    """Each of ``n`` thrusters' shape error s forward and reverse (module docstring of
+    ``SimConfig.thrust_shape_err``), from a stream of its own; empty without one."""
+    if not config.thrust_shape_err:
+        return ()
+    rng = np.random.default_rng([_truth_seed(config), _SHAPE_STREAM])
+    signs = rng.choice((-1.0, 1.0), size=(n, 2))
+    return tuple((float(f), float(r)) for f, r in config.thrust_shape_err * signs)
 
 
 def _truth_seed(config: SimConfig) -> int:
