@@ -23,18 +23,25 @@ on the rows a level hold measures (Z, K, M). q₁ (the trim's estimate, or the p
 nominal vehicle) enters only through G₂ − G₁, nil when both holds are at the same
 attitude. v carries each hold's noise and wander (the long-run covariance of its mean),
 the attitude reference's slow error of each hold, Δq's uncertainty from the inventory's
-``uncertainty_pct`` and q₁'s through G₂ − G₁. The Gaussian posterior of z follows by the
-linear-Gaussian (Kalman) update; rows the data leave undetermined keep the prior.
+``uncertainty_pct`` and q₁'s through G₂ − G₁: its covariance R.
 
-Before an experiment is learnt its innovation y − H·μ is compared with its predicted
-covariance H·P·Hᵀ + R (χ² with one degree of freedom per row): an experiment that
-disagrees with what the earlier ones taught (a piece heavier than its inventory entry, a
-wrong slot) is rejected and says which, by how much and what to check. Experiments are
-combined in order, sequentially, the rejected ones left out.
+That linear model is how an estimate's ± carries the thrust map; the calibration fits z
+nonlinearly (:mod:`trimd.core.thrust_fit`): each experiment's change of τ predicted from
+its holds' thruster outputs read through the curves with the errors z (a band's factor
+above is a magnitude, right for a ± but not for the sign a shift has near the band);
+experiments whose holds kept no outputs predict linearly. Rows the data leave
+undetermined keep the prior.
+
+Before an experiment is learnt its innovation (target − prediction at the posterior
+mean) is compared with its predicted covariance J·P·Jᵀ + R (χ² with one degree of
+freedom per row): an experiment that disagrees with what the earlier ones taught (a
+piece heavier than its inventory entry, a wrong slot) is rejected and says which, by how
+much and what to check. Experiments are combined in order, the rejected ones left out.
 
 A later estimate uses the posterior through the profile's ``thrust_map``
-(:class:`ThrustMapPosterior`): each hold's mean τ gains F·μ and its factors become F·L,
-L·Lᵀ = P (:func:`~trimd.core.systematics.thrust_map_factors`, ``thrust_map_bias``).
+(:class:`ThrustMapPosterior`): each hold's mean τ is read again through the curves with
+the errors μ (F·μ for a hold without outputs) and its factors become F·L, L·Lᵀ = P
+(:func:`~trimd.core.systematics.thrust_map_factors`, ``thrust_map_bias``).
 """
 
 from __future__ import annotations
