@@ -16,12 +16,15 @@ its proposal, with the id of the verify hold or of the float check (``float_chec
 result as :func:`trimd.core.floating.float_to_dict` gives it, and the session log) it
 came from. A level hold of a trim or a
 verify hold is stored summarised for calibration (``level_holds``: the hold as
-:func:`trimd.core.calibration.calibration_hold` gives it, the vehicle's q and its
-covariance then, the ballast installed then and the trim's or verify hold's record id),
-and each known ballast change between two of them is a calibration experiment
+:func:`trimd.core.calibration.calibration_hold` gives it, in
+:func:`trimd.core.calibration_json.hold_to_dict`'s shape, whose ``outputs`` key — the
+thruster outputs' histograms — records made before 2026-11-29 lack; the vehicle's q and
+its covariance then, the ballast installed then and the trim's or verify hold's record
+id), and each known ballast change between two of them is a calibration experiment
 (``calibration_experiments``: the experiment as
-:func:`trimd.core.calibration.experiment_to_dict` gives it, accepted or rejected and
-why); the vehicle's calibration is recomputed from these (docs/method.md §7).
+:func:`trimd.core.calibration_json.experiment_to_dict` gives it, accepted or rejected and
+why, and the gains and band edges after it); the vehicle's calibration is recomputed
+from these (docs/method.md §7).
 """
 
 from __future__ import annotations
