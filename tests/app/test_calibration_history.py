@@ -220,3 +220,5 @@ def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
                 {**old, "kg": float("nan")}, {"hold": "before"}):
         with pytest.raises(DataError, match="x: the recorded calibration hold is malformed"):
             hold_from_record(bad, "x")
+    with pytest.raises(DataError, match="two or more recordings of its level holds"):
+        asyncio.run(replay_calibration(["one.tlog"], None))
