@@ -141,7 +141,8 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str,
               db: Path) -> CalibrationRun:
     """A deliberate calibration with the series ``weights`` declared and ``hung_kg`` [kg in
     water] hung instead, of the vehicle of ``seed``, its holds the dives
-    ``seed + (first + k)·NOISE``, stored in ``db``."""
+    ``seed + (first + k)·NOISE``, checked against the calibration stored in ``db`` and
+    stored there."""
     opened: list[str] = []
 
     def opener() -> Awaitable[Link]:
@@ -154,7 +155,8 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str,
         return open_link(f"sim:payload={payload}{extra},seed={seed + (first + len(opened)) * NOISE}"
                          f",truth_seed={seed},{options}", profile)
 
-    return asyncio.run(calibrate_with_weights(opener, profile, weights, lambda _text: True,
+    calibrated = calibrated_profile(db, "bench", profile)
+    return asyncio.run(calibrate_with_weights(opener, calibrated, weights, lambda _text: True,
                                               db=db, vehicle="bench", wall_clock=False))
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Never
 
 from trimd.app.history import History
-from trimd.app.history.calibration import store_experiment, stored_calibration
+from trimd.app.history.calibration import store_experiment
 from trimd.app.session import Presenter, Recorder, Session
 from trimd.core.calibration import (
     Experiment,
@@ -198,8 +198,10 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
                                  | None = None) -> CalibrationRun:
     """A level hold, then per weight of ``weights``: ``hung(text)`` (the operator takes
     the previous weight off, hangs this one and says so), a level hold, and the experiment
-    of the two holds checked and stored under ``vehicle`` in the history ``db`` (None:
-    checked against the profile's own thrust map, and not stored) as soon as it is made.
+    of the two holds checked against the calibration so far, ``profile``'s thrust map
+    (the vehicle's stored calibration: :func:`~trimd.app.history.calibration.
+    calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
+    ``db`` (None: not stored) as soon as it is made.
     ``hung`` False before the first weight aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
@@ -220,9 +222,6 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
                            record(hold_record(k, weights)) if record else None)
 
     post = profile.thrust_map or prior(profile)
-    if db is not None:
-        with History(db) as history:
-            post = stored_calibration(history, vehicle, profile).posterior
     holds = [await level_hold(0)]
     experiments: list[Experiment] = []
     outcomes: list[Outcome] = []
