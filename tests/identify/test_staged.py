@@ -142,12 +142,14 @@ def test_identify_runs_the_staged_procedure_from_recordings(
     from trimd.logs.recorder import TlogRecorder
 
     text = Path(bluerov.source).read_text(encoding="utf-8")
-    fit_logs, val_logs = [], []
+    fit_logs, val_logs, held_out = [], [], {}
     for k, stage in enumerate(STAGES):
         for logs, duration, seed in ((fit_logs, 60.0, 40 + k), (val_logs, 30.0, 50 + k)):
             path = tmp_path / f"{stage}-{seed}.tlog"
-            record(unseen, bluerov, stage, duration, seed,
-                   recorder=TlogRecorder(path, bluerov, text))
+            samples = record(unseen, bluerov, stage, duration, seed,
+                             recorder=TlogRecorder(path, bluerov, text))
+            if logs is val_logs:
+                held_out[stage] = samples
             assert recorded_stage(str(path)) == stage
             logs.append(str(path))
     out = tmp_path / "out"
@@ -165,8 +167,8 @@ def test_identify_runs_the_staged_procedure_from_recordings(
         (out / "fragment.yaml").read_text(encoding="utf-8")), "merged")
     for stage in STAGES:   # the profile holds no thruster lag: the one the stage found
         lag = summary["stages"][stage]["parameters"]["T_thr"]["value"]
-        held_out = experiments_from_samples(record(unseen, bluerov, stage, 30.0, 60), bluerov)
-        for v in validate(prior_values(merged) | {"T_thr": lag}, held_out, merged, stage):
+        validation = experiments_from_samples(held_out[stage], bluerov)
+        for v in validate(prior_values(merged) | {"T_thr": lag}, validation, merged, stage):
             assert v.worst() is not None and v.worst() >= 85.0, (stage, v.describe())
 
 
