@@ -22,8 +22,11 @@ is linear in z:
 on the rows a level hold measures (Z, K, M). q₁ (the trim's estimate, or the profile's
 nominal vehicle) enters only through G₂ − G₁, nil when both holds are at the same
 attitude. v carries each hold's noise and wander (the long-run covariance of its mean),
-the attitude reference's slow error of each hold, Δq's uncertainty from the inventory's
-``uncertainty_pct`` and q₁'s through G₂ − G₁: its covariance R.
+the attitude reference's slow error of each hold, what each hold's hunting samples
+delivered (:func:`~trimd.core.hunting.hunting_factors`), Δq's uncertainty from the
+inventory's ``uncertainty_pct`` and q₁'s through G₂ − G₁: its covariance R. The dead-band
+edges the holds show by hunting condition the prior before any experiment is fitted
+(:func:`edges_of`, :func:`~trimd.core.hunting.observed_bands`).
 
 That linear model is how an estimate's ± carries the thrust map; the calibration fits z
 nonlinearly (:mod:`trimd.core.thrust_fit`): each experiment's change of τ predicted from
@@ -55,9 +58,11 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
+from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands
 from trimd.core.longrun import mean_covariance
+from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import restoring_matrix, thrust_configuration
-from trimd.core.output_hist import OutputHistogram, output_histogram
+from trimd.core.output_hist import OutputHistogram, edges_seen, output_histogram
 from trimd.core.profile import Profile
 from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
@@ -65,57 +70,14 @@ from trimd.core.types import FloatArray
 
 __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Outcome",
            "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
-           "calibration_hold", "change_model", "experiment_rows", "posterior", "prior", "update"]
+           "calibration_hold", "change_model", "edges_of", "experiment_rows", "posterior",
+           "prior", "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
 _ROW_NAMES = {2: "Z (W − B)", 3: "K (W·y_g − B·y_b)", 4: "M (W·x_g − B·x_b)"}
 #: An experiment whose innovation has a χ² tail probability below this is rejected.
 REJECT_P = 1e-3
-
-
-@dataclass(frozen=True, eq=False)
-class ThrustMapPosterior:
-    """The Gaussian posterior of the thrust map's errors z (units of the prior 1σ, the
-    order of :func:`~trimd.core.systematics.thrust_map_factors`' columns: gains forward,
-    gains reverse, band edges negative, positive), shape (4·n,).
-
-    Attributes
-    ----------
-    mean : μ, shape (4·n,).
-    cov : P, shape (4·n, 4·n).
-    sqrt_cov : L, lower triangular with L·Lᵀ = P (its columns from 2·n on are band
-        errors alone, as the prior's).
-    experiments : how many experiments it rests on.
-    """
-
-    mean: FloatArray
-    cov: FloatArray
-    sqrt_cov: FloatArray
-    experiments: int
-
-
-def posterior(mean: FloatArray, cov: FloatArray, experiments: int) -> ThrustMapPosterior:
-    """The posterior of mean μ and covariance P (symmetrised; L by Cholesky, with the
-    least diagonal jitter that makes P positive definite; EstimationError when none up to
-    P's own scale does: P is not a covariance)."""
-    cov = (cov + cov.T) / 2
-    scale = float(np.max(np.abs(np.diag(cov)), initial=1.0))
-    jitter = 0.0
-    while jitter <= scale:
-        try:
-            L = np.linalg.cholesky(cov + jitter * np.eye(len(cov))).astype(np.float64)
-            return ThrustMapPosterior(mean, cov, L, experiments)
-        except np.linalg.LinAlgError:
-            jitter = max(2 * jitter, 1e-12)
-    raise EstimationError("the thrust map's posterior covariance is not a covariance "
-                          "(not positive definite, or not finite)")
-
-
-def prior(profile: Profile) -> ThrustMapPosterior:
-    """The profile's own thrust map: z ~ N(0, I), no experiment."""
-    k = 4 * len(profile.thrusters)
-    return ThrustMapPosterior(np.zeros(k), np.eye(k), np.eye(k), 0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -242,6 +204,9 @@ def experiment_rows(exp: Experiment, profile: Profile
     for h, q in ((b, q1), (a, q2)):
         E = attitude_error_factors([(h.phi_rad, h.theta_rad)], [r], profile, q)[0]
         R = R + E @ E.T
+        if h.outputs is not None:   # what its hunting samples delivered
+            U = hunting_factors(edges_seen(h.outputs, profile), r, profile)
+            R = R + U @ U.T
     return y, H, R, r
 
 
@@ -314,11 +279,20 @@ def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
                    f"calibration experiment {exp.label!r} learnt ({off}; {about})")
 
 
+def edges_of(experiments: Sequence[Experiment], profile: Profile) -> list[EdgeObservation]:
+    """The dead-band edges the experiments' holds show by hunting
+    (:mod:`trimd.core.hunting`): what the holds teach of the bands whatever the ballast
+    change, so a rejected experiment's too."""
+    return [o for exp in experiments for h in (exp.before, exp.after) if h.outputs is not None
+            for o in edges_seen(h.outputs, profile)]
+
+
 def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
            ) -> tuple[ThrustMapPosterior, Outcome]:
     """``post`` updated by ``exp`` (the fit with ``post`` as its prior), or ``post``
     unchanged when ``exp`` disagrees with it (χ² tail probability below
     :data:`REJECT_P`), with the outcome."""
+    post = observed_bands(post, edges_of([exp], profile), profile) or post
     model = change_model(exp, profile)
     outcome = _checked(post, exp, model, profile)
     if not outcome.accepted:
@@ -344,7 +318,10 @@ def calibrate(experiments: Sequence[Experiment], profile: Profile) -> Calibratio
     """The profile's prior updated by ``experiments`` in order, each inconsistent one left
     out (and said so in its :class:`Outcome`): each is checked against those accepted
     before it, then all accepted are fitted afresh from the prior."""
-    post, outcomes, accepted = prior(profile), [], []
+    post = observed_bands(prior(profile), edges_of(experiments, profile), profile) or prior(
+        profile)
+    outcomes: list[Outcome] = []
+    accepted: list[ChangeModel] = []
     start = Gaussian(post.mean, post.sqrt_cov)
     for exp in experiments:
         model = change_model(exp, profile)

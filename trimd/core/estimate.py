@@ -52,7 +52,7 @@ the rows the fit uses.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,12 @@ from numpy.typing import NDArray
 
 from trimd.core.drift import DRIFT_MODEL_ERROR
 from trimd.core.errors import EstimationError
+from trimd.core.hunting import (
+    EdgeObservation,
+    edge_observations,
+    hunting_factors,
+    observed_bands,
+)
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
 from trimd.core.profile import Profile
@@ -254,6 +260,22 @@ def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
     return q
 
 
+def edges_shown(hold: HoldSamples, profile: Profile) -> list[EdgeObservation]:
+    """The dead-band edges ``hold``'s outputs show by hunting (:mod:`trimd.core.hunting`);
+    none for a hold without outputs or per-thruster thrust."""
+    if hold.outputs is None or hold.thrust is None:
+        return []
+    return edge_observations(hold.outputs.pwm_us, float(np.mean(hold.outputs.voltage_V)),
+                             profile)
+
+
+def with_observed_bands(seen: Sequence[EdgeObservation], profile: Profile) -> Profile:
+    """``profile`` with its thrust map (its calibration, else its prior) conditioned on
+    the dead-band edges ``seen``; ``profile`` itself when there is none it did not know."""
+    known = observed_bands(profile.thrust_map, seen, profile)
+    return profile if known is profile.thrust_map else replace(profile, thrust_map=known)
+
+
 def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
                     dofs: Sequence[bool] | None = None) -> StaticEstimate:
     """Weighted least squares for the weight and centre of gravity over steady holds.
@@ -289,6 +311,8 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         raise EstimationError("no steady hold to estimate from")
     for h in holds:
         check_samples(h)
+    seen = [edges_shown(h, profile) for h in holds]
+    profile = with_observed_bands([o for k in seen for o in k], profile)
     level = [is_level(h) for h in holds]
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the
     # drift (heave drag ≫ sway drag) biases the tilted force rows; level holds do not drift
@@ -308,6 +332,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     # each weight is 1/σ of its row's mean, thrust-curve gain errors included: a row
     # whose noise is nil but whose thrust is uncertain is not exact
     gains = thrust_map_factors(holds, used, profile)
+    hunting = [hunting_factors(k, r, profile) for k, r in zip(seen, used, strict=True)]
     if profile.thrust_map is not None:  # the calibration's mean correction of the map
         tau = [t + b for t, b in zip(tau, thrust_map_bias(holds, used, profile), strict=True)]
     scale = _group_scales(holds, used)
@@ -316,9 +341,9 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         drift = drift_moments(attitude, used, profile, float(q[0]))
         tilt = attitude_error_factors(attitude, used, profile, q)
         means = _residual_means(holds, used, q)
-        var = [np.diag(m.interval_cov) + (g**2).sum(axis=1)
+        var = [np.diag(m.interval_cov) + (g**2).sum(axis=1) + (u**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * d)**2 + (e**2).sum(axis=1)
-               for m, g, d, e in zip(means, gains, drift, tilt, strict=True)]
+               for m, g, u, d, e in zip(means, gains, hunting, drift, tilt, strict=True)]
         floor = max(1e-12 * max(float(v.max()) for v in var),
                     min(float(v.min()) for v in var), 1e-300)
         # 1/σ weights scaled into (0, 1], so that the sandwich below cannot overflow
@@ -336,7 +361,12 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
     U = sum(((Ak.T * w**2) @ g for Ak, w, g in zip(A, weights, gains, strict=True)),
             np.zeros((4, 4 * n)))
     meat = meat + U @ U.T
-    q_cov_band = H_inv @ U[:, 2 * n:] @ U[:, 2 * n:].T @ H_inv
+    band_meat = U[:, 2 * n:] @ U[:, 2 * n:].T
+    # what hunting samples delivered (whatever balanced), one value per hold
+    for Ak, w, u in zip(A, weights, hunting, strict=True):
+        U = (Ak.T * w**2) @ u
+        meat, band_meat = meat + U @ U.T, band_meat + U @ U.T
+    q_cov_band = H_inv @ band_meat @ H_inv
     # the drift model's error, one for all holds
     U_drift = sum(((Ak.T * w**2) @ (DRIFT_MODEL_ERROR * d) for Ak, w, d in
                    zip(A, weights, drift, strict=True)), np.zeros(4))

@@ -8,8 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from trimd.core.calibration import ThrustMapPosterior
 from trimd.core.curve_error import BAND_SIGMA_SHARE
+from trimd.core.map_posterior import ThrustMapPosterior
 from trimd.core.profile import Profile
 from trimd.core.types import JsonObject
 

@@ -12,11 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from trimd.core.estimate import HeldOutputs
+from trimd.core.hunting import EdgeObservation, edge_observations
 from trimd.core.model import thrust_from_pwm
-from trimd.core.profile import Thruster
+from trimd.core.profile import Profile, Thruster
 from trimd.core.types import FloatArray
 
-__all__ = ["OutputHistogram", "mean_thrust", "output_histogram"]
+__all__ = ["OutputHistogram", "edges_seen", "mean_thrust", "output_histogram"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,3 +45,11 @@ def mean_thrust(hist: OutputHistogram, thrusters: Sequence[Thruster]) -> FloatAr
     ``thrusters``' curves at the hold's mean voltage, shape (n,)."""
     return np.array([float(c @ thrust_from_pwm(t.curve, p, hist.voltage_V)) / float(c.sum())
                      for t, p, c in zip(thrusters, hist.pwm_us, hist.counts, strict=True)])
+
+
+def edges_seen(hist: OutputHistogram, profile: Profile) -> list[EdgeObservation]:
+    """The dead-band edges the hold of ``hist`` shows by hunting
+    (:func:`~trimd.core.hunting.edge_observations`)."""
+    columns = [np.repeat(p, c.astype(int)) for p, c in zip(hist.pwm_us, hist.counts,
+                                                            strict=True)]
+    return edge_observations(np.stack(columns, axis=1), hist.voltage_V, profile)

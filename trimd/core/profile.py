@@ -18,7 +18,7 @@ from trimd.core.errors import ProfileError
 from trimd.core.types import Vec3
 
 if TYPE_CHECKING:
-    from trimd.core.calibration import ThrustMapPosterior
+    from trimd.core.map_posterior import ThrustMapPosterior
 
 __all__ = [
     "PIECE_UNCERTAINTY_PCT",

@@ -37,9 +37,11 @@ from trimd.core.estimate import (
     MOMENT_ROWS,
     HoldSamples,
     check_samples,
+    edges_shown,
     is_level,
     measurable_dofs,
 )
+from trimd.core.hunting import hunting_factors
 from trimd.core.longrun import mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix
 from trimd.core.profile import Profile
@@ -146,6 +148,7 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     B_o = A @ V_o
     tau = h.tau[:, used].mean(axis=0)
     factors = thrust_map_factors([h], [used], profile)[0]
+    hunting = hunting_factors(edges_shown(h, profile), used, profile)
     if profile.thrust_map is not None:  # the calibration's mean correction of the map
         tau = tau + thrust_map_bias([h], [used], profile)[0]
     q = prior.copy()
@@ -158,11 +161,11 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
                                        restoring_matrix(h.phi, h.theta)[:, used], q)
         mc = mean_covariance(e)
         tilt = attitude_error_factors([(phi, theta)], [used], profile, q)[0]
-        var = (np.diag(mc.interval_cov) + (factors**2).sum(axis=1)
+        var = (np.diag(mc.interval_cov) + (factors**2).sum(axis=1) + (hunting**2).sum(axis=1)
                + (DRIFT_MODEL_ERROR * drift)**2 + (tilt**2).sum(axis=1))
         weights = 1 / np.sqrt(np.maximum(var, 1e-12 * max(float(var.max()), 1e-300)))
     J = V_o @ L  # q = prior + J·(τ̄ − drift − A·prior)
-    noise = J @ mc.interval_cov @ J.T
+    noise = J @ (mc.interval_cov + hunting @ hunting.T) @ J.T   # hunting: this segment's
     gain = J @ factors
     d = J @ (DRIFT_MODEL_ERROR * drift)
     reference = J @ tilt
