@@ -9,11 +9,21 @@ import numpy as np
 import pytest
 
 from trimd.core.curve_error import BAND_SIGMA_SHARE
-from trimd.core.hunting import EDGE_STD_US, edge_observations, observed_bands
+from trimd.core.hunting import (
+    EDGE_STD_US,
+    EdgeObservation,
+    hunting_spikes,
+    observed_bands,
+    through_band,
+)
 from trimd.core.model import band_at
 from trimd.core.profile import Profile
 from trimd.drivers.sim.config import SimConfig, with_presets
 from trimd.drivers.sim.vehicle import SimVehicle
+
+
+def edges(pwm_us: np.ndarray, voltage_V: float, profile: Profile) -> list[EdgeObservation]:
+    return through_band(hunting_spikes(pwm_us, voltage_V, profile))
 
 
 def _outputs(columns: dict[int, list[float]], n: int, samples: int = 200) -> np.ndarray:
@@ -32,7 +42,7 @@ def test_spikes_at_the_innermost_pwm_of_both_sides_are_edges(bluerov: Profile) -
     n, v = len(bluerov.thrusters), bluerov.nominal_voltage_V
     lo, hi = band_at(bluerov.thrusters[0].curve, v)        # 1472, 1528 µs
     hunting = [hi + 2] * 5 + [lo - 3] * 3 + [hi + 6, lo - 9]   # through the band
-    seen = edge_observations(_outputs({0: hunting}, n), v, bluerov)
+    seen = edges(_outputs({0: hunting}, n), v, bluerov)
     assert [(o.thruster, o.positive, o.edge_us, o.offset_us) for o in seen] == [
         (0, False, lo - 2.5, -2.5), (0, True, hi + 1.5, 1.5)]
     assert seen[1].share == pytest.approx(0.5) and seen[1].step_N > 0 > seen[0].step_N
@@ -40,8 +50,12 @@ def test_spikes_at_the_innermost_pwm_of_both_sides_are_edges(bluerov: Profile) -
     across = [*np.arange(hi - 4, hi + 6, 1.0), lo - 3]     # reported inside the band
     far = [hi + 9] * 4 + [lo - 3] * 4                      # beyond the margin
     rare = [hi + 2] + [hi + 8] * 9 + [lo - 3] * 5
-    assert edge_observations(_outputs({0: resting, 1: across, 2: far, 3: rare}, n), v,
-                             bluerov) == []
+    outputs = _outputs({0: resting, 1: across, 2: far, 3: rare}, n)
+    assert edges(outputs, v, bluerov) == []
+    # each side on its own: resting at one PWM nearest the band, it may be hunting there
+    assert [(o.thruster, o.spike_us, o.share) for o in hunting_spikes(outputs, v, bluerov)
+            ] == [(0, hi + 1, pytest.approx(5 / 6, abs=0.01)), (2, lo - 3, 0.5),
+                  (3, lo - 3, pytest.approx(1 / 3, abs=0.01))]
 
 
 def test_nothing_seen_leaves_the_thrust_map_as_it_was(bluerov: Profile) -> None:
@@ -51,7 +65,7 @@ def test_nothing_seen_leaves_the_thrust_map_as_it_was(bluerov: Profile) -> None:
 def test_conditioning_on_an_edge_moves_that_edge_alone(bluerov: Profile) -> None:
     n, v = len(bluerov.thrusters), bluerov.nominal_voltage_V
     lo, hi = band_at(bluerov.thrusters[2].curve, v)
-    seen = [o for o in edge_observations(_outputs({2: [hi + 3] * 3 + [lo] * 3}, n), v,
+    seen = [o for o in edges(_outputs({2: [hi + 3] * 3 + [lo] * 3}, n), v,
                                          bluerov) if o.positive]
     post = observed_bands(None, seen + seen, bluerov)   # one edge seen by two holds
     assert post is not None and post.experiments == 0
@@ -83,7 +97,7 @@ def test_the_simulated_heavy_s_held_outputs_show_its_true_edges(bluerov: Profile
         sim.run_for(0.1)
         rows.append(sim.sample("thrusters").pwm_us)
     v = sim.voltage_V
-    seen = edge_observations(np.array(rows), v, bluerov)
+    seen = edges(np.array(rows), v, bluerov)
     assert len(seen) >= 8, seen
     true_offsets = np.array(sim.offset.band_offsets_us)
     for o in seen:

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.special import ndtri  # scipy.stats' norm.ppf, without its 1 s import
 
 from trimd.ballast.check import MIN_GM_M, SlotLoad, Trim, check_trim, equilibrium_attitude
-from trimd.core.estimate import HoldSamples, StaticEstimate, edges_shown, with_observed_bands
+from trimd.core.estimate import HoldSamples, StaticEstimate, spikes_of, with_observed_bands
 from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 from trimd.core.segment import SegmentEstimate, estimate_segment
@@ -112,7 +112,7 @@ def verify_hold(hold: HoldSamples, profile: Profile, estimate: StaticEstimate,
     predicted = check_trim(estimate, installed, profile.gravity_m_s2)
     q_pred = np.r_[-predicted.net_buoyancy_N, predicted.net_moment_Nm]
     # near level the thrusters idle at their bands: the edges the hold shows by hunting
-    seen = with_observed_bands(edges_shown(hold, profile), profile)
+    seen = with_observed_bands(spikes_of(hold, profile), profile)
     measured = estimate_segment(hold, seen, q_prior=q_pred)
     difference = measured.q[:3] - q_pred[:3]
     cov = measured.q_cov[:3, :3] + estimate.q_cov[:3, :3]

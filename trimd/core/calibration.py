@@ -58,11 +58,11 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
-from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands
+from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands, through_band
 from trimd.core.longrun import mean_covariance
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import restoring_matrix, thrust_configuration
-from trimd.core.output_hist import OutputHistogram, edges_seen, output_histogram
+from trimd.core.output_hist import OutputHistogram, output_histogram, spikes_seen
 from trimd.core.profile import Profile
 from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
@@ -205,7 +205,7 @@ def experiment_rows(exp: Experiment, profile: Profile
         E = attitude_error_factors([(h.phi_rad, h.theta_rad)], [r], profile, q)[0]
         R = R + E @ E.T
         if h.outputs is not None:   # what its hunting samples delivered
-            U = hunting_factors(edges_seen(h.outputs, profile), r, profile)
+            U = hunting_factors(spikes_seen(h.outputs, profile), r, profile)
             R = R + U @ U.T
     return y, H, R, r
 
@@ -246,9 +246,13 @@ def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
     """``exp`` as the fit sees it (:mod:`trimd.core.thrust_fit`)."""
     y, H, R, rows = experiment_rows(exp, profile)
     measured = (exp.after.tau - exp.before.tau)[rows]
+    b, a = exp.before.outputs, exp.after.outputs
+    def spikes(h: OutputHistogram | None) -> tuple[EdgeObservation, ...]:
+        return () if h is None else tuple(spikes_seen(h, profile))
+
     return ChangeModel(exp.label, rows, y + measured, R,
-                       thrust_configuration(profile.thrusters)[rows], exp.before.outputs,
-                       exp.after.outputs, measured, H)
+                       thrust_configuration(profile.thrusters)[rows], b, a, measured, H,
+                       (spikes(b), spikes(a)))
 
 
 def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
@@ -284,7 +288,7 @@ def edges_of(experiments: Sequence[Experiment], profile: Profile) -> list[EdgeOb
     (:mod:`trimd.core.hunting`): what the holds teach of the bands whatever the ballast
     change, so a rejected experiment's too."""
     return [o for exp in experiments for h in (exp.before, exp.after) if h.outputs is not None
-            for o in edges_seen(h.outputs, profile)]
+            for o in through_band(spikes_seen(h.outputs, profile))]
 
 
 def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile

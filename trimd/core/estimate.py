@@ -62,9 +62,10 @@ from trimd.core.drift import DRIFT_MODEL_ERROR
 from trimd.core.errors import EstimationError
 from trimd.core.hunting import (
     EdgeObservation,
-    edge_observations,
     hunting_factors,
+    hunting_spikes,
     observed_bands,
+    through_band,
 )
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
@@ -260,19 +261,19 @@ def _weighted_fit(A: Sequence[FloatArray], tau: Sequence[FloatArray],
     return q
 
 
-def edges_shown(hold: HoldSamples, profile: Profile) -> list[EdgeObservation]:
-    """The dead-band edges ``hold``'s outputs show by hunting (:mod:`trimd.core.hunting`);
-    none for a hold without outputs or per-thruster thrust."""
+def spikes_of(hold: HoldSamples, profile: Profile) -> list[EdgeObservation]:
+    """The hunting spikes of ``hold``'s outputs (:func:`~trimd.core.hunting.
+    hunting_spikes`); none for a hold without outputs or per-thruster thrust."""
     if hold.outputs is None or hold.thrust is None:
         return []
-    return edge_observations(hold.outputs.pwm_us, float(np.mean(hold.outputs.voltage_V)),
-                             profile)
+    return hunting_spikes(hold.outputs.pwm_us, float(np.mean(hold.outputs.voltage_V)), profile)
 
 
-def with_observed_bands(seen: Sequence[EdgeObservation], profile: Profile) -> Profile:
+def with_observed_bands(spikes: Sequence[EdgeObservation], profile: Profile) -> Profile:
     """``profile`` with its thrust map (its calibration, else its prior) conditioned on
-    the dead-band edges ``seen``; ``profile`` itself when there is none it did not know."""
-    known = observed_bands(profile.thrust_map, seen, profile)
+    the dead-band edges that the hunting ``spikes`` show (:func:`~trimd.core.hunting.
+    through_band`); ``profile`` itself when they show none it did not know."""
+    known = observed_bands(profile.thrust_map, through_band(spikes), profile)
     return profile if known is profile.thrust_map else replace(profile, thrust_map=known)
 
 
@@ -311,7 +312,7 @@ def estimate_static(holds: Sequence[HoldSamples], profile: Profile, *,
         raise EstimationError("no steady hold to estimate from")
     for h in holds:
         check_samples(h)
-    seen = [edges_shown(h, profile) for h in holds]
+    seen = [spikes_of(h, profile) for h in holds]
     profile = with_observed_bands([o for k in seen for o in k], profile)
     level = [is_level(h) for h in holds]
     # a vehicle that holds depth, not station, drifts at a tilted hold: the drag of the

@@ -10,25 +10,26 @@ band a T200's thrust grows from zero at that edge (≈ 0.08 N per µs), so an ed
 off moves every output's thrust by the slope times the offset: most of the thrust map's
 error near neutral (a T200's 5 % gain is 0.05 N at 1 N).
 
-:func:`edge_observations` finds such pile-ups, hunting spikes, in one hold: on each side
+:func:`hunting_spikes` finds such pile-ups, hunting spikes, in one hold: on each side
 of neutral, the PWM nearest the band that the hold's outputs show (nothing between it and
 neutral), within the margin (+1 µs) of the table's edge, holding at least
 :data:`SPIKE_SHARE` of the hold's samples and :data:`SPIKE_RATIO` times as many as the
-PWM beside it; and a thruster shows its edges only where it has a spike on both sides:
-its output went through the band and was never seen inside it. A spike on one side alone
-may be an output that rests steadily just beyond the band (the simulated Heavy's
-horizontal thrusters at a 20° hold: 83 % at 1529 µs, the rest at 1530), which says
-nothing of where the band starts. Outputs that went through the band and were seen only
-at its edges were reported where they hunted, at the first PWM of thrust (as the
-simulator's ``esc_hunt`` reports them): the true edge, the last PWM of no thrust, lies in
-the 1 µs before the spike, at its middle ± :data:`EDGE_STD_US`. An output reported as
-commanded, inside the band too, shows no spikes and teaches nothing: the profile's ±
-stays.
+PWM beside it; and a thruster shows its edges only where it has a spike on both sides
+(:func:`through_band`): its output went through the band and was never seen inside it.
+A spike on one side alone may be an output that rests steadily just beyond the band
+(the simulated Heavy's horizontal thrusters at a 20° hold: 83 % at 1529 µs, the rest at
+1530), which says nothing of where the band starts, though it may be hunting. Outputs
+that went through the band and were seen only at its edges were reported where they
+hunted, at the first PWM of thrust (as the simulator's ``esc_hunt`` reports them): the
+true edge, the last PWM of no thrust, lies in the 1 µs before the spike, at its middle ±
+:data:`EDGE_STD_US`. An output reported as commanded, inside the band too, shows no
+spikes and teaches nothing: the profile's ± stays.
 
 :func:`observed_bands` conditions the thrust map's Gaussian (the profile's prior, or its
-calibration) on the edges that a set of holds shows; what the hunting samples delivered,
-whatever balanced, stays uncertain by up to the first µs's thrust
-(:func:`hunting_factors`).
+calibration) on the edges that a set of holds shows; what the samples of every spike
+delivered, whatever balanced, stays uncertain by up to the first µs's thrust
+(:func:`hunting_factors`), and a calibration does not read the curves from them
+(:func:`~trimd.core.output_hist.mean_thrust`).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from trimd.core.profile import Profile
 from trimd.core.types import FloatArray
 
 __all__ = ["EDGE_STD_US", "SPIKE_RATIO", "SPIKE_SHARE", "EdgeObservation",
-           "edge_observations", "hunting_factors", "observed_bands"]
+           "hunting_factors", "hunting_spikes", "observed_bands", "through_band"]
 
 #: Least share of a hold's samples at one PWM for a hunting spike.
 SPIKE_SHARE = 0.2
@@ -67,6 +68,7 @@ class EdgeObservation:
     ----------
     thruster : its index (the profile's order).
     positive : the edge above neutral (else the one below).
+    spike_us : the spike's PWM [µs].
     edge_us : the last PWM of no thrust [µs]: the spike's PWM ∓ 0.5 µs
         (± :data:`EDGE_STD_US`).
     offset_us : how far that lies from the profile's table edge at the hold's voltage [µs]
@@ -78,41 +80,52 @@ class EdgeObservation:
 
     thruster: int
     positive: bool
+    spike_us: float
     edge_us: float
     offset_us: float
     share: float
     step_N: float
 
 
-def edge_observations(pwm_us: ArrayLike, voltage_V: float, profile: Profile
-                      ) -> list[EdgeObservation]:
-    """The dead-band edges that the outputs ``pwm_us`` of one hold show by hunting spikes
-    (module docstring), shape (N, n) [µs] in the profile's thruster order, at the hold's
-    mean battery voltage ``voltage_V`` [V]."""
+def hunting_spikes(pwm_us: ArrayLike, voltage_V: float, profile: Profile
+                   ) -> list[EdgeObservation]:
+    """Every hunting spike (module docstring) of the outputs ``pwm_us`` of one hold, each
+    side on its own, shape (N, n) [µs] in the profile's thruster order, at the hold's mean
+    battery voltage ``voltage_V`` [V]: what those samples delivered is whatever balanced
+    (:func:`hunting_factors`), whether the edge can be read or not
+    (:func:`through_band`)."""
     pwm = np.round(np.asarray(pwm_us, float))
     found = []
     for i, t in enumerate(profile.thrusters):
-        column = pwm[:, i]
-        spikes = [_spike(column, positive, table_edge, t.curve.neutral_us,
-                         t.curve.deadband_margin_us + 1)
-                  for positive, table_edge in zip((False, True), band_at(t.curve, voltage_V),
-                                                  strict=True)]
-        low, high = spikes
-        if low is None or high is None:   # one side alone may be a steady output
-            continue
-        for positive, (table_edge, inner, share) in ((False, low), (True, high)):
+        for positive, table_edge in zip((False, True), band_at(t.curve, voltage_V),
+                                        strict=True):
+            spike = _spike(pwm[:, i], positive, table_edge, t.curve.neutral_us,
+                           t.curve.deadband_margin_us + 1)
+            if spike is None:
+                continue
+            inner, share = spike
             step = float(thrust_from_pwm(t.curve, table_edge + (1 if positive else -1),
                                          voltage_V))
             edge = inner - 0.5 if positive else inner + 0.5
-            found.append(EdgeObservation(i, positive, edge, edge - table_edge, share, step))
+            found.append(EdgeObservation(i, positive, inner, edge, edge - table_edge, share,
+                                         step))
     return found
 
 
+def through_band(spikes: Sequence[EdgeObservation]) -> list[EdgeObservation]:
+    """The spikes whose edges can be read: those of thrusters with a spike on both sides
+    (module docstring; one side alone may be a steady output)."""
+    sides: dict[int, int] = {}
+    for o in spikes:
+        sides[o.thruster] = sides.get(o.thruster, 0) + 1
+    return [o for o in spikes if sides[o.thruster] == 2]
+
+
 def _spike(column: FloatArray, positive: bool, table_edge: float, neutral_us: float,
-           reach_us: float) -> tuple[float, float, float] | None:
+           reach_us: float) -> tuple[float, float] | None:
     """The hunting spike of one thruster's whole-µs outputs ``column`` on one side of
-    neutral (module docstring): (the table's edge, the spike's PWM [µs], its share of the
-    samples), or None."""
+    neutral (module docstring): (the spike's PWM [µs], its share of the samples), or
+    None."""
     side = column[column > neutral_us] if positive else column[column < neutral_us]
     if not len(side):
         return None
@@ -121,7 +134,7 @@ def _spike(column: FloatArray, positive: bool, table_edge: float, neutral_us: fl
     beside = np.count_nonzero(side == inner + (1 if positive else -1))
     if (abs(inner - table_edge) <= reach_us and count >= SPIKE_SHARE * len(column)
             and count >= SPIKE_RATIO * beside):
-        return table_edge, inner, count / len(column)
+        return inner, count / len(column)
     return None
 
 

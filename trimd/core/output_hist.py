@@ -12,12 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from trimd.core.estimate import HeldOutputs
-from trimd.core.hunting import EdgeObservation, edge_observations
+from trimd.core.hunting import EdgeObservation, hunting_spikes
 from trimd.core.model import thrust_from_pwm
 from trimd.core.profile import Profile, Thruster
 from trimd.core.types import FloatArray
 
-__all__ = ["OutputHistogram", "edges_seen", "mean_thrust", "output_histogram"]
+__all__ = ["OutputHistogram", "mean_thrust", "output_histogram", "spikes_seen"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,16 +40,25 @@ def output_histogram(outputs: HeldOutputs) -> OutputHistogram:
     return OutputHistogram(tuple(levels), tuple(counts), float(np.mean(outputs.voltage_V)))
 
 
-def mean_thrust(hist: OutputHistogram, thrusters: Sequence[Thruster]) -> FloatArray:
+def mean_thrust(hist: OutputHistogram, thrusters: Sequence[Thruster],
+                hunting: Sequence[EdgeObservation] = ()) -> FloatArray:
     """Each thruster's mean thrust [N] over the hold of ``hist``, its outputs read through
-    ``thrusters``' curves at the hold's mean voltage, shape (n,)."""
-    return np.array([float(c @ thrust_from_pwm(t.curve, p, hist.voltage_V)) / float(c.sum())
-                     for t, p, c in zip(thrusters, hist.pwm_us, hist.counts, strict=True)])
+    ``thrusters``' curves at the hold's mean voltage, shape (n,); the samples of the
+    ``hunting`` spikes delivered whatever balanced, counted at half the first µs's thrust
+    whatever the curves (:func:`~trimd.core.hunting.hunting_factors` carries the rest)."""
+    out = []
+    for i, (t, p, c) in enumerate(zip(thrusters, hist.pwm_us, hist.counts, strict=True)):
+        f = thrust_from_pwm(t.curve, p, hist.voltage_V)
+        for o in hunting:
+            if o.thruster == i:
+                f = np.where(p == o.spike_us, o.step_N / 2, f)
+        out.append(float(c @ f) / float(c.sum()))
+    return np.array(out)
 
 
-def edges_seen(hist: OutputHistogram, profile: Profile) -> list[EdgeObservation]:
-    """The dead-band edges the hold of ``hist`` shows by hunting
-    (:func:`~trimd.core.hunting.edge_observations`)."""
+def spikes_seen(hist: OutputHistogram, profile: Profile) -> list[EdgeObservation]:
+    """The hunting spikes of the hold of ``hist``
+    (:func:`~trimd.core.hunting.hunting_spikes`)."""
     columns = [np.repeat(p, c.astype(int)) for p, c in zip(hist.pwm_us, hist.counts,
                                                             strict=True)]
-    return edge_observations(np.stack(columns, axis=1), hist.voltage_V, profile)
+    return hunting_spikes(np.stack(columns, axis=1), hist.voltage_V, profile)

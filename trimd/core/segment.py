@@ -37,9 +37,9 @@ from trimd.core.estimate import (
     MOMENT_ROWS,
     HoldSamples,
     check_samples,
-    edges_shown,
     is_level,
     measurable_dofs,
+    spikes_of,
 )
 from trimd.core.hunting import hunting_factors
 from trimd.core.longrun import mean_covariance
@@ -148,7 +148,7 @@ def estimate_segment(hold: HoldSamples, profile: Profile,
     B_o = A @ V_o
     tau = h.tau[:, used].mean(axis=0)
     factors = thrust_map_factors([h], [used], profile)[0]
-    hunting = hunting_factors(edges_shown(h, profile), used, profile)
+    hunting = hunting_factors(spikes_of(h, profile), used, profile)
     if profile.thrust_map is not None:  # the calibration's mean correction of the map
         tau = tau + thrust_map_bias([h], [used], profile)[0]
     q = prior.copy()

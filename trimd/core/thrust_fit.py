@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from scipy.linalg import solve_triangular
 
 from trimd.core.curve_error import thrusters_with_errors
+from trimd.core.hunting import EdgeObservation
 from trimd.core.output_hist import OutputHistogram, mean_thrust
 from trimd.core.profile import Profile, Thruster
 from trimd.core.types import FloatArray
@@ -51,6 +52,9 @@ class ChangeModel:
     before, after : the holds' output histograms; None when a hold kept none.
     measured : the change of τ by the profile's map [N, N·m] (the linear prediction's).
     H : the thrust map factors of the change, shape (rows, 4·n) [per prior σ].
+    hunting : the hunting spikes of the holds (before, after): their samples delivered
+        whatever balanced, whatever the curves (:func:`~trimd.core.output_hist.
+        mean_thrust`), and the errors z cannot be read from them.
     """
 
     label: str
@@ -62,6 +66,7 @@ class ChangeModel:
     after: OutputHistogram | None
     measured: FloatArray
     H: FloatArray
+    hunting: tuple[tuple[EdgeObservation, ...], tuple[EdgeObservation, ...]] = ((), ())
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,7 +83,9 @@ def predicted(model: ChangeModel, thrusters: Sequence[Thruster], z: FloatArray) 
     if model.before is None or model.after is None:
         change: FloatArray = model.measured + model.H @ z
         return change
-    f = mean_thrust(model.after, thrusters) - mean_thrust(model.before, thrusters)
+    before, after = model.hunting
+    f = (mean_thrust(model.after, thrusters, after)
+         - mean_thrust(model.before, thrusters, before))
     out: FloatArray = model.T_rows @ f
     return out
 
