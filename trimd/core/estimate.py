@@ -32,7 +32,10 @@ and negative parts of each thruster's thrust over the hold (:attr:`HoldSamples.t
 Its covariance between holds k and l, C_kl = T·(diag(f̄⁺_k)·S²·diag(f̄⁺_l) +
 diag(f̄⁻_k)·S²·diag(f̄⁻_l))·Tᵀ (S the gain standard deviations) on the rows used, adds
 Σ_k Σ_l A_kᵀ·W_k·C_kl·W_l·A_l to the middle of the sandwich. Holds without per-thruster
-thrust (τ given directly) carry no such term.
+thrust (τ given directly) carry no such term. The dead-band edges the holds' outputs show
+by hunting (:mod:`trimd.core.hunting`) condition the thrust map first
+(:func:`with_observed_bands`), and what the samples at a hunting spike delivered,
+whatever balanced, is an error of its own per hold in the weights and the sandwich.
 
 The drift: a vehicle that keeps depth but not station (the profile's ``holds_station``
 false) drifts at a tilt, and its moment rows carry the Munk moment of that drift on top
