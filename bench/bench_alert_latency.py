@@ -2,7 +2,7 @@
 1 s of the alert").
 
 The set-up of ``tests/app/test_serve_gcs.py``: ``trimd sim`` serving the BlueROV2 Heavy with
-a housing flooding (8 N within 8 s after the watch's baseline, at 10×) behind its router to
+a housing flooding (8 N within 8 s after the watch's baseline, at 5×) behind its router to
 ``trimd serve …?ids=vehicle`` and to MAVProxy 1.8.75, ``TRIMD_ALERT_RUNS`` times (default
 3). Measured per run, on the wall clock of this machine [s]: from the alert's time as trimd
 logs it (``t_unix`` of the alert in ``/api/alerts``: ``trimd serve`` stores it in its
