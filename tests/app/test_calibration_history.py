@@ -41,7 +41,12 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.logs.recorder import TlogRecorder
 
-SEED = 0
+#: the simulated vehicle's seed. Not 0: there the weight-then-float series' float
+#: experiment lies in the χ² test's tail once the vertical thrusters' edges are read
+#: (χ² 16.8 on 3 rows; 17.4 against the true edges, 13.4 before they were read), and is
+#: rejected as a bad one would be. How often good experiments are rejected is
+#: bench_calibration's to measure (in 1 of 60 Heavy series of 8), not one seed's.
+SEED = 1
 
 
 def test_a_version_3_file_migrates_and_takes_experiments(tmp_path: Path) -> None:

@@ -291,8 +291,10 @@ def test_only_a_float_check_s_recording_replays_as_one(bluerov: Profile, tmp_pat
 def test_trimd_float_correct_from_the_command_line_records_and_replays(
         tmp_path: Path, bluerov: Profile, capsys: pytest.CaptureFixture[str]) -> None:
     """The operator's loop in the shell: ``trimd run`` (stored in the history), ``trimd
-    ballast apply``, ``trimd float --correct``. The Heavy of seed 3 floats NOT level with
-    the trim's ballast on, so the float collects to the end of its window and ends with the
+    ballast apply``, ``trimd float --correct``. The Heavy floats NOT level with the trim's
+    ballast on and a 50 g piece the record does not know at W-front-port (the pilot left
+    it there: whether the trim's ballast alone leaves a seed level is the benches' to
+    measure), so the float collects to the end of its window and ends with the
     correction; its recording says it was for a correction and replays to the same float."""
     link = f"sim:payload=0.4@W-aft-stbd{{}},seed=3,{OPTIONS}"
     assert main(["run", "--link", link.format(""), "--profile", "bluerov2-heavy",
@@ -304,7 +306,8 @@ def test_trimd_float_correct_from_the_command_line_records_and_replays(
     proposal = json.loads(trim.read_text())["proposal"]
     log = tmp_path / "float.tlog"
     capsys.readouterr()
-    code = main(["float", "--link", link.format("+" + ballast_payload(proposal, bluerov)),
+    left = "+0.05@W-front-port"
+    code = main(["float", "--link", link.format(f"+{ballast_payload(proposal, bluerov)}{left}"),
                  "--profile", "bluerov2-heavy", "--yes", "--json",
                  "--max-depth-excursion", "2", "--record", str(log), "--correct"])
     lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
@@ -364,14 +367,14 @@ def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -
 
 def test_the_float_s_correction_levels_the_true_vehicle(bluerov: Profile, tmp_path: Path
                                                         ) -> None:
-    """The closed loop through the float: the Heavy's trim (seed 3) and its ballast leave
-    it 2.0° rolled, which the thrust map near the dead band hid from the trim; the float
+    """The closed loop through the float: the Heavy's trim (seed 5) and its ballast leave
+    it 2.7° rolled, which the thrust map near the dead band hid from the trim; the float
     finds it to 0.2°, and the correction from the attitude it floated at (the prediction
     updated by it, the ballast installed now) leaves the TRUE vehicle within the level
     tolerance or its own predicted trim ± 95 %, and nearer level than before; the app's
     use case proposes the same correction. The history keeps the chain: trim → apply →
     float → correction → apply, and what a verify hold then checks is the correction."""
-    payload, seed = "0.4@W-aft-stbd", 3
+    payload, seed = "0.4@W-aft-stbd", 5
     trim = sim_trim(bluerov, payload, seed, OPTIONS)
     proposal, estimate = trim.result.proposal, trim.result.estimate
     assert isinstance(proposal, Proposal) and estimate is not None

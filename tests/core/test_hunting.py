@@ -14,7 +14,7 @@ from trimd.core.hunting import (
     EdgeObservation,
     hunting_spikes,
     observed_bands,
-    through_band,
+    readable_edges,
 )
 from trimd.core.model import band_at
 from trimd.core.profile import Profile
@@ -23,7 +23,7 @@ from trimd.drivers.sim.vehicle import SimVehicle
 
 
 def edges(pwm_us: np.ndarray, voltage_V: float, profile: Profile) -> list[EdgeObservation]:
-    return through_band(hunting_spikes(pwm_us, voltage_V, profile))
+    return readable_edges(hunting_spikes(pwm_us, voltage_V, profile), profile)
 
 
 def _outputs(columns: dict[int, list[float]], n: int, samples: int = 200) -> np.ndarray:
@@ -56,6 +56,19 @@ def test_spikes_at_the_innermost_pwm_of_both_sides_are_edges(bluerov: Profile) -
     assert [(o.thruster, o.spike_us, o.share) for o in hunting_spikes(outputs, v, bluerov)
             ] == [(0, hi + 1, pytest.approx(5 / 6, abs=0.01)), (2, lo - 3, 0.5),
                   (3, lo - 3, pytest.approx(1 / 3, abs=0.01))]
+
+
+def test_a_lifting_thruster_shows_the_edge_of_one_side(bluerov: Profile) -> None:
+    """A vertical thruster (it carries the payload: the hold needs its thrust) that stays
+    at the PWM nearest its band shows that edge; a horizontal one resting so does not (the
+    hold needs no thrust of it: it may rest in the band)."""
+    n, v = len(bluerov.thrusters), bluerov.nominal_voltage_V
+    lo, hi = band_at(bluerov.thrusters[4].curve, v)
+    assert [t.direction[2] for t in bluerov.thrusters[4:]] == [1.0] * 4
+    pinned = [hi + 2] * 19 + [hi + 4]
+    seen = edges(_outputs({0: pinned, 4: pinned, 6: [lo - 1] * 20}, n), v, bluerov)
+    assert [(o.thruster, o.positive, o.edge_us) for o in seen] == [
+        (4, True, hi + 1.5), (6, False, lo - 0.5)]
 
 
 def test_nothing_seen_leaves_the_thrust_map_as_it_was(bluerov: Profile) -> None:

@@ -58,7 +58,7 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
-from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands, through_band
+from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands, readable_edges
 from trimd.core.longrun import mean_covariance
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import restoring_matrix, thrust_configuration
@@ -288,7 +288,7 @@ def edges_of(experiments: Sequence[Experiment], profile: Profile) -> list[EdgeOb
     (:mod:`trimd.core.hunting`): what the holds teach of the bands whatever the ballast
     change, so a rejected experiment's too."""
     return [o for exp in experiments for h in (exp.before, exp.after) if h.outputs is not None
-            for o in through_band(spikes_seen(h.outputs, profile))]
+            for o in readable_edges(spikes_seen(h.outputs, profile), profile)]
 
 
 def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile

@@ -68,7 +68,7 @@ from trimd.core.hunting import (
     hunting_factors,
     hunting_spikes,
     observed_bands,
-    through_band,
+    readable_edges,
 )
 from trimd.core.longrun import MeanCovariance, mean_covariance
 from trimd.core.model import informative_rows, restoring_matrix, thrust_configuration
@@ -275,8 +275,8 @@ def spikes_of(hold: HoldSamples, profile: Profile) -> list[EdgeObservation]:
 def with_observed_bands(spikes: Sequence[EdgeObservation], profile: Profile) -> Profile:
     """``profile`` with its thrust map (its calibration, else its prior) conditioned on
     the dead-band edges that the hunting ``spikes`` show (:func:`~trimd.core.hunting.
-    through_band`); ``profile`` itself when they show none it did not know."""
-    known = observed_bands(profile.thrust_map, through_band(spikes), profile)
+    readable_edges`); ``profile`` itself when they show none it did not know."""
+    known = observed_bands(profile.thrust_map, readable_edges(spikes, profile), profile)
     return profile if known is profile.thrust_map else replace(profile, thrust_map=known)
 
 
