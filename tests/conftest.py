@@ -35,15 +35,16 @@ def bluerov() -> Profile:
 
 #: The modules that take the longest [s of one worker], longest first: the sum of their
 #: tests' wall times in one ``make test`` on this 2-core machine (2026-11-27, after the
-#: watch's and the identification's speed-ups). Only the order matters: it lets the
+#: watch's and the identification's speed-ups; the bench smoke, one test since
+#: 2026-11-29, and the MAVProxy dive at 5× measured then). Only the order matters: it lets the
 #: longest start first, spread over the workers, so that no long module is left to run
 #: alone at the end. A module not listed counts as short; a stale figure costs wall time,
 #: never a test.
 MODULE_COST_S = {
+    "tests/app/test_serve_gcs.py": 88,
     "tests/drivers/test_mavlink_link.py": 87,
-    "tests/app/test_serve_gcs.py": 84,
+    "tests/test_bench_smoke.py": 79,
     "tests/drivers/test_mavlink_stations.py": 74,
-    "tests/test_bench_smoke.py": 61,
     "tests/identify/test_staged.py": 61,
     "tests/tui/test_tui_after_trim.py": 43,
     "tests/core/test_estimate.py": 38,

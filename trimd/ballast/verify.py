@@ -112,8 +112,8 @@ def verify_hold(hold: HoldSamples, profile: Profile, estimate: StaticEstimate,
     predicted = check_trim(estimate, installed, profile.gravity_m_s2)
     q_pred = np.r_[-predicted.net_buoyancy_N, predicted.net_moment_Nm]
     # near level the thrusters idle at their bands: the edges the hold shows by hunting
-    seen = with_observed_bands(spikes_of(hold, profile), profile)
-    measured = estimate_segment(hold, seen, q_prior=q_pred)
+    informed = with_observed_bands(spikes_of(hold, profile), profile)
+    measured = estimate_segment(hold, informed, q_prior=q_pred)
     difference = measured.q[:3] - q_pred[:3]
     cov = measured.q_cov[:3, :3] + estimate.q_cov[:3, :3]
     m = np.r_[measured.q[1:3], q_pred[3]]
