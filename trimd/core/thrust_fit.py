@@ -13,7 +13,9 @@ map factors.
 z is fitted by ``scipy.optimize.least_squares`` to every experiment's prediction against
 its target, the change G₂·q₂ − G₁·q₁ that the known ballast change makes, whitened by the
 experiment's covariance R, with a Gaussian prior on z (rows of its own). Its covariance is
-the Laplace approximation (JᵀJ)⁻¹ at the fit, J the whitened Jacobian.
+the Laplace approximation (JᵀJ)⁻¹ at the fit, J the whitened Jacobian. An experiment is
+checked against what is known before it (:func:`innovation`) with the prediction's secant
+over ± each parameter's σ: near a band the tangent is flat where the secant is not.
 """
 
 from __future__ import annotations
@@ -33,8 +35,9 @@ from trimd.core.types import FloatArray
 
 __all__ = ["ChangeModel", "Gaussian", "fit", "innovation", "predicted"]
 
-#: Step of the finite differences [prior σ]: small against the errors' scale and
-#: against a band edge's travel over one 1 µs histogram bin (σ_band ≈ 2.9 µs).
+#: Step of the fit's finite differences, and the least of the check's [prior σ]: small
+#: against the errors' scale and against a band edge's travel over one 1 µs histogram bin
+#: (σ_band ≈ 2.9 µs).
 _STEP = 1e-3
 
 
@@ -90,26 +93,35 @@ def predicted(model: ChangeModel, thrusters: Sequence[Thruster], z: FloatArray) 
     return out
 
 
-def _jacobian(model: ChangeModel, profile: Profile, z: FloatArray) -> FloatArray:
-    """∂ predicted / ∂z at ``z``, shape (rows, 4·n), by forward differences."""
+def _jacobian(model: ChangeModel, profile: Profile, z: FloatArray, spread: FloatArray
+              ) -> FloatArray:
+    """∂ predicted / ∂z about ``z``, shape (rows, 4·n): per parameter the central
+    difference over ± its ``spread`` [prior σ] (at least :data:`_STEP`), a secant over
+    the values it may take, not the tangent at ``z``. Near a dead band the tangent is
+    flat: an output inside the profile's band gives no thrust at z and none a thousandth
+    of a σ away, though a band 1σ off gives it thrust (the weight-then-float series of
+    ``tests/app/test_calibration_history.py`` on seed 0: a thruster resting 1–3 µs inside
+    its table's band, its edge 3.8 µs off, put the check 3.7σ out along a moment the
+    tangent said nothing could move)."""
     if model.before is None or model.after is None:
         return model.H
-    base = predicted(model, thrusters_with_errors(profile, z), z)
-    J = np.empty((len(base), len(z)))
-    for k in range(len(z)):
-        step = z.copy()
-        step[k] += _STEP
-        J[:, k] = (predicted(model, thrusters_with_errors(profile, step), step) - base) / _STEP
+    J = np.empty((len(model.target), len(z)))
+    for k, h in enumerate(np.maximum(spread, _STEP)):
+        up, down = z.copy(), z.copy()
+        up[k] += h
+        down[k] -= h
+        J[:, k] = (predicted(model, thrusters_with_errors(profile, up), up)
+                   - predicted(model, thrusters_with_errors(profile, down), down)) / (2 * h)
     return J
 
 
 def innovation(model: ChangeModel, profile: Profile, mean: FloatArray, cov: FloatArray
                ) -> tuple[FloatArray, FloatArray]:
     """What ``model`` shows beyond what the errors of mean ``mean`` and covariance ``cov``
-    predict, v = target − predicted(mean), and its covariance J·P·Jᵀ + R (J linearised at
-    ``mean``)."""
+    predict, v = target − predicted(mean), and its covariance J·P·Jᵀ + R (J the secant of
+    each parameter over ± its σ about ``mean``, :func:`_jacobian`)."""
     v = model.target - predicted(model, thrusters_with_errors(profile, mean), mean)
-    J = _jacobian(model, profile, mean)
+    J = _jacobian(model, profile, mean, np.sqrt(np.diag(cov)))
     return v, J @ cov @ J.T + model.R
 
 
