@@ -21,7 +21,7 @@ from trimd.core.model import band_at, thrust_configuration, thrusts_from_pwm
 from trimd.core.output_hist import mean_thrust, output_histogram
 from trimd.core.profile_yaml import load_profile
 from trimd.core.systematics import thrust_map_bias
-from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, predicted
+from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation, predicted
 
 PROFILE = load_profile("bluerov2-heavy")
 ROWS = np.array([False, False, True, True, True, False])
@@ -55,6 +55,32 @@ def experiments(z_true: np.ndarray, rng: np.random.Generator, count: int,
                                sigma**2 * np.eye(3), T, before, after, measured,
                                np.zeros((3, 4 * N))))
     return out
+
+
+def test_the_check_sees_a_band_edge_move_an_output_resting_inside_the_band() -> None:
+    """A vertical thruster resting 2 µs inside its table's band gives no thrust at z = 0,
+    nor a hair away: the tangent would say its edge cannot move the prediction. An edge
+    1σ earlier gives it thrust, one 1σ later none, so the check's Jacobian, the secant
+    over ± 1σ, moves the predicted Z by half that thrust per σ."""
+    v, samples = PROFILE.nominal_voltage_V, 100
+    _, hi = band_at(PROFILE.thrusters[4].curve, v)
+    at_rest = np.full((samples, N), 1500.0)
+    resting = at_rest.copy()
+    resting[:, 4] = hi - 2
+    before, after = (output_histogram(HeldOutputs(p, np.full(samples, v)))
+                     for p in (at_rest, resting))
+    T = thrust_configuration(PROFILE.thrusters)[ROWS]
+    model = ChangeModel("rest", ROWS, np.zeros(3), 1e-6 * np.eye(3), T, before, after,
+                        np.zeros(3), np.zeros((3, 4 * N)))
+    k = 3 * N + 4                                   # thruster 5's upper edge
+    cov = np.zeros((4 * N, 4 * N))
+    cov[k, k] = 1.0
+    _, S = innovation(model, PROFILE, np.zeros(4 * N), cov)
+    earlier = np.zeros(4 * N)
+    earlier[k] = -1.0
+    delivered = mean_thrust(after, thrusters_with_errors(PROFILE, earlier))[4]
+    assert mean_thrust(after, PROFILE.thrusters)[4] == 0.0 and delivered > 0.01
+    assert np.sqrt(S[0, 0] - 1e-6) == pytest.approx(abs(T[0, 4]) * delivered / 2)
 
 
 def test_a_hold_histogram_gives_the_mean_thrust_of_its_samples() -> None:
