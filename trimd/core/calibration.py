@@ -78,6 +78,8 @@ ROWS = np.array([False, False, True, True, True, False])
 _ROW_NAMES = {2: "Z (W − B)", 3: "K (W·y_g − B·y_b)", 4: "M (W·x_g − B·x_b)"}
 #: An experiment whose innovation has a χ² tail probability below this is rejected.
 REJECT_P = 1e-3
+#: The hunting spikes of an experiment's holds (before, after).
+Hunting = tuple[tuple[EdgeObservation, ...], tuple[EdgeObservation, ...]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,11 +179,13 @@ def ballast_change(profile: Profile, change: Sequence[PieceChange]
     return dq, cov
 
 
-def experiment_rows(exp: Experiment, profile: Profile
+def experiment_rows(exp: Experiment, profile: Profile, hunting: Hunting = ((), ())
                     ) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
     """The linear model y = H·z + v of ``exp`` (module docstring): y [N, N·m], H (rows,
-    4·n), the covariance R of v, and which rows of τ they are. EstimationError when a
-    hold is not level or the thrusters in the profile do not match the holds'."""
+    4·n), the covariance R of v (what the samples of the holds' ``hunting`` spikes,
+    before and after, delivered included), and which rows of τ they are.
+    EstimationError when a hold is not level or the thrusters in the profile do not match
+    the holds'."""
     b, a = exp.before, exp.after
     n = len(profile.thrusters)
     for h in (b, a):
@@ -201,11 +205,11 @@ def experiment_rows(exp: Experiment, profile: Profile
     D = G2 - G1
     R = (b.tau_cov[np.ix_(r, r)] + a.tau_cov[np.ix_(r, r)] + G2 @ dq_cov @ G2.T
          + D @ exp.q_before_cov @ D.T)
-    for h, q in ((b, q1), (a, q2)):
+    for h, q, spikes in ((b, q1, hunting[0]), (a, q2, hunting[1])):
         E = attitude_error_factors([(h.phi_rad, h.theta_rad)], [r], profile, q)[0]
         R = R + E @ E.T
-        if h.outputs is not None:   # what its hunting samples delivered
-            U = hunting_factors(spikes_seen(h.outputs, profile), r, profile)
+        if spikes:   # what its hunting samples delivered
+            U = hunting_factors(spikes, r, profile)
             R = R + U @ U.T
     return y, H, R, r
 
@@ -244,15 +248,14 @@ def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
 
 def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
     """``exp`` as the fit sees it (:mod:`trimd.core.thrust_fit`)."""
-    y, H, R, rows = experiment_rows(exp, profile)
-    measured = (exp.after.tau - exp.before.tau)[rows]
     b, a = exp.before.outputs, exp.after.outputs
-    def spikes(h: OutputHistogram | None) -> tuple[EdgeObservation, ...]:
-        return () if h is None else tuple(spikes_seen(h, profile))
-
+    hunting = (() if b is None else tuple(spikes_seen(b, profile)),
+               () if a is None else tuple(spikes_seen(a, profile)))
+    y, H, R, rows = experiment_rows(exp, profile, hunting)
+    measured = (exp.after.tau - exp.before.tau)[rows]
     return ChangeModel(exp.label, rows, y + measured, R,
                        thrust_configuration(profile.thrusters)[rows], b, a, measured, H,
-                       (spikes(b), spikes(a)))
+                       hunting)
 
 
 def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
