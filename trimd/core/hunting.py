@@ -21,12 +21,14 @@ PWM beside it. :func:`readable_edges` says which show an edge:
 * any spike of a thruster that carries the vehicle's weight (:data:`LIFTING`): the hold
   needs its thrust, so an output of it that stays at the band's edge is hunting for the
   thrust that balances. On 40 simulated perturbed Heavies' calibration series every such
-  spike, 288 of them, lay within 0.5 µs of the true edge.
+  spike, 288 of them, lay within 0.5 µs of the true edge (offline, by a script not in the
+  repository; ``tests/core/test_hunting.py`` checks every edge read on two seeds).
 
 A spike on one side alone of any other thruster may be an output that rests steadily at
 the band, inside it or just beyond (the exact simulated Heavy's horizontal thrusters held
-level with 0.3 kg aboard: 97 % at 1528 µs, the last PWM of no thrust; read as edges, they
-left the ballast proposed for it 1.5° off level in roll), which says nothing of where the
+level with 0.3 kg aboard: 97 % at 1528 µs, the last PWM of no thrust; a version that read
+them as edges left the ballast proposed for it 1.5° off level in roll, and
+``test_trim_on_the_simulated_vehicle`` failed), which says nothing of where the
 band starts, though it may be hunting: the hold needs no thrust of it. Outputs that hunt
 were reported where they hunted, at the first PWM of thrust (as the simulator's
 ``esc_hunt`` reports them): the true edge, the last PWM of no thrust, lies in the 1 µs
