@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from tests import shared_runs
 from tests.helpers import PROFILES
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
@@ -21,6 +22,16 @@ def _own_data_dir(tmp_path_factory: pytest.TempPathFactory,
     path = tmp_path_factory.mktemp("trimd-data")
     monkeypatch.setenv("TRIMD_DATA_DIR", str(path))
     return path
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _shared_runs(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Runs that several tests make alike (:mod:`tests.shared_runs`) are kept in the test
+    run's temporary folder, which the workers of pytest-xdist share (each has a folder of
+    its own inside it)."""
+    base = tmp_path_factory.getbasetemp()
+    shared_runs.DIRECTORY = (base.parent if "PYTEST_XDIST_WORKER" in os.environ
+                             else base) / "shared-runs"
 
 
 @pytest.fixture(scope="session")

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import lfilter
 
+from tests.shared_runs import shared_run
 from trimd.app.connect import open_link
 from trimd.app.float_check import FloatRequest, float_session
 from trimd.app.session import Session, SessionResult
@@ -279,6 +280,7 @@ class SimTrim:
         return passive_trim_deg(self.vehicle.ballasted(extra).net)
 
 
+@shared_run
 def sim_trim(profile: Profile, payload: str, seed: int, options: str = "",
              method: str = "milp",
              estimate_with: Callable[[SimVehicle], Profile] | None = None) -> SimTrim:
@@ -312,6 +314,7 @@ class SimVerify:
     t_s: float
 
 
+@shared_run
 def sim_verify(profile: Profile, payload: str, seed: int, options: str,
                estimate: StaticEstimate, installed: Sequence[SlotLoad],
                on_vehicle: Sequence[SlotLoad] | None = None) -> SimVerify:
@@ -355,6 +358,7 @@ class SimFloat:
         return r if isinstance(r, FloatResult) else None
 
 
+@shared_run
 def sim_float(profile: Profile, payload: str, seed: int, options: str,
               depth_excursion_m: float | None = None, for_correction: bool = False
               ) -> SimFloat:
