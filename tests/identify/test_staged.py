@@ -104,15 +104,33 @@ def unseen(bluerov: Profile) -> Profile:
     return perturbed(bluerov, np.random.default_rng(3), name="unseen")
 
 
+@pytest.fixture(scope="module")
+def fit_recordings(bluerov: Profile, unseen: Profile, tmp_path_factory: pytest.TempPathFactory
+                   ) -> dict[str, tuple[list[Sample], Path]]:
+    """Per stage, 1 min of its excitation of the unseen vehicle (seeds 40–42): the samples
+    and their recording (a ``.tlog`` with the shipped profile's text)."""
+    from trimd.logs.recorder import TlogRecorder
+
+    text = Path(bluerov.source).read_text(encoding="utf-8")
+    folder = tmp_path_factory.mktemp("fit")
+    recordings = {}
+    for k, stage in enumerate(STAGES):
+        path = folder / f"{stage}-{40 + k}.tlog"
+        recordings[stage] = (record(unseen, bluerov, stage, 60.0, 40 + k,
+                                    recorder=TlogRecorder(path, bluerov, text)), path)
+    return recordings
+
+
 @pytest.mark.slow
-def test_an_unseen_vehicle_is_recovered_by_the_staged_fit(bluerov: Profile,
-                                                          unseen: Profile) -> None:
+def test_an_unseen_vehicle_is_recovered_by_the_staged_fit(
+        bluerov: Profile, unseen: Profile,
+        fit_recordings: dict[str, tuple[list[Sample], Path]]) -> None:
     """Designed from and fitted with the shipped profile, 1 min per stage: every inertia
     sum within 5 % of the truth and the damping force of every DOF within 10 % at 0.15 and
     0.4 m/s or rad/s, where the shipped profile is off by more (a fit that anchored to its
     prior fails)."""
-    data = {st: experiments_from_samples(record(unseen, bluerov, st, 60.0, 20 + k), bluerov)
-            for k, st in enumerate(STAGES)}
+    data = {st: experiments_from_samples(samples, bluerov)
+            for st, (samples, _) in fit_recordings.items()}
     fits = fit_stages(data, bluerov)
     assert [f.stage for f in fits] == list(STAGES)
     values = {**{k: v for f in fits for k, v in f.values().items()},
@@ -133,6 +151,7 @@ def test_an_unseen_vehicle_is_recovered_by_the_staged_fit(bluerov: Profile,
 @pytest.mark.slow
 def test_identify_runs_the_staged_procedure_from_recordings(
         bluerov: Profile, unseen: Profile, tmp_path: Path,
+        fit_recordings: dict[str, tuple[list[Sample], Path]],
         capsys: pytest.CaptureFixture[str]) -> None:
     """`trimd identify uvr.tlog uwq.tlog uvwpqr.tlog --validate …`: the stages come from the
     recordings, one fragment and one summary for all three, exit 0; the fragment merged
@@ -142,16 +161,15 @@ def test_identify_runs_the_staged_procedure_from_recordings(
     from trimd.logs.recorder import TlogRecorder
 
     text = Path(bluerov.source).read_text(encoding="utf-8")
-    fit_logs, val_logs, held_out = [], [], {}
+    fit_logs = [str(path) for _, path in fit_recordings.values()]
+    val_logs, held_out = [], {}
     for k, stage in enumerate(STAGES):
-        for logs, duration, seed in ((fit_logs, 60.0, 40 + k), (val_logs, 30.0, 50 + k)):
-            path = tmp_path / f"{stage}-{seed}.tlog"
-            samples = record(unseen, bluerov, stage, duration, seed,
-                             recorder=TlogRecorder(path, bluerov, text))
-            if logs is val_logs:
-                held_out[stage] = samples
-            assert recorded_stage(str(path)) == stage
-            logs.append(str(path))
+        path = tmp_path / f"{stage}-{50 + k}.tlog"
+        held_out[stage] = record(unseen, bluerov, stage, 30.0, 50 + k,
+                                 recorder=TlogRecorder(path, bluerov, text))
+        val_logs.append(str(path))
+    for logs in (fit_logs, val_logs):
+        assert [recorded_stage(log) for log in logs] == list(STAGES)
     out = tmp_path / "out"
     code = main(["identify", *fit_logs, "--profile", bluerov.source, "--validate", *val_logs,
                  "--out", str(out)])
