@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -179,6 +180,9 @@ def test_a_piece_heavier_than_its_inventory_entry_is_rejected(bluerov: Profile,
     assert "'step 3'" in rejected.message and "rejected, not learnt" in rejected.message
     assert "lead-200g" in rejected.message and "W-aft-ctr" in rejected.message
     assert f"≈ {rejected.sigma:.1f}σ" in rejected.message
+    # and how much more than the recorded lead the thrusters saw: 110 %, within its ±
+    saw = re.search(r"the thrusters saw ([\d.]+)% ± ([\d.]+)%", rejected.message)
+    assert saw and abs(float(saw[1]) - 110.0) <= 3 * float(saw[2]), rejected.message
     before = learnt[seed].posterior
     assert np.array_equal(cal.posterior.mean, before.mean)
     assert cal.posterior.experiments == 2

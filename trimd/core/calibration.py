@@ -36,10 +36,12 @@ experiments whose holds kept no outputs predict linearly. Rows the data leave
 undetermined keep the prior.
 
 Before an experiment is learnt its innovation (target − prediction at the posterior
-mean) is compared with its predicted covariance J·P·Jᵀ + R (χ² with one degree of
-freedom per row): an experiment that disagrees with what the earlier ones taught (a
-piece heavier than its inventory entry, a wrong slot) is rejected and says which, by how
-much and what to check. Experiments are combined in order, the rejected ones left out.
+mean) is compared with its predicted covariance J·P·Jᵀ + R, twice: its χ² with one
+degree of freedom per row, and its component along the change the recorded ballast makes
+(how many times that change the thrusters saw; one degree of freedom). An experiment
+that disagrees with what the earlier ones taught (a piece heavier than its inventory
+entry, a wrong slot) is rejected and says which, by how much and what to check.
+Experiments are combined in order, the rejected ones left out.
 
 A later estimate uses the posterior through the profile's ``thrust_map``
 (:class:`ThrustMapPosterior`): each hold's mean τ is read again through the curves with
@@ -223,7 +225,8 @@ class Outcome:
     label : the experiment's.
     accepted : learnt (True) or rejected as inconsistent (False).
     chi2 : innovation χ² against its predicted covariance; dof its rows.
-    sigma : the same as a two-sided normal deviation [σ].
+    sigma : the check's tail probability (:func:`_checked`: the χ² and the scale of the
+        recorded change, each at half) as a two-sided normal deviation [σ].
     message : for people: learnt, or why not and what to check.
     """
 
@@ -260,13 +263,29 @@ def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
 
 def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
              profile: Profile) -> Outcome:
-    """Whether ``exp`` agrees with ``post`` (χ² tail probability of its innovation at
-    least :data:`REJECT_P`), and what to say of it."""
+    """Whether ``exp`` agrees with ``post``, and what to say of it. Two tests of its
+    innovation v (covariance S), each at half :data:`REJECT_P`, so that an experiment that
+    agrees is rejected at most that often: its χ² (anything amiss: a wrong slot, a piece
+    not fitted), and its component along d, the change of τ the recorded ballast makes
+    (the thrusters saw 1 + s times it: the pieces weigh other than recorded, an inventory
+    entry wrong by a factor, the issue's own example), ŝ = −dᵀS⁻¹v / dᵀS⁻¹d ± (dᵀS⁻¹d)^-½,
+    the more sensitive test of the two for that one alternative (one degree of freedom
+    against the χ²'s three)."""
     from scipy.stats import chi2, norm  # 1 s to import: only when a calibration is checked
 
     v, S = innovation(model, profile, post.mean, post.cov)
     d2 = float(v @ np.linalg.solve(S, v))
-    p = float(chi2.sf(d2, len(v)))
+    a = exp.after
+    d = (restoring_matrix(a.phi_rad, a.theta_rad) @ ballast_change(profile, exp.change)[0]
+         )[model.rows]
+    info = float(d @ np.linalg.solve(S, d))     # 0: pieces whose changes cancel exactly
+    p_scale, saw = 1.0, ""
+    if info > 0:
+        scale, scale_sd = -float(d @ np.linalg.solve(S, v)) / info, 1.0 / math.sqrt(info)
+        p_scale = float(2 * norm.sf(abs(scale) / scale_sd))
+        saw = (f"; the thrusters saw {1 + scale:.1%} ± {scale_sd:.1%} of the change the "
+               "recorded ballast makes")
+    p = min(1.0, 2 * min(float(chi2.sf(d2, len(v))), p_scale))
     sigma = float(norm.isf(p / 2)) if p > 0 else math.inf
     about = f"≈ {sigma:.1f}σ" if math.isfinite(sigma) else "beyond 37σ"  # p below 1e-300
     z = v / np.sqrt(np.diag(S))
@@ -274,13 +293,14 @@ def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
     row = _ROW_NAMES[int(np.flatnonzero(model.rows)[worst])]
     unit = "N" if row.startswith("Z") else "N·m"
     off = (f"{row} off by {v[worst]:+.3g} {unit} = {z[worst]:+.1f}σ of its predicted "
-           f"± {math.sqrt(S[worst, worst]):.2g} {unit}")
+           f"± {math.sqrt(S[worst, worst]):.2g} {unit}{saw}")
     if p < REJECT_P:
         earlier = (f"{post.experiments} earlier experiment(s)" if post.experiments
                    else "the profile's thrust map")
         return Outcome(exp.label, False, d2, len(v), sigma, (
             f"calibration experiment {exp.label!r} disagrees with {earlier}: {off} "
-            f"(χ² {d2:.1f} on {len(v)} rows, {about}); rejected, not learnt: "
+            f"(χ² {d2:.1f} on {len(v)} rows and the scale together {about}); rejected, "
+            "not learnt: "
             f"{_what_to_check(profile, exp.change)}"))
     return Outcome(exp.label, True, d2, len(v), sigma,
                    f"calibration experiment {exp.label!r} learnt ({off}; {about})")
@@ -297,8 +317,7 @@ def edges_of(experiments: Sequence[Experiment], profile: Profile) -> list[EdgeOb
 def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
            ) -> tuple[ThrustMapPosterior, Outcome]:
     """``post`` updated by ``exp`` (the fit with ``post`` as its prior), or ``post``
-    unchanged when ``exp`` disagrees with it (χ² tail probability below
-    :data:`REJECT_P`), with the outcome."""
+    unchanged when ``exp`` disagrees with it (:func:`_checked`), with the outcome."""
     post = observed_bands(post, edges_of([exp], profile), profile) or post
     model = change_model(exp, profile)
     outcome = _checked(post, exp, model, profile)
