@@ -20,6 +20,7 @@ from tests.helpers import sim_trim
 from trimd.app.connect import open_link
 from trimd.app.session import Session
 from trimd.core.calibration import (
+    REJECT_P,
     Calibration,
     Experiment,
     PieceChange,
@@ -186,6 +187,23 @@ def test_a_piece_heavier_than_its_inventory_entry_is_rejected(bluerov: Profile,
     before = learnt[seed].posterior
     assert np.array_equal(cal.posterior.mean, before.mean)
     assert cal.posterior.experiments == 2
+
+
+def test_a_piece_7_percent_heavier_is_caught_where_the_chi2_alone_would_learn_it(
+        bluerov: Profile) -> None:
+    """The same third change with the lead 7 % heavier than recorded: its χ² alone (14.1
+    on 3 rows here) stays above the rejection's tail probability, but the thrusters saw
+    107 % of what the recorded lead makes, > 3.3σ from 100 %: the check along the
+    recorded change rejects it and says so."""
+    from scipy.stats import chi2
+
+    cal = calibrate(experiments(bluerov, 0, (*STEPS, THIRD), heavier=1.07), bluerov)
+    assert [o.accepted for o in cal.outcomes] == [True, True, False]
+    rejected = cal.rejected[0]
+    assert chi2.sf(rejected.chi2, rejected.dof) > REJECT_P, rejected.chi2
+    saw = re.search(r"the thrusters saw ([\d.]+)% ± ([\d.]+)%", rejected.message)
+    assert saw and abs(float(saw[1]) - 107.0) <= 2 * float(saw[2]), rejected.message
+    assert (float(saw[1]) - 100.0) / float(saw[2]) > 3.3, rejected.message
 
 
 def test_a_calibrated_trim_replays_to_its_result(tmp_path: Path, bluerov: Profile,
