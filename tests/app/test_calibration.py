@@ -28,6 +28,7 @@ from trimd.core.calibration import (
     calibrate,
     calibration_hold,
     posterior,
+    update,
 )
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import HoldSamples, StaticEstimate
@@ -204,6 +205,19 @@ def test_a_piece_7_percent_heavier_is_caught_where_the_chi2_alone_would_learn_it
     saw = re.search(r"the thrusters saw ([\d.]+)% ± ([\d.]+)%", rejected.message)
     assert saw and abs(float(saw[1]) - 107.0) <= 2 * float(saw[2]), rejected.message
     assert (float(saw[1]) - 100.0) / float(saw[2]) > 3.3, rejected.message
+
+
+def test_a_change_recorded_as_pieces_that_cancel_is_still_checked(
+        bluerov: Profile, learnt: dict[int, Calibration]) -> None:
+    """Lead put on and the same lead taken off at one slot, recorded so, while three
+    pieces really went on: the recorded change makes nothing, so there is no scale to
+    test (no ratio in the message, no division by zero), and the χ² alone rejects it."""
+    step = experiments(bluerov, 0, STEPS)[0]
+    cancel = (PieceChange("W-front-stbd", "lead-200g", 3),
+              PieceChange("W-front-stbd", "lead-200g", -3))
+    post, outcome = update(learnt[0].posterior, replace(step, change=cancel), bluerov)
+    assert not outcome.accepted and post.experiments == learnt[0].posterior.experiments
+    assert "thrusters saw" not in outcome.message and "rejected, not learnt" in outcome.message
 
 
 def test_a_calibrated_trim_replays_to_its_result(tmp_path: Path, bluerov: Profile,

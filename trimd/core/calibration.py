@@ -274,14 +274,15 @@ def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
     from scipy.stats import chi2, norm  # 1 s to import: only when a calibration is checked
 
     v, S = innovation(model, profile, post.mean, post.cov)
-    d2 = float(v @ np.linalg.solve(S, v))
     a = exp.after
     d = (restoring_matrix(a.phi_rad, a.theta_rad) @ ballast_change(profile, exp.change)[0]
          )[model.rows]
+    S_inv_v = np.linalg.solve(S, v)
+    d2 = float(v @ S_inv_v)
     info = float(d @ np.linalg.solve(S, d))     # 0: pieces whose changes cancel exactly
     p_scale, saw = 1.0, ""
     if info > 0:
-        scale, scale_sd = -float(d @ np.linalg.solve(S, v)) / info, 1.0 / math.sqrt(info)
+        scale, scale_sd = -float(d @ S_inv_v) / info, 1.0 / math.sqrt(info)
         p_scale = float(2 * norm.sf(abs(scale) / scale_sd))
         saw = (f"; the thrusters saw {1 + scale:.1%} ± {scale_sd:.1%} of the change the "
                "recorded ballast makes")
