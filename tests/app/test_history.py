@@ -16,7 +16,7 @@ import pytest
 
 from tests.helpers import REPO
 from trimd.app.history import SCHEMA_VERSION, History, default_db_path, vehicle_key
-from trimd.app.history.schema import connect, migrate
+from trimd.app.history.schema import MIGRATIONS, connect, migrate
 from trimd.core.errors import DataError
 from trimd.core.profile import InstalledPiece
 
@@ -269,6 +269,39 @@ def test_processes_creating_the_file_at_once_all_open_it(tmp_path: Path) -> None
         assert _open_together(path, 8) == []
         with History(path) as h:
             assert h.trims("rov") == []
+
+
+def test_opening_while_another_migrates_then_writes_without_pause(tmp_path: Path) -> None:
+    # the reader reads version 4 while the other holds the lock; the other migrates, then
+    # stores record after record with the lock free for microseconds between them. Before
+    # the reader re-read the version between short waits it queued for a lock it no longer
+    # needed and was refused "database is locked" after 10 s (once in CI, in the test above)
+    path = tmp_path / "h.db"
+    connect(path, upto=4).close()
+    other = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+    other.execute("BEGIN IMMEDIATE")
+    stop = threading.Event()
+
+    def migrate_then_write() -> None:
+        time.sleep(0.3)  # the reader is waiting for the lock by now
+        for statement in MIGRATIONS[4]:
+            other.execute(statement)
+        other.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        other.execute("COMMIT")
+        while not stop.is_set():
+            other.execute("BEGIN IMMEDIATE")
+            time.sleep(0.02)
+            other.execute("COMMIT")
+
+    thread = threading.Thread(target=migrate_then_write)
+    thread.start()
+    try:
+        with History(path) as h:
+            assert h.trims("rov") == []
+    finally:
+        stop.set()
+        thread.join()
+        other.close()
 
 
 def test_kill_9_mid_write_leaves_the_file_intact(tmp_path: Path) -> None:

@@ -90,6 +90,8 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
 SCHEMA_VERSION = len(MIGRATIONS)
 #: How long a writer waits for another's lock before it gives up [s].
 BUSY_TIMEOUT_S = 10.0
+#: How long a migration waits for the lock before it re-reads the version [s].
+STEP_WAIT_S = 0.05
 
 
 def default_db_path() -> Path:
@@ -116,18 +118,47 @@ def _wal(conn: sqlite3.Connection) -> None:
             time.sleep(0.01)
 
 
+def _version(conn: sqlite3.Connection) -> int:
+    return int(conn.execute("PRAGMA user_version").fetchone()[0])
+
+
+def _lock_for_step(conn: sqlite3.Connection, version: int) -> bool:
+    """Take the write lock to run migration ``version``; False (no lock) when another
+    connection has run it meanwhile.
+
+    The lock is asked for in turns of :data:`STEP_WAIT_S`, the version re-read (a read,
+    which WAL never blocks) between them, for up to :data:`BUSY_TIMEOUT_S` in all: a
+    process that migrates the file and then stores record after record leaves the lock
+    free for microseconds at a time, and one long wait would queue for a lock this
+    connection no longer needs until SQLite gave up ("database is locked")."""
+    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    conn.execute(f"PRAGMA busy_timeout = {round(STEP_WAIT_S * 1000)}")
+    try:
+        while _version(conn) <= version:
+            try:
+                conn.execute("BEGIN IMMEDIATE")
+                return True
+            except sqlite3.OperationalError as exc:
+                if "locked" not in str(exc) or time.monotonic() > deadline:
+                    raise
+        return False
+    finally:
+        conn.execute(f"PRAGMA busy_timeout = {round(BUSY_TIMEOUT_S * 1000)}")
+
+
 def migrate(conn: sqlite3.Connection, upto: int = SCHEMA_VERSION) -> int:
     """Bring the file to version ``upto`` (each step one transaction); its old version.
 
     DataError when the file is newer than this trimd knows."""
-    old = int(conn.execute("PRAGMA user_version").fetchone()[0])
+    old = _version(conn)
     if old > SCHEMA_VERSION:
         raise DataError(f"the trim history has schema version {old}; this trimd knows up to "
                         f"{SCHEMA_VERSION}: update trimd")
     for version in range(old, upto):
-        conn.execute("BEGIN IMMEDIATE")
+        if not _lock_for_step(conn, version):
+            continue
         try:
-            if int(conn.execute("PRAGMA user_version").fetchone()[0]) == version:
+            if _version(conn) == version:
                 for statement in MIGRATIONS[version]:
                     conn.execute(statement)
                 conn.execute(f"PRAGMA user_version = {version + 1}")
