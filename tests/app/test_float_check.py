@@ -174,11 +174,14 @@ def test_the_float_is_the_true_passive_trim(name: str, payload: str, seed: int,
                                             bluerov: Profile, sabertooth: Profile) -> None:
     """Raw payloads, far out of trim (5–14°): the Heavy settles in seconds within its
     0.5 m envelope; the Sabertooth's pitch relaxes in ≈ 21 s and it rises 0.1 m/s, so it
-    needs room (30 m here: the simulator has no bottom). Recorded, and replayed to the same
-    result."""
+    needs room (30 m here, from 30 m down: the simulator has no surface, and a depth
+    above −10 m is no depth reading to trimd's MAVLink decoder). Recorded, and replayed to
+    the same result."""
     profile = bluerov if name == "bluerov2-heavy" else sabertooth
     log = tmp_path / "float.tlog"
-    f = float_on_sim(profile, payload, seed, depth_excursion_m=excursion_m, record=log)
+    start = f",depth_m={excursion_m:g}" if excursion_m else ""
+    f = float_on_sim(profile, payload, seed, options=OPTIONS + start,
+                     depth_excursion_m=excursion_m, record=log)
     assert f.result.phase is Phase.DONE, f.result.reason
     assert_true_trim(f)
     assert f.r.verdict is Verdict.NOT_LEVEL

@@ -19,7 +19,8 @@ depth has used :data:`DEPTH_STOP_SHARE` of its envelope (a vehicle that is not n
 buoyant sinks or rises all the while; the result then takes at least two batches,
 reaching back into the settled windows, or, still settling once two windows have been
 seen, the last window, whose trend counts the transient still to come in the ±; before
-that there is none): then the vehicle is released
+that there is none; an over-damped axis is where its whole approach since letting go
+ends, :func:`~trimd.core.floating.approach_end`): then the vehicle is released
 and the result (:class:`~trimd.core.floating.FloatResult`) rides on the result notice, in
 ``verification``. Settling and collecting are timed and decided on the samples alone, so
 a replay reproduces the live result exactly.
@@ -286,7 +287,8 @@ class FloatCheck(Phases[Never, FloatResult]):
         return float_result(t, np.asarray(self._angles[self._first:]), depth,
                             timing=self.timing, profile=self.profile,
                             settle_s=t[0] - self._t_float, depth_change_m=change,
-                            stopped=stopped)
+                            stopped=stopped,
+                            since_letting_go=(self._times, np.asarray(self._angles)))
 
     def _done(self, result: FloatResult) -> list[Output[Never, FloatResult]]:
         self.verification = result
