@@ -26,7 +26,9 @@ and which thrust-map parameters they narrowed; how many wrong-weight calibration
 rejected.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
-(default :data:`OPTIONS`); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
+(default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
+[s] (``trimd calibrate --hold-s``; default: the profile's ``collect_max_s``; the trims
+collect as always); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
 ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 50 s (Heavy)
 and ≈ 60 s (Sabertooth) of one core: two trims and eleven level holds of
 ``collect_max_s``. At the tiny size the series is its first weight.
@@ -35,6 +37,7 @@ and ≈ 60 s (Sabertooth) of one core: two trims and eleven level holds of
 from __future__ import annotations
 
 import asyncio
+import os
 import tempfile
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, replace
@@ -138,11 +141,12 @@ def series(profile: Profile, count: int) -> list[KnownWeight]:
 
 def calibrate(profile: Profile, payload: str, seed: int, options: str,
               weights: Sequence[KnownWeight], hung_kg: Sequence[float], first: int,
-              db: Path) -> CalibrationRun:
+              db: Path, hold_s: float | None = None) -> CalibrationRun:
     """A deliberate calibration with the series ``weights`` declared and ``hung_kg`` [kg in
     water] hung instead, of the vehicle of ``seed``, its holds the dives
-    ``seed + (first + k)·NOISE``, checked against the calibration stored in ``db`` and
-    stored there."""
+    ``seed + (first + k)·NOISE`` of ``hold_s`` each (None: the profile's
+    ``collect_max_s``), checked against the calibration stored in ``db`` and stored
+    there."""
     opened: list[str] = []
 
     def opener() -> Awaitable[Link]:
@@ -157,7 +161,8 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str,
 
     calibrated = calibrated_profile(db, "bench", profile)
     return asyncio.run(calibrate_with_weights(opener, calibrated, weights, lambda _text: True,
-                                              db=db, vehicle="bench", wall_clock=False))
+                                              db=db, vehicle="bench", wall_clock=False,
+                                              hold_s=hold_s))
 
 
 def judged_trim(profile: Profile, payload: str, seed: int, options: str,
@@ -179,8 +184,10 @@ def _verdict(accepted: bool) -> str:
     return "learnt" if accepted else "rejected"
 
 
-def run(name: str, payload: str, seed: int, options: str) -> Seed:
-    """The seed (module docstring); at the tiny size each hold collects for less
+def run(name: str, payload: str, seed: int, options: str, hold_s: float | None = None
+        ) -> Seed:
+    """The seed (module docstring), each calibration hold collecting ``hold_s`` [s] (None:
+    the profile's ``collect_max_s``); at the tiny size each hold collects for less
     (:func:`bench.size.sized_profile`)."""
     profile = sized_profile(load_profile(name))
     before, before_share = judged_trim(profile, payload, seed, options)
@@ -189,7 +196,7 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
         db = Path(tmp) / "trimd.db"
         try:
             good = calibrate(profile, payload, seed, options, weights,
-                             [w.kg for w in weights], 0, db)
+                             [w.kg for w in weights], 0, db, hold_s)
         except (EstimationError, LinkError) as exc:
             return Seed(seed, before, calibration=f"no experiment: {exc}",
                         shares=(before_share,))
@@ -204,7 +211,7 @@ def run(name: str, payload: str, seed: int, options: str) -> Seed:
                    narrowed, shares=(before_share, after_share))
         try:
             wrong = calibrate(profile, payload, seed, options, weights[:1],
-                              [HEAVIER * weights[0].kg], len(weights) + 1, db)
+                              [HEAVIER * weights[0].kg], len(weights) + 1, db, hold_s)
         except (EstimationError, LinkError) as exc:
             return replace(out, wrong=f"no experiment: {exc}")
     alone = update(prior(profile), wrong.experiments[0], profile)[1]
@@ -266,11 +273,16 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
 def main() -> None:
     cfg = seeding("CALIB", size(60, 1), OPTIONS)
     seeds, options = cfg.seeds, cfg.options
+    held = os.environ.get("TRIMD_CALIB_HOLD_S")
+    hold_s = float(held) if held else None
     for name, payload in picked(size(CASES, CASES[:1]), cfg.wanted):
-        runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes)
+        runs, wall = run_seeds(run, name, payload, seeds, options, cfg.processes,
+                               [hold_s] * seeds)
+        length = (f"{hold_s:g} s" if hold_s else
+                  f"the profile's {load_profile(name).procedure.collect_max_s:g} s")
         print(f"{name}, {payload}, sim:{options}, calibration: "
               f"{known_weight(load_profile(name)).kg:.3f} kg and a float of its lift at each "
-              f"corner, {size(len(SERIES[name]), 1)} in all: {seeds} seeds, {wall:.1f} s "
-              "wall per seed")
+              f"corner, {size(len(SERIES[name]), 1)} in all, holds of {length}: {seeds} "
+              f"seeds, {wall:.1f} s wall per seed")
         for line in report(runs, load_profile(name)):
             print(f"  {line}")

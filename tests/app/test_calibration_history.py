@@ -20,7 +20,13 @@ from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
 from tests.helpers import carried, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
-from trimd.app.calibrate import KnownWeight, calibrate_with_weights, hold_from_record, hold_record
+from trimd.app.calibrate import (
+    KnownWeight,
+    calibrate_with_weights,
+    hold_from_record,
+    hold_record,
+    recorded_hold_s,
+)
 from trimd.app.connect import open_link
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History
@@ -40,6 +46,7 @@ from trimd.core.link import Link
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.logs.recorder import TlogRecorder
+from trimd.logs.replay import recorded_calibration_hold
 
 #: the simulated vehicle's seed. Not 0: there the weight-then-float series' float
 #: experiment has a thruster resting 1–3 µs inside its table's band (its true edge 3.8 µs
@@ -149,9 +156,11 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
     water) hung at W-front-stbd, a second level hold, the weight swapped for a float of
     0.5 kgf lift at W-aft-port, a third. Both experiments are learnt and stored as they are
     made, the gains cover the TRUE curves' errors, and the holds' recordings reproduce
-    them bit for bit (given out of order, they are refused); the same holds with nothing
-    ever hung are rejected, not learnt, and the operator who does not hang the second
-    weight stops the series with the first experiment kept."""
+    them bit for bit (given out of order, they are refused); each hold collects the
+    operator's 60 s (``--hold-s``), which its recording carries, so that its replay
+    collects as long; the same holds with nothing ever hung (the profile's 120 s each) are
+    rejected, not learnt, and the operator who does not hang the second weight stops the
+    series with the first experiment kept."""
     db = tmp_path / "trimd.db"
     opened: list[str] = []
     weights = (KnownWeight(0.5, "W-front-stbd"), KnownWeight(-0.5, "W-aft-port", 5.0))
@@ -176,7 +185,7 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
     done = asyncio.run(calibrate_with_weights(link(True), bluerov, weights,
                                               lambda text: asked.append(text) or True,
                                               db=db, vehicle="rov", wall_clock=False,
-                                              record=record))
+                                              record=record, hold_s=60.0))
     assert opened == hung_at and "hang 0.5 kg" in asked[0] and "W-front-stbd" in asked[0]
     assert "take 0.5 kg (its weight in water) at slot W-front-stbd off" in asked[1]
     assert "the float of 0.5 kgf lift at slot W-aft-port" in asked[1]
@@ -199,6 +208,9 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
                                              presenters=[HeadlessPresenter(out)]))
     assert replayed.level_hold is not None and "level hold (" in out.getvalue()
     assert f"{len(replayed.level_hold.t_s)} steady samples" in out.getvalue()
+    span = replayed.level_hold.t_s[-1] - replayed.level_hold.t_s[0]
+    recorded = recorded_calibration_hold(paths[0])
+    assert 55.0 <= span <= 60.0 and recorded is not None and recorded["hold_s"] == 60.0
     with pytest.raises(DataError, match="give the recordings in the order of their holds"):
         asyncio.run(replay_calibration([paths[1], paths[0]], None))
     opened.clear()
@@ -228,3 +240,8 @@ def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
             hold_from_record(bad, "x")
     with pytest.raises(DataError, match="two or more recordings of its level holds"):
         asyncio.run(replay_calibration(["one.tlog"], None))
+    assert recorded_hold_s(hold_record(0, series, 360.0), "x") == 360.0
+    assert recorded_hold_s(hold_record(0, series), "x") is None  # the profile's
+    for length in ("long", True, -60.0, 5.0, float("inf")):
+        with pytest.raises(DataError, match="x: "):
+            recorded_hold_s({**hold_record(0, series), "hold_s": length}, "x")

@@ -46,6 +46,11 @@ def test_float_correct_alone_without_the_history_says_to_give_the_trim(
     ([], "--link, --mass required (or --replay HOLD1 HOLD2 …)"),
     (["--link", "sim:"], "--mass required (or --replay HOLD1 HOLD2 …)"),
     (["--link", "sim:", "--mass", "0.5"], "expected KG@SLOT, e.g. 0.5@W-front-stbd"),
+    (["--link", "sim:", "--mass", "0.5@W-front-stbd", "--hold-s", "5"],
+     "--hold-s 5: a level hold collects for at least 10 s"),
+    (["--replay", "a.tlog", "b.tlog", "--hold-s", "60"],
+     "--hold-s is the live calibration's: a replay collects each hold as long as its "
+     "recording says"),
 ])
 def test_calibrate_says_what_it_needs(args: list[str], said: str, tmp_path: Path,
                                       capsys: pytest.CaptureFixture[str]) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Awaitable, Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Never
 
@@ -49,12 +49,15 @@ from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 
-__all__ = ["CalibrationRun", "KnownWeight", "calibrate_with_weights", "calibration_experiment",
-           "check_against_profile", "hold_from_record", "hold_record", "level_hold_procedure",
+__all__ = ["MIN_HOLD_S", "CalibrationRun", "KnownWeight", "calibrate_with_weights",
+           "calibration_experiment", "check_against_profile", "checked_hold_s",
+           "hold_from_record", "hold_record", "level_hold_procedure", "recorded_hold_s",
            "swap_text"]
 
 #: The two holds of a one-weight calibration as recordings before the series named them.
 _OLD_HOLDS = ("before", "after")
+#: The shortest level hold a calibration collects for [s].
+MIN_HOLD_S = 10.0
 #: 1σ of the height of the centre of gravity's net moment [N·m] assumed for the level
 #: fit's q, which enters only through the two holds' small difference in attitude.
 _M_Z_STD = 1.0
@@ -84,10 +87,13 @@ class CalibrationRun:
     stopped: str = ""
 
 
-def level_hold_procedure(profile: Profile, *, confirmed: bool) -> Procedure[Never, HoldSamples]:
+def level_hold_procedure(profile: Profile, *, confirmed: bool, hold_s: float | None = None
+                         ) -> Procedure[Never, HoldSamples]:
     """A calibration's level hold: the verify hold's procedure (the profile's first hold,
-    level) collected for the profile's whole ``collect_max_s`` (module docstring), whose
-    result is the hold's samples."""
+    level) collected for ``hold_s`` [s] (None: the profile's whole ``collect_max_s``,
+    module docstring), whose result is the hold's samples."""
+    if hold_s is not None:
+        profile = replace(profile, procedure=replace(profile.procedure, collect_max_s=hold_s))
     return Procedure(profile, confirmed=confirmed, verify=_the_hold,
                      collect_s=profile.procedure.collect_max_s)
 
@@ -96,11 +102,36 @@ def _the_hold(hold: HoldSamples) -> HoldSamples:
     return hold
 
 
-def hold_record(index: int, series: Sequence[KnownWeight]) -> dict[str, object]:
+def hold_record(index: int, series: Sequence[KnownWeight], hold_s: float | None = None
+                ) -> dict[str, object]:
     """What a calibration hold's recording says of itself: which hold of the series it is
-    (0: before any weight) and the series' weights in order."""
+    (0: before any weight), the series' weights in order and, when the operator chose it,
+    how long each hold collects [s]."""
     return {"hold": index, "weights": [{"kg": w.kg, "slot": w.slot,
-                                        "uncertainty_pct": w.uncertainty_pct} for w in series]}
+                                        "uncertainty_pct": w.uncertainty_pct} for w in series],
+            **({"hold_s": hold_s} if hold_s is not None else {})}
+
+
+def checked_hold_s(hold_s: float, what: str) -> float:
+    """``hold_s`` [s] when it is a length a level hold can collect for; DataError naming
+    ``what`` otherwise."""
+    if not (math.isfinite(hold_s) and hold_s >= MIN_HOLD_S):
+        raise DataError(f"{what}: a calibration hold of {hold_s:g} s: it collects for at "
+                        f"least {MIN_HOLD_S:g} s")
+    return hold_s
+
+
+def recorded_hold_s(d: dict[str, object], source: str) -> float | None:
+    """How long the calibration hold of :func:`hold_record`'s dict collected [s]; None
+    when it does not say (the profile's ``collect_max_s``, as every recording before
+    2026-11-29). DataError naming ``source`` when it says something else."""
+    value = d.get("hold_s")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise DataError(f"{source}: the recorded calibration hold's length is malformed "
+                        f"({value!r})")
+    return checked_hold_s(float(value), source)
 
 
 def _weight_of(d: object) -> KnownWeight | None:
@@ -133,14 +164,15 @@ def hold_from_record(d: dict[str, object], source: str
 
 async def _level_hold(open_link: Callable[[], Awaitable[Link]], profile: Profile,
                       presenters: Sequence[Presenter[Never, HoldSamples]], wall_clock: bool,
-                      what: str,
-                      recorder: Recorder | None) -> HoldSamples:
-    """One level hold on the link opened again; EstimationError naming ``what`` when it
-    does not end with a steady hold."""
+                      what: str, recorder: Recorder | None, hold_s: float | None
+                      ) -> HoldSamples:
+    """One level hold of ``hold_s`` (:func:`level_hold_procedure`) on the link opened
+    again; EstimationError naming ``what`` when it does not end with a steady hold."""
     link = await open_link()
     session: Session[Never, HoldSamples] = Session(
         link, profile, recorder=recorder, presenters=presenters,
-        procedure=level_hold_procedure(profile, confirmed=True), wall_clock=wall_clock)
+        procedure=level_hold_procedure(profile, confirmed=True, hold_s=hold_s),
+        wall_clock=wall_clock)
     result = await session.run()
     if result.phase is not Phase.DONE or result.verification is None:
         raise EstimationError(f"{what}: {result.reason}")
@@ -195,7 +227,8 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
                                  presenters: Sequence[Presenter[Never, HoldSamples]] | None
                                  = None, wall_clock: bool = True,
                                  record: Callable[[dict[str, object]], Recorder | None]
-                                 | None = None) -> CalibrationRun:
+                                 | None = None, hold_s: float | None = None
+                                 ) -> CalibrationRun:
     """A level hold, then per weight of ``weights``: ``hung(text)`` (the operator takes
     the previous weight off, hangs this one and says so), a level hold, and the experiment
     of the two holds checked against the calibration so far, ``profile``'s thrust map
@@ -205,9 +238,14 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     ``hung`` False before the first weight aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
-    (:func:`hold_record`; None: not recorded). ProfileError for a slot the profile does
-    not have; UsageError for a weight of 0 kg; LinkError, EstimationError when a hold
-    fails."""
+    (:func:`hold_record`; None: not recorded). Each hold collects for ``hold_s`` [s]
+    (None: the profile's ``collect_max_s``): longer holds make each experiment's noise
+    smaller, and its check against the calibration so far sharper (docs/method.md §7).
+    ProfileError for a slot the profile does not have; UsageError for a weight of 0 kg;
+    DataError for a hold shorter than :data:`MIN_HOLD_S`; LinkError, EstimationError when
+    a hold fails."""
+    if hold_s is not None:
+        checked_hold_s(hold_s, "--hold-s")
     for w in weights:
         slot = profile.slot(w.slot)
         if not (math.isfinite(w.kg) and w.kg != 0):
@@ -219,7 +257,7 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
 
     def level_hold(k: int) -> Awaitable[HoldSamples]:
         return _level_hold(open_link, profile, shown, wall_clock, f"level hold {k + 1}",
-                           record(hold_record(k, weights)) if record else None)
+                           record(hold_record(k, weights, hold_s)) if record else None, hold_s)
 
     post = profile.thrust_map or prior(profile)
     holds = [await level_hold(0)]

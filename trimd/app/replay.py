@@ -19,6 +19,7 @@ from trimd.app.calibrate import (
     check_against_profile,
     hold_from_record,
     level_hold_procedure,
+    recorded_hold_s,
 )
 from trimd.app.float_check import float_from_settings
 from trimd.app.results import AnyPresenter, AnyResult, Finding
@@ -82,8 +83,10 @@ def replay_session_of(link: Link, path: str, profile: Profile, *,
         source = f"{path} (recorded verify target)"
         procedure = verify_procedure(profile, VerifyTarget.from_dict(recorded, source, profile),
                                      confirmed=False, source=source)
-    if recorded_calibration_hold(path) is not None:
-        procedure = level_hold_procedure(profile, confirmed=False)
+    hold = recorded_calibration_hold(path)
+    if hold is not None:
+        procedure = level_hold_procedure(profile, confirmed=False,
+                                         hold_s=recorded_hold_s(hold, path))
     settings = recorded_float_check(path)
     if settings is not None:
         procedure = float_from_settings(profile, settings, f"{path} (recorded float check)")

@@ -12,12 +12,18 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import math
 import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
+from trimd.app.calibrate import (
+    MIN_HOLD_S,
+    CalibrationRun,
+    KnownWeight,
+    calibrate_with_weights,
+)
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
 from trimd.app.history.calibration import calibrated_profile
@@ -55,6 +61,11 @@ def register(sub: Subcommands) -> None:
                    "float at each corner teach the most, docs/method.md §7)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
+    p.add_argument("--hold-s", type=float, metavar="S",
+                   help="collect each level hold for S seconds (default: the profile's "
+                   "collect_max_s): longer holds check each experiment more sharply, e.g. "
+                   "catch an inventory entry a few %% off (docs/method.md §7); recorded, so "
+                   "--replay collects as long")
     p.add_argument("--yes", action="store_true", help="command the vehicle without asking, "
                    "and take each weight as hung once the hold before it ends (headless)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -129,11 +140,18 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
 
     run: CalibrationRun = asyncio.run(calibrate_with_weights(
         lambda: open_link(args.link, profile), profile, weights, hung, db=db, vehicle=vehicle,
-        record=_recorder(args, profile)))
+        record=_recorder(args, profile), hold_s=args.hold_s))
     return run
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.replay and args.hold_s is not None:
+        raise UsageError("--hold-s is the live calibration's: a replay collects each hold "
+                         "as long as its recording says", "trimd calibrate")
+    if args.hold_s is not None and not (math.isfinite(args.hold_s)
+                                        and args.hold_s >= MIN_HOLD_S):
+        raise UsageError(f"--hold-s {args.hold_s:g}: a level hold collects for at least "
+                         f"{MIN_HOLD_S:g} s", "trimd calibrate")
     if args.replay:
         done: CalibrationRun | None = asyncio.run(replay_calibration(args.replay, args.profile))
     else:
