@@ -120,7 +120,13 @@ def test_kill_9_leaves_a_log_that_replays(tmp_path: Path) -> None:
     for line in proc.stdout:  # wait until the first hold is commanded, then kill
         if "command: hold" in line:
             break
-    time.sleep(0.1)  # a whole trim takes ~1 s of wall time: kill well inside it
+    # the hold's notice is on disk once the file has grown past it by more than the
+    # writer's buffer (a fixed sleep here failed on a loaded machine); a whole trim takes
+    # ~1 s of wall time and writes ~300 kB: kill well inside it
+    grown = log.stat().st_size + 32_000
+    while log.stat().st_size < grown and proc.poll() is None:
+        time.sleep(0.002)
+    assert proc.poll() is None, "the trim ended before it could be killed"
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     assert log.stat().st_size > 1000
