@@ -144,12 +144,14 @@ class FloatResult:
 
     Attributes
     ----------
-    roll_deg, pitch_deg : mean roll and pitch of the collected samples [deg], corrected
-        for the moment of the vertical drift (:func:`drift_share`).
-    roll_std_deg, pitch_std_deg : their 1σ [deg]: the statistical part (batch means), the
-        transient not yet over (the trend times the relaxation time), the moment of the
-        vertical drift (:func:`drift_share`) and the attitude reference's error
-        (``attitude_error_deg``) in quadrature.
+    roll_deg, pitch_deg : mean roll and pitch of the collected samples [deg] (an axis of
+        ``approach``: where its approach ends, :func:`approach_end`), corrected for the
+        moment of the vertical drift (:func:`drift_share`).
+    roll_std_deg, pitch_std_deg : their 1σ [deg]: the statistical part (batch means; an
+        axis of ``approach``: their scatter about the fit), the transient (the trend times
+        the relaxation time; an axis of ``approach``: what the relaxation time's own
+        uncertainty makes), the moment of the vertical drift (:func:`drift_share`) and the
+        attitude reference's error (``attitude_error_deg``) in quadrature.
     stat_std_deg, transient_deg, drift_deg : the statistical, transient and drift parts,
         roll and pitch [deg].
     samples : attitude samples collected.
