@@ -112,12 +112,16 @@ def hold_record(index: int, series: Sequence[KnownWeight], hold_s: float | None 
             **({"hold_s": hold_s} if hold_s is not None else {})}
 
 
-def checked_hold_s(hold_s: float, what: str) -> float:
-    """``hold_s`` [s] when it is a length a level hold can collect for; DataError naming
-    ``what`` otherwise."""
-    if not (math.isfinite(hold_s) and hold_s >= MIN_HOLD_S):
-        raise DataError(f"{what}: a calibration hold of {hold_s:g} s: it collects for at "
-                        f"least {MIN_HOLD_S:g} s")
+def _hold_s_ok(hold_s: float) -> bool:
+    return math.isfinite(hold_s) and hold_s >= MIN_HOLD_S
+
+
+def checked_hold_s(hold_s: float | None) -> float | None:
+    """``hold_s`` [s] (``trimd calibrate --hold-s``) when it is None or a length a level
+    hold can collect for; UsageError otherwise."""
+    if hold_s is not None and not _hold_s_ok(hold_s):
+        raise UsageError(f"--hold-s {hold_s:g}: a level hold collects for at least "
+                         f"{MIN_HOLD_S:g} s", "trimd calibrate")
     return hold_s
 
 
@@ -128,10 +132,11 @@ def recorded_hold_s(d: dict[str, object], source: str) -> float | None:
     value = d.get("hold_s")
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool) or not isinstance(value, int | float) or not _hold_s_ok(
+            float(value)):
         raise DataError(f"{source}: the recorded calibration hold's length is malformed "
-                        f"({value!r})")
-    return checked_hold_s(float(value), source)
+                        f"({value!r}; a level hold collects for at least {MIN_HOLD_S:g} s)")
+    return float(value)
 
 
 def _weight_of(d: object) -> KnownWeight | None:
@@ -241,11 +246,10 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     (:func:`hold_record`; None: not recorded). Each hold collects for ``hold_s`` [s]
     (None: the profile's ``collect_max_s``): longer holds make each experiment's noise
     smaller, and its check against the calibration so far sharper (docs/method.md §7).
-    ProfileError for a slot the profile does not have; UsageError for a weight of 0 kg;
-    DataError for a hold shorter than :data:`MIN_HOLD_S`; LinkError, EstimationError when
-    a hold fails."""
-    if hold_s is not None:
-        checked_hold_s(hold_s, "--hold-s")
+    ProfileError for a slot the profile does not have; UsageError for a weight of 0 kg
+    or a hold shorter than :data:`MIN_HOLD_S`; LinkError, EstimationError when a hold
+    fails."""
+    checked_hold_s(hold_s)
     for w in weights:
         slot = profile.slot(w.slot)
         if not (math.isfinite(w.kg) and w.kg != 0):

@@ -12,17 +12,16 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import math
 import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 from trimd.app.calibrate import (
-    MIN_HOLD_S,
     CalibrationRun,
     KnownWeight,
     calibrate_with_weights,
+    checked_hold_s,
 )
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
@@ -148,10 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if args.replay and args.hold_s is not None:
         raise UsageError("--hold-s is the live calibration's: a replay collects each hold "
                          "as long as its recording says", "trimd calibrate")
-    if args.hold_s is not None and not (math.isfinite(args.hold_s)
-                                        and args.hold_s >= MIN_HOLD_S):
-        raise UsageError(f"--hold-s {args.hold_s:g}: a level hold collects for at least "
-                         f"{MIN_HOLD_S:g} s", "trimd calibrate")
+    checked_hold_s(args.hold_s)  # before anything is asked or commanded
     if args.replay:
         done: CalibrationRun | None = asyncio.run(replay_calibration(args.replay, args.profile))
     else:

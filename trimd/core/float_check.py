@@ -284,11 +284,11 @@ class FloatCheck(Phases[Never, FloatResult]):
         t = self._times[self._first:]
         depth = [(ts, d) for ts, d in self._depths if ts >= t[0]]
         change = self._depths[-1][1] - self.start_depth_m if self._depths else math.nan
-        return float_result(t, np.asarray(self._angles[self._first:]), depth,
+        angles = np.asarray(self._angles)
+        return float_result(t, angles[self._first:], depth,
                             timing=self.timing, profile=self.profile,
                             settle_s=t[0] - self._t_float, depth_change_m=change,
-                            stopped=stopped,
-                            since_letting_go=(self._times, np.asarray(self._angles)))
+                            stopped=stopped, since_letting_go=(self._times, angles))
 
     def _done(self, result: FloatResult) -> list[Output[Never, FloatResult]]:
         self.verification = result
