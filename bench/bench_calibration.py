@@ -74,9 +74,9 @@ OPTIONS = "disturb=real,truth=perturbed"
 #: in a corner (all three level rows, Z, K, M, move), enough to move the thrusters well
 #: out of their dead band (on the Heavy the 5.4 N cross it whatever the buoyancy: W − B ≈
 #: 0.3 ± 1.4 N before). What a gain error shows is the thrust change times the error, so
-#: the Sabertooth's weight is 1.5 % of the vehicle's (178 N; 30 seeds at 4.55 kg and 18.2
-#: kg, docs/method.md §7: z net 1.12 → 0.86 mm-equivalent, a 10 % heavier weight caught
-#: in 32 of 60 → 30 of 30); the Heavy's twice as heavy (1.09 kg) gained nothing.
+#: the Sabertooth's weight is 1.5 % of the vehicle's (178 N; 60 seeds, docs/method.md §7:
+#: against 4.55 kg, z net 1.12 → 0.77 mm-equivalent, a 10 % heavier weight caught in 32
+#: → 59 of 60); the Heavy's twice as heavy (1.09 kg, 30 seeds) gained nothing.
 WEIGHTS = {"bluerov2-heavy": ("lead-200g", 3, "W-front-stbd"),
            "sabertooth-dh2": ("lead-1kg", 20, "FrontSB")}
 #: profile → the calibration's series in order: (slot, +1 the known weight of

@@ -58,3 +58,20 @@ def test_calibrate_says_what_it_needs(args: list[str], said: str, tmp_path: Path
                  "--db", str(tmp_path / "trimd.db"), *args])
     err = capsys.readouterr().err
     assert code == 2 and said in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize(("profile", "mass", "advised"), [
+    ("sabertooth-dh2", "4.55@FrontSB", True), ("sabertooth-dh2", "-18.2@AftP", False),
+    ("bluerov2-heavy", "0.546@W-front-stbd", False)])
+def test_calibrate_advises_a_heavier_weight_when_it_would_learn_little(
+        profile: str, mass: str, advised: bool, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The note comes before anything is asked or commanded (here: headless without
+    --yes, which stops there)."""
+    code = main(["calibrate", "--profile", profile, "--link", "sim:", f"--mass={mass}",
+                 "--no-record", "--db", str(tmp_path / "trimd.db")])
+    err = capsys.readouterr().err
+    assert code == 2 and "pass --yes" in err, err
+    note = ("note: the heaviest weight, 4.55 kg in water, is 0.38 % of the vehicle's 1184 kg"
+            in err and "a weight of 11.8 kg or more (1 %) teaches more" in err)
+    assert note == advised and ("note:" in err) == advised, err

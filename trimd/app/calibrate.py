@@ -49,15 +49,21 @@ from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 
-__all__ = ["MIN_HOLD_S", "CalibrationRun", "KnownWeight", "calibrate_with_weights",
-           "calibration_experiment", "check_against_profile", "checked_hold_s",
-           "hold_from_record", "hold_record", "level_hold_procedure", "recorded_hold_s",
-           "swap_text"]
+__all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "CalibrationRun", "KnownWeight",
+           "calibrate_with_weights", "calibration_experiment", "check_against_profile",
+           "checked_hold_s", "hold_from_record", "hold_record", "level_hold_procedure",
+           "light_weight_advice", "recorded_hold_s", "swap_text"]
 
 #: The two holds of a one-weight calibration as recordings before the series named them.
 _OLD_HOLDS = ("before", "after")
 #: The shortest level hold a calibration collects for [s].
 MIN_HOLD_S = 10.0
+#: The share of the vehicle's mass below which a calibration's heaviest weight teaches
+#: little: a gain error shows as the thrust change times the error. On the simulated
+#: Sabertooth (1184 kg) a series of 4.55 kg left a later trim's z net at 1.12
+#: mm-equivalent and caught a 10 % heavier weight in 32 of 60; one of 18.2 kg (1.5 %) at
+#: 0.77 and in 59 of 60 (docs/method.md §7).
+LIGHT_SHARE = 0.01
 #: 1σ of the height of the centre of gravity's net moment [N·m] assumed for the level
 #: fit's q, which enters only through the two holds' small difference in attitude.
 _M_Z_STD = 1.0
@@ -123,6 +129,21 @@ def checked_hold_s(hold_s: float | None) -> float | None:
         raise UsageError(f"--hold-s {hold_s:g}: a level hold collects for at least "
                          f"{MIN_HOLD_S:g} s", "trimd calibrate")
     return hold_s
+
+
+def light_weight_advice(profile: Profile, weights: Sequence[KnownWeight]) -> str | None:
+    """What to hang instead when the heaviest of ``weights`` (net in water [kgf]) is
+    lighter than :data:`LIGHT_SHARE` of ``profile``'s mass [kg]; None when it is not."""
+    heaviest = max((abs(w.kg) for w in weights), default=0.0)
+    least = LIGHT_SHARE * profile.mass_kg
+    if heaviest >= least:
+        return None
+    return (f"the heaviest weight, {heaviest:g} kg in water, is "
+            f"{100 * heaviest / profile.mass_kg:.2g} % of the vehicle's {profile.mass_kg:g} "
+            f"kg: a thruster's gain error shows as the thrust change times the error, so "
+            f"this calibration will learn little and may not catch a wrong inventory entry; "
+            f"a weight of {least:.3g} kg or more ({100 * LIGHT_SHARE:g} %) teaches more "
+            f"(docs/method.md §7)")
 
 
 def recorded_hold_s(d: dict[str, object], source: str) -> float | None:

@@ -22,6 +22,7 @@ from trimd.app.calibrate import (
     KnownWeight,
     calibrate_with_weights,
     checked_hold_s,
+    light_weight_advice,
 )
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
@@ -54,7 +55,8 @@ def register(sub: Subcommands) -> None:
                    "--replay: the recordings carry theirs)")
     p.add_argument("--mass", metavar="KG@SLOT", action="append",
                    help="the weight's net downward force in water [kgf] (negative: a "
-                   "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd "
+                   "float's lift, written with =: --mass=-0.5@W-aft-port) and the ballast "
+                   "slot it hangs at, e.g. 0.5@W-front-stbd "
                    "(required unless --replay). Give it again for a series: before each "
                    "further level hold you swap the weight for the next (a weight and a "
                    "float at each corner teach the most, docs/method.md §7)")
@@ -121,6 +123,9 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
     weights = [_weight(m, args.uncertainty_pct) for m in args.mass]
     for w in weights:
         profile.slot(w.slot)  # a wrong slot fails before anything is commanded
+    advice = light_weight_advice(profile, weights)
+    if advice:
+        print(f"trimd calibrate: note: {advice}", file=sys.stderr)
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
