@@ -68,7 +68,7 @@ def test_calibrate_advises_a_heavier_weight_when_it_would_learn_little(
         capsys: pytest.CaptureFixture[str]) -> None:
     """The note comes before anything is asked or commanded (here: headless without
     --yes, which stops there)."""
-    code = main(["calibrate", "--profile", profile, "--link", "sim:", f"--mass={mass}",
+    code = main(["calibrate", "--profile", profile, "--link", "sim:", "--mass", mass,
                  "--no-record", "--db", str(tmp_path / "trimd.db")])
     err = capsys.readouterr().err
     assert code == 2 and "pass --yes" in err, err

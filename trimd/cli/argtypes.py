@@ -7,11 +7,16 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TypeAlias
 
-__all__ = ["Subcommands", "bounded", "integer", "wants_tui"]
+__all__ = ["Subcommands", "bounded", "integer", "joined_negative_weights", "wants_tui"]
+
+#: A float's KG@WHERE (``--payload -1.2@AftSB``, ``--mass -0.5@W-aft-port``), which
+#: argparse would take for an unknown option: no option's name holds an "@".
+_NEGATIVE_WEIGHT = re.compile(r"^-(\d+\.?\d*|\.\d+)@")
 
 #: What ``ArgumentParser.add_subparsers`` returns: each command module's ``register`` adds
 #: its parser to it.
@@ -54,3 +59,22 @@ def integer(low: int, high: int | None = None) -> Callable[[str], int]:
 def wants_tui(args: argparse.Namespace) -> bool:
     """The TUI, unless ``--headless`` or ``--json`` or no terminal is attached."""
     return not args.headless and not args.json and sys.stdin.isatty() and sys.stdout.isatty()
+
+
+def joined_negative_weights(words: Sequence[str]) -> list[str]:
+    """``words`` with each ``--option -KG@WHERE`` (a float) joined into
+    ``--option=-KG@WHERE``, as argparse needs it to read the value.
+
+    Examples
+    --------
+    >>> joined_negative_weights(["sim", "--payload", "-1.2@AftSB", "--payload", "2@AftP"])
+    ['sim', '--payload=-1.2@AftSB', '--payload', '2@AftP']
+    """
+    out: list[str] = []
+    for word in words:
+        if (_NEGATIVE_WEIGHT.match(word) and out and out[-1].startswith("--")
+                and "=" not in out[-1]):
+            out[-1] = f"{out[-1]}={word}"
+        else:
+            out.append(word)
+    return out

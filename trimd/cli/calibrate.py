@@ -55,8 +55,7 @@ def register(sub: Subcommands) -> None:
                    "--replay: the recordings carry theirs)")
     p.add_argument("--mass", metavar="KG@SLOT", action="append",
                    help="the weight's net downward force in water [kgf] (negative: a "
-                   "float's lift, written with =: --mass=-0.5@W-aft-port) and the ballast "
-                   "slot it hangs at, e.g. 0.5@W-front-stbd "
+                   "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd "
                    "(required unless --replay). Give it again for a series: before each "
                    "further level hold you swap the weight for the next (a weight and a "
                    "float at each corner teach the most, docs/method.md §7)")

@@ -33,6 +33,7 @@ from trimd.cli import (
     solve,
     watch,
 )
+from trimd.cli.argtypes import joined_negative_weights
 from trimd.core.errors import LinkError, NoResultError, TrimdError, UsageError
 
 __all__ = ["main"]
@@ -89,7 +90,7 @@ def _fail(exc: BaseException, as_json: bool) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit code."""
-    words = list(sys.argv[1:] if argv is None else argv)
+    words = joined_negative_weights(sys.argv[1:] if argv is None else argv)
     as_json = "--json" in words  # until the arguments are parsed (a usage error)
     try:
         args = build_parser().parse_args(words)
