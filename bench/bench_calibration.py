@@ -28,7 +28,8 @@ rejected.
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
 [s] (``trimd calibrate --hold-s``; default: the profile's ``collect_max_s``; the trims
-collect as always); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
+collect as always); ``TRIMD_CALIB_WEIGHT_COUNT`` how many of its piece the known weight
+is (default: :data:`WEIGHTS`); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
 ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 50 s (Heavy)
 and ≈ 60 s (Sabertooth) of one core: two trims and eleven level holds of
 ``collect_max_s``. At the tiny size the series is its first weight.
@@ -76,7 +77,8 @@ OPTIONS = "disturb=real,truth=perturbed"
 #: 0.3 ± 1.4 N before). What a gain error shows is the thrust change times the error, so
 #: the Sabertooth's weight is 1.5 % of the vehicle's (178 N; 60 seeds, docs/method.md §7:
 #: against 4.55 kg, z net 1.12 → 0.77 mm-equivalent, a 10 % heavier weight caught in 32
-#: → 59 of 60); the Heavy's twice as heavy (1.09 kg, 30 seeds) gained nothing.
+#: → 59 of 60); the Heavy's twice as heavy (1.09 kg, 30 seeds) gained nothing
+#: (``TRIMD_CALIB_WEIGHT_COUNT`` tries another).
 WEIGHTS = {"bluerov2-heavy": ("lead-200g", 3, "W-front-stbd"),
            "sabertooth-dh2": ("lead-1kg", 20, "FrontSB")}
 #: profile → the calibration's series in order: (slot, +1 the known weight of
@@ -129,6 +131,7 @@ def known_weight(profile: Profile) -> KnownWeight:
     """The calibration's weight (:data:`WEIGHTS`) as ``trimd calibrate --mass`` takes it:
     net kg in water at its slot, 1σ the piece's own."""
     name, count, slot = WEIGHTS[profile.name]
+    count = int(os.environ.get("TRIMD_CALIB_WEIGHT_COUNT", count))
     piece = profile.piece(name)
     return KnownWeight(count * piece.net_down_N(profile.water_density_kg_m3, 1.0), slot,
                        piece.net_uncertainty_pct)
