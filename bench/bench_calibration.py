@@ -23,13 +23,17 @@ mm-equivalent (error / nominal weight, as :mod:`bench.bench_sim_coverage`) and t
 of 95 % intervals covering the truth, without and with the calibration, beside issue 24's
 targets (:data:`TARGETS`); the mean ± of each; how many calibrations were learnt whole
 and which thrust-map parameters they narrowed; how many wrong-weight calibrations were
-rejected.
+rejected. With ``TRIMD_CALIB_KNOWN`` (comma-separated groups of :data:`GROUPS`: what the
+calibration left of the error, docs/method.md §7) the calibrated trim again per group, its
+posterior's parameters of that group set to the simulated vehicle's truth
+(:func:`trimd.drivers.sim.truth.thrust_map_errors`) with a σ of :data:`EXACT_STD`.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
 [s] (``trimd calibrate --hold-s``; default: the profile's ``collect_max_s``; the trims
 collect as always); ``TRIMD_CALIB_WEIGHT_COUNT`` how many of its piece the known weight
-is (default: :data:`WEIGHTS`); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
+is (default: :data:`WEIGHTS`); ``TRIMD_CALIB_KNOWN`` the groups above (default none; at the tiny
+size ``vertical``); ``TRIMD_CALIB_CASES`` comma-separated words picking cases;
 ``TRIMD_COVERAGE_PROCESSES`` (default 1) worker processes. One seed takes ≈ 50 s (Heavy)
 and ≈ 60 s (Sabertooth) of one core: two trims and eleven level holds of
 ``collect_max_s``. At the tiny size the series is its first weight.
@@ -64,10 +68,14 @@ from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
 from trimd.core.calibration import prior, update
 from trimd.core.errors import EstimationError, LinkError
+from trimd.core.hunting import LIFTING
 from trimd.core.learnt import DETERMINED
 from trimd.core.link import Link
+from trimd.core.map_posterior import ThrustMapPosterior, posterior
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
+from trimd.core.types import FloatArray
+from trimd.drivers.sim.truth import thrust_map_errors
 from trimd.drivers.sim.vehicle import SimVehicle
 
 OPTIONS = "disturb=real,truth=perturbed"
@@ -101,6 +109,50 @@ HEAVIER = 1.1
 NOISE = 100_000
 #: The blocks of the thrust map's parameters (calibration.ThrustMapPosterior's order).
 BLOCKS = ("gain fwd", "gain rev", "band lo", "band hi")
+#: The σ of a thrust-map parameter known exactly [prior σ].
+EXACT_STD = 1e-3
+
+
+def _bands(vertical: bool) -> Callable[[Profile], list[int]]:
+    def index(profile: Profile) -> list[int]:
+        n = len(profile.thrusters)
+        picked = [i for i, t in enumerate(profile.thrusters)
+                  if (abs(t.direction[2]) >= LIFTING) == vertical]
+        return [2 * n + i for i in picked] + [3 * n + i for i in picked]
+    return index
+
+
+#: Groups of thrust-map parameters (``TRIMD_CALIB_KNOWN``): word → label and the indices
+#: of its parameters in z (:mod:`trimd.core.curve_error`). Vertical: a thruster whose
+#: thrust is at least :data:`~trimd.core.hunting.LIFTING` along z.
+GROUPS: dict[str, tuple[str, Callable[[Profile], list[int]]]] = {
+    "vertical": ("vertical bands", _bands(True)),
+    "horizontal": ("horizontal bands", _bands(False)),
+    "gains": ("gains", lambda p: list(range(2 * len(p.thrusters))))}
+
+
+def pinned(post: ThrustMapPosterior, z: FloatArray, index: Sequence[int]
+           ) -> ThrustMapPosterior:
+    """``post`` with the parameters ``index`` known: their mean ``z[index]``, their σ
+    :data:`EXACT_STD`, uncorrelated with the rest."""
+    mean, cov = post.mean.copy(), post.cov.copy()
+    i = list(index)
+    mean[i] = z[i]
+    cov[i, :] = 0.0
+    cov[:, i] = 0.0
+    cov[i, i] = EXACT_STD**2
+    return posterior(mean, cov, post.experiments)
+
+
+def known_groups() -> list[str]:
+    """The groups ``TRIMD_CALIB_KNOWN`` names (module docstring); ValueError naming an
+    unknown one."""
+    words = [w.strip() for w in os.environ.get("TRIMD_CALIB_KNOWN", size("", "vertical")
+                                               ).split(",") if w.strip()]
+    if unknown := [w for w in words if w not in GROUPS]:
+        raise ValueError(f"TRIMD_CALIB_KNOWN: no group {', '.join(unknown)} "
+                         f"(the groups: {', '.join(GROUPS)})")
+    return words
 
 
 @dataclass(frozen=True)
@@ -109,7 +161,8 @@ class Seed:
     the calibration did not end with an experiment); the calibration's outcome ("learnt",
     "rejected" or why there was none) and its σ; how many of each of :data:`BLOCKS` it
     narrowed below :data:`DETERMINED` of the prior σ; the wrong-weight calibration's
-    outcome against the first one and against the profile alone and its σ; per trim
+    outcome against the first one and against the profile alone and its σ; the
+    calibrated trim per group of :func:`known_groups`, that group known; per trim
     (without, with) the shares of the variance of W − B and of each net moment that
     collecting longer would reduce (``q_cov_noise``) and that rests on the dead bands
     (``q_cov_band``), those of W − B, x, y, z net in that order (the rest: the curves'
@@ -125,6 +178,7 @@ class Seed:
     wrong_prior: str = ""
     wrong_sigma: float = float("nan")
     shares: tuple[tuple[float, ...], ...] = ()
+    known: tuple[Run, ...] = ()
 
 
 def known_weight(profile: Profile) -> KnownWeight:
@@ -186,6 +240,16 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
     return judge(seed, trial), tuple(map(float, share))
 
 
+def _knowing(calibrated: Profile, post: ThrustMapPosterior,
+             group: Callable[[Profile], list[int]]) -> Callable[[SimVehicle], Profile]:
+    """``calibrated`` with ``post``'s parameters of ``group`` set to the vehicle's truth
+    (:func:`pinned`), as :func:`judged_trim`'s ``estimate_with``."""
+    def knowing(vehicle: SimVehicle) -> Profile:
+        return replace(calibrated, thrust_map=pinned(
+            post, thrust_map_errors(calibrated, vehicle.offset), group(calibrated)))
+    return knowing
+
+
 def _verdict(accepted: bool) -> str:
     return "learnt" if accepted else "rejected"
 
@@ -214,7 +278,10 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         learnt = sum(o.accepted for o in good.outcomes)
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
-                   narrowed, shares=(before_share, after_share))
+                   narrowed, shares=(before_share, after_share),
+                   known=tuple(judged_trim(calibrated, payload, seed, options,
+                                           _knowing(calibrated, post, GROUPS[g][1]))[0]
+                               for g in known_groups()))
         try:
             wrong = calibrate(profile, payload, seed, options, weights[:1],
                               [HEAVIER * weights[0].kg], len(weights) + 1, db, hold_s)
@@ -229,6 +296,21 @@ def _count(values: list[str], what: str) -> str:
     return f"{sum(v == what for v in values)}/{len(values)}"
 
 
+def _figures(label: str, runs: list[Run], profile: Profile,
+             more: tuple[tuple[str, FloatArray, str], ...] = ()) -> list[str]:
+    """The lines of ``runs``' RMS error, mean ± and coverage (and ``more``: what, values,
+    format) for people."""
+    rms = rms_errors(runs, profile.weight_N)
+    done = [r.sigma[:4] for r in runs if r.sigma is not None]
+    sigma = np.mean(done, axis=0) if done else np.full(4, np.nan)
+    sigma[1:] *= 1e3 / profile.weight_N
+    return [f"  {label:32s} {what:22s} " + " ".join(f"{v:{form}}" for v in values)
+            for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
+                                       ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
+                                       ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
+                                       *more)]
+
+
 def report(seeds: list[Seed], profile: Profile) -> list[str]:
     """The figures of ``seeds`` for people (module docstring), one string per line."""
     calibrated = [s for s in seeds if s.after is not None]
@@ -236,19 +318,15 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
              and s.after.error is not None]
     target_wb, target_m = TARGETS[profile.name]
     lines = [f"{len(pairs)} of {len(seeds)} seeds with both trims done and a calibration",
-             f"  {'':35s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
+             f"  {'':55s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
     for k, label in enumerate(("uncalibrated", "calibrated")):
         runs = [r for s in pairs if (r := (s.before, s.after)[k]) is not None]
-        rms = rms_errors(runs, profile.weight_N)
-        sigma = np.mean([r.sigma[:4] for r in runs if r.sigma is not None], axis=0)
-        sigma[1:] *= 1e3 / profile.weight_N
         share = np.nanmean([s.shares[k] for s in pairs], axis=0)
-        for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
-                                   ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
-                                   ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
-                                   ("σ² share: noise", share[:4], "8.0%"),
-                                   ("σ² share: dead band", share[4:], "8.0%")):
-            lines.append(f"  {label:12s} {what:22s} " + " ".join(f"{v:{form}}" for v in values))
+        lines += _figures(label, runs, profile, (("σ² share: noise", share[:4], "8.0%"),
+                                                ("σ² share: dead band", share[4:], "8.0%")))
+    for k, g in enumerate(known_groups()):
+        lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
+                          profile)
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
                  f"{target_m:.3g} mm-equivalent; coverage 90–99 %")

@@ -29,7 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from bench.bench_calibration import OPTIONS, TARGETS, judged_trim
+from bench.bench_calibration import EXACT_STD, OPTIONS, TARGETS, judged_trim
 from bench.bench_sim_coverage import (
     CASES,
     NAMES,
@@ -50,8 +50,6 @@ from trimd.drivers.sim.vehicle import SimVehicle
 #: The trims with the true thrust map in part: label → (gains, bands, exact).
 KNOWN = {"gains known": (True, False, False), "bands known": (False, True, False),
          "map known": (True, True, False), "map exact": (True, True, True)}
-#: The σ of a perfectly calibrated thrust map [prior σ].
-EXACT_STD = 1e-3
 
 
 def known_map(profile: Profile, *, gains: bool, bands: bool, exact: bool = False

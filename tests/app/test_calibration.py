@@ -40,7 +40,7 @@ from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.core.segment import estimate_segment
 from trimd.drivers.sim.config import SimConfig, with_presets
-from trimd.drivers.sim.truth import perturb_profile
+from trimd.drivers.sim.truth import perturb_profile, thrust_map_errors
 from trimd.logs.recorder import TlogRecorder
 from trimd.logs.replay import ReplayLink, with_recorded_thrust_map
 
@@ -110,9 +110,7 @@ def true_gain_errors(profile: Profile, seed: int) -> np.ndarray:
     units of the profile's 1σ (``uncertainty_pct``)."""
     _, offset = perturb_profile(profile, with_presets(SimConfig(seed=seed), disturb="real",
                                                       truth="perturbed"))
-    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
-    f = np.array(offset.thrust_factors)
-    return np.r_[(f[:, 0] - 1) / sigma, (f[:, 1] - 1) / sigma]
+    return thrust_map_errors(profile, offset)[:2 * len(profile.thrusters)]
 
 
 @pytest.fixture(scope="module")

@@ -17,11 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.curve_error import curve_with_errors
+from trimd.core.curve_error import BAND_SIGMA_SHARE, curve_with_errors
 from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.drivers.sim.config import SimConfig
 
 __all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile",
+           "thrust_map_errors",
            "true_thrusters"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
@@ -115,6 +116,33 @@ def true_thrusters(profile: Profile, offset: TruthOffset, *, gains: bool = True,
     shapes = offset.shape_errors if gains and offset.shape_errors else ((0.0, 0.0),) * n
     return tuple(dataclasses.replace(t, curve=curve_with_errors(_shaped(t.curve, *s), f, b))
                  for t, f, b, s in zip(profile.thrusters, factors, moved, shapes, strict=True))
+
+
+def thrust_map_errors(profile: Profile, offset: TruthOffset) -> NDArray[np.float64]:
+    """The true thrust map's errors in a calibration's units (:mod:`trimd.core.curve_error`):
+    z, shape (4·n,), gains forward, gains reverse, band edges negative, positive, each in
+    units of the profile's prior 1σ, so that ``thrusters_with_errors(profile, z)`` is what
+    the simulator flies (less any ``shape_errors``, which no z describes).
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> p = load_profile("bluerov2-heavy")
+    >>> n = len(p.thrusters)
+    >>> z = thrust_map_errors(p, TruthOffset(1.0, (0.0, 0.0, 0.0), ((1.05, 1.0),) * n,
+    ...                                      ((0.0, -5.0 / math.sqrt(3)),) * n))
+    >>> [round(float(v), 6) for v in (z[0], z[n], z[2 * n], z[3 * n])]
+    [1.0, 0.0, 0.0, -1.0]
+    """
+    n = len(profile.thrusters)
+    gains = np.array(offset.thrust_factors, float) - 1.0
+    bands = np.array(offset.band_offsets_us, float) if offset.band_offsets_us else np.zeros(
+        (n, 2))
+    s_gain = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    s_band = np.array([t.curve.deadband_margin_us * BAND_SIGMA_SHARE for t in profile.thrusters])
+    z: NDArray[np.float64] = np.r_[gains[:, 0] / s_gain, gains[:, 1] / s_gain,
+                                   bands[:, 0] / s_band, bands[:, 1] / s_band]
+    return z
 
 
 def _shaped(curve: ThrustCurve, forward: float, reverse: float) -> ThrustCurve:
