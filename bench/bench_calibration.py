@@ -75,7 +75,8 @@ from trimd.core.map_posterior import ThrustMapPosterior, posterior
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.core.types import FloatArray
-from trimd.drivers.sim.truth import thrust_map_errors
+from trimd.drivers.sim.config import parse_sim_options
+from trimd.drivers.sim.truth import perturb_profile, thrust_map_errors
 from trimd.drivers.sim.vehicle import SimVehicle
 
 OPTIONS = "disturb=real,truth=perturbed"
@@ -162,7 +163,8 @@ class Seed:
     "rejected" or why there was none) and its σ; how many of each of :data:`BLOCKS` it
     narrowed below :data:`DETERMINED` of the prior σ; the wrong-weight calibration's
     outcome against the first one and against the profile alone and its σ; the
-    calibrated trim per group of :func:`known_groups`, that group known; per trim
+    calibrated trim per group of :func:`known_groups`, that group known; the calibration's
+    error in each thrust-map parameter in units of its posterior σ, (μ − z)/σ; per trim
     (without, with) the shares of the variance of W − B and of each net moment that
     collecting longer would reduce (``q_cov_noise``) and that rests on the dead bands
     (``q_cov_band``), those of W − B, x, y, z net in that order (the rest: the curves'
@@ -179,6 +181,7 @@ class Seed:
     wrong_sigma: float = float("nan")
     shares: tuple[tuple[float, ...], ...] = ()
     known: tuple[Run, ...] = ()
+    standardised: tuple[float, ...] = ()
 
 
 def known_weight(profile: Profile) -> KnownWeight:
@@ -240,16 +243,6 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
     return judge(seed, trial), tuple(map(float, share))
 
 
-def _knowing(calibrated: Profile, post: ThrustMapPosterior,
-             group: Callable[[Profile], list[int]]) -> Callable[[SimVehicle], Profile]:
-    """``calibrated`` with ``post``'s parameters of ``group`` set to the vehicle's truth
-    (:func:`pinned`), as :func:`judged_trim`'s ``estimate_with``."""
-    def knowing(vehicle: SimVehicle) -> Profile:
-        return replace(calibrated, thrust_map=pinned(
-            post, thrust_map_errors(calibrated, vehicle.offset), group(calibrated)))
-    return knowing
-
-
 def _verdict(accepted: bool) -> str:
     return "learnt" if accepted else "rejected"
 
@@ -272,6 +265,8 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
                         shares=(before_share,))
         calibrated = calibrated_profile(db, "bench", profile)
         post = calibrated.thrust_map or prior(profile)
+        truth = thrust_map_errors(profile, perturb_profile(
+            profile, parse_sim_options(f"seed={seed},{options}"))[1])
         sd = np.sqrt(np.diag(post.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         after, after_share = judged_trim(calibrated, payload, seed, options)
@@ -279,9 +274,11 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
                    narrowed, shares=(before_share, after_share),
-                   known=tuple(judged_trim(calibrated, payload, seed, options,
-                                           _knowing(calibrated, post, GROUPS[g][1]))[0]
-                               for g in known_groups()))
+                   known=tuple(judged_trim(calibrated, payload, seed, options, lambda _v, g=g:
+                                           replace(calibrated, thrust_map=pinned(
+                                               post, truth, GROUPS[g][1](profile))))[0]
+                               for g in known_groups()),
+                   standardised=tuple((post.mean - truth) / np.sqrt(np.diag(post.cov))))
         try:
             wrong = calibrate(profile, payload, seed, options, weights[:1],
                               [HEAVIER * weights[0].kg], len(weights) + 1, db, hold_s)
@@ -309,6 +306,21 @@ def _figures(label: str, runs: list[Run], profile: Profile,
                                        ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
                                        ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
                                        *more)]
+
+
+def _edges_learnt(seeds: list[Seed], profile: Profile) -> list[str]:
+    """How well the calibrations of ``seeds`` learnt each group of band edges
+    (:data:`GROUPS`): the RMS of (μ − z)/σ and the share beyond 2σ."""
+    if not seeds:
+        return []
+    z = np.array([s.standardised for s in seeds])
+    out = []
+    for word in ("vertical", "horizontal"):
+        label, index = GROUPS[word]
+        e = z[:, index(profile)]
+        out.append(f"  {label}: calibration error / its σ RMS {np.sqrt(np.mean(e**2)):.2f}, "
+                   f"beyond 2σ {np.mean(np.abs(e) > 2):.0%} (a normal: 5 %)")
+    return out
 
 
 def report(seeds: list[Seed], profile: Profile) -> list[str]:
@@ -340,6 +352,7 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
                      f"{b} {v:.1f}" for b, v in zip(BLOCKS, narrowed.mean(axis=0)
                                                     if len(narrowed) else [np.nan] * 4,
                                                     strict=True)))
+    lines += _edges_learnt([s for s in seeds if s.calibration == "learnt"], profile)
     wrong = [s for s in seeds if s.wrong in ("learnt", "rejected")]
     lines.append(f"  weight {HEAVIER:.0%} of its declared value: rejected "
                  f"{_count([s.wrong for s in wrong], 'rejected')} after the calibration, "
