@@ -369,6 +369,7 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
 
 def main() -> None:
     cfg = seeding("CALIB", size(60, 1), OPTIONS)
+    known_groups()   # a group it does not know stops it before any seed runs
     seeds, options = cfg.seeds, cfg.options
     held = os.environ.get("TRIMD_CALIB_HOLD_S")
     hold_s = float(held) if held else None
