@@ -19,9 +19,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from trimd.core.profile import Profile, ThrustCurve, Thruster
+from trimd.core.types import FloatArray
 
-__all__ = ["BAND_SIGMA_SHARE", "curve_with_errors", "offset_band", "scaled_curve",
-           "thrusters_with_errors"]
+__all__ = ["BAND_SIGMA_SHARE", "curve_with_errors", "error_scales", "offset_band",
+           "scaled_curve", "thrusters_with_errors"]
 
 #: 1σ of an ESC's dead-band offset as a share of the curve's ``deadband_margin_us``: the
 #: offset anywhere within ± the margin (uniform: 1/√3).
@@ -63,16 +64,23 @@ def curve_with_errors(curve: ThrustCurve, gains: tuple[float, float],
     return offset_band(scaled_curve(curve, *gains), *band_us)
 
 
+def error_scales(profile: Profile) -> tuple[FloatArray, FloatArray]:
+    """Per thruster (the profile's order) the prior 1σ of a gain error [fraction] and of a
+    band edge's offset [µs]: what one unit of z is (module docstring)."""
+    curves = [t.curve for t in profile.thrusters]
+    return (np.array([c.uncertainty_pct / 100 for c in curves]),
+            np.array([c.deadband_margin_us * BAND_SIGMA_SHARE for c in curves]))
+
+
 def thrusters_with_errors(profile: Profile, z: ArrayLike) -> tuple[Thruster, ...]:
     """The profile's thrusters with the errors ``z`` [prior σ, module docstring] applied
     to their curves: gains 1 + σ_gain·z, band edges moved by σ_band·z [µs]."""
     forward, reverse, low, high = np.split(np.asarray(z, float), 4)
+    s_gain, s_band = error_scales(profile)
     out = []
     for i, t in enumerate(profile.thrusters):
-        s_gain = t.curve.uncertainty_pct / 100
-        s_band = t.curve.deadband_margin_us * BAND_SIGMA_SHARE
-        curve = curve_with_errors(t.curve, (1 + s_gain * float(forward[i]),
-                                            1 + s_gain * float(reverse[i])),
-                                  (s_band * float(low[i]), s_band * float(high[i])))
+        curve = curve_with_errors(t.curve, (1 + s_gain[i] * float(forward[i]),
+                                            1 + s_gain[i] * float(reverse[i])),
+                                  (s_band[i] * float(low[i]), s_band[i] * float(high[i])))
         out.append(t if curve is t.curve else dataclasses.replace(t, curve=curve))
     return tuple(out)

@@ -17,13 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.curve_error import BAND_SIGMA_SHARE, curve_with_errors
+from trimd.core.curve_error import curve_with_errors, error_scales
 from trimd.core.profile import Profile, ThrustCurve, Thruster
 from trimd.drivers.sim.config import SimConfig
 
 __all__ = ["TruthOffset", "implied_mass", "passive_trim_deg", "perturb_profile",
-           "thrust_map_errors",
-           "true_thrusters"]
+           "thrust_map_errors", "true_thrusters"]
 
 #: Random stream of the perturbation (beside the noise and disturbance streams).
 _STREAM = 100
@@ -138,8 +137,7 @@ def thrust_map_errors(profile: Profile, offset: TruthOffset) -> NDArray[np.float
     gains = np.array(offset.thrust_factors, float) - 1.0
     bands = np.array(offset.band_offsets_us, float) if offset.band_offsets_us else np.zeros(
         (n, 2))
-    s_gain = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
-    s_band = np.array([t.curve.deadband_margin_us * BAND_SIGMA_SHARE for t in profile.thrusters])
+    s_gain, s_band = error_scales(profile)
     z: NDArray[np.float64] = np.r_[gains[:, 0] / s_gain, gains[:, 1] / s_gain,
                                    bands[:, 0] / s_band, bands[:, 1] / s_band]
     return z
