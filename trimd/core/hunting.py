@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trimd.core.curve_error import BAND_SIGMA_SHARE
+from trimd.core.curve_error import error_scales
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import band_at, thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
@@ -177,8 +177,7 @@ def observed_bands(known: ThrustMapPosterior | None, observations: Sequence[Edge
     (a calibration that read it, an earlier hold); ``known`` itself when there is none."""
     n = len(profile.thrusters)
     post = known or prior(profile)
-    per_z = np.tile([t.curve.deadband_margin_us * BAND_SIGMA_SHARE   # µs per unit of z
-                     for t in profile.thrusters], 4)
+    per_z = np.tile(error_scales(profile)[1], 4)     # µs per unit of z
     sigma_us = np.sqrt(np.diag(post.cov)) * per_z
     by_edge: dict[int, list[float]] = {}
     for o in observations:

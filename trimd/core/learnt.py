@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from trimd.core.curve_error import BAND_SIGMA_SHARE
+from trimd.core.curve_error import error_scales
 from trimd.core.map_posterior import ThrustMapPosterior
 from trimd.core.profile import Profile
 from trimd.core.types import JsonObject
@@ -58,9 +58,10 @@ def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
     """Each thruster's gain error forward and reverse under ``post`` (true thrust =
     (1 + gain)·the profile curve's)."""
     n, out = len(profile.thrusters), []
+    pct = 100 * error_scales(profile)[0]
     for d, direction in enumerate(("forward", "reverse")):
         for i, t in enumerate(profile.thrusters):
-            k, s = d * n + i, t.curve.uncertainty_pct
+            k, s = d * n + i, float(pct[i])
             out.append(Gain(t.name, direction, float(post.mean[k]) * s,
                             math.sqrt(float(post.cov[k, k])) * s, s))
     return out
@@ -69,9 +70,10 @@ def gains(post: ThrustMapPosterior, profile: Profile) -> list[Gain]:
 def band_edges(post: ThrustMapPosterior, profile: Profile) -> list[BandEdge]:
     """Each thruster's dead-band edge offsets, low then high, under ``post``."""
     n, out = len(profile.thrusters), []
+    band_us = error_scales(profile)[1]
     for d, edge in enumerate(("low", "high")):
         for i, t in enumerate(profile.thrusters):
-            k, s = (2 + d) * n + i, t.curve.deadband_margin_us * BAND_SIGMA_SHARE
+            k, s = (2 + d) * n + i, float(band_us[i])
             out.append(BandEdge(t.name, edge, float(post.mean[k]) * s,
                                 math.sqrt(float(post.cov[k, k])) * s, s))
     return out

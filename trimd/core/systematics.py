@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from trimd.core.curve_error import BAND_SIGMA_SHARE, thrusters_with_errors
+from trimd.core.curve_error import BAND_SIGMA_SHARE, error_scales, thrusters_with_errors
 from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
 from trimd.core.longrun import MeanCovariance
@@ -69,7 +69,7 @@ def exposure_factors(exposure: FloatArray, rows: NDArray[np.bool_], profile: Pro
     margins), shape (rows, 4·n) [N, N·m]: T_rows·diag(exposure·[σ_gain, σ_gain, 1, 1]),
     ``exposure`` from :func:`thrust_exposure`."""
     T = thrust_configuration(profile.thrusters) if profile.thrusters else np.zeros((6, 0))
-    sigma = np.array([t.curve.uncertainty_pct / 100 for t in profile.thrusters])
+    sigma = error_scales(profile)[0]
     forward, reverse, negative, positive = np.split(exposure, 4)
     factors: FloatArray = np.concatenate([T[rows] * (forward * sigma),
                                           T[rows] * (reverse * sigma),
