@@ -46,3 +46,15 @@ def test_every_benchmark_runs_to_its_end_at_a_tiny_size() -> None:
     assert [lines[i] for i in starts] == [f"== {name}" for name in names], lines[:3]
     for name, begin, end in zip(names, starts, [*starts[1:], len(lines)], strict=True):
         assert end - begin >= 2, (name, lines[begin:end])
+
+
+def test_an_unknown_calibration_group_is_named_before_any_seed_runs(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from bench.bench_calibration import GROUPS, known_groups
+
+    monkeypatch.setenv("TRIMD_CALIB_KNOWN", "vertical, gain")
+    with pytest.raises(ValueError, match="no group gain") as raised:
+        known_groups()
+    assert all(g in str(raised.value) for g in GROUPS)
+    monkeypatch.setenv("TRIMD_CALIB_KNOWN", " gains,vertical ")
+    assert known_groups() == ["gains", "vertical"]
