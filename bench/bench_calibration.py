@@ -44,6 +44,7 @@ from __future__ import annotations
 import asyncio
 import os
 import tempfile
+from collections import Counter
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -62,7 +63,7 @@ from bench.bench_sim_coverage import (
     seeding,
 )
 from bench.size import size, sized_profile
-from tests.helpers import sim_trim
+from tests.helpers import SimTrim, sim_float_reference, sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
@@ -110,6 +111,9 @@ HEAVIER = 1.1
 NOISE = 100_000
 #: The blocks of the thrust map's parameters (calibration.ThrustMapPosterior's order).
 BLOCKS = ("gain fwd", "gain rev", "band lo", "band hi")
+#: The float reference's depth envelope [m] (``trimd float --max-depth-excursion``): the
+#: ballasted vehicle is near neutral buoyancy, not at it.
+FLOAT_EXCURSION_M = 10.0
 #: The σ of a thrust-map parameter known exactly [prior σ].
 EXACT_STD = 1e-3
 
@@ -143,6 +147,11 @@ def pinned(post: ThrustMapPosterior, z: FloatArray, index: Sequence[int]
     cov[:, i] = 0.0
     cov[i, i] = EXACT_STD**2
     return posterior(mean, cov, post.experiments)
+
+
+def with_float() -> bool:
+    """``TRIMD_CALIB_FLOAT`` (default: 0; at the tiny size 1): the float reference too."""
+    return os.environ.get("TRIMD_CALIB_FLOAT", size("0", "1")) == "1"
 
 
 def known_groups() -> list[str]:
@@ -182,6 +191,8 @@ class Seed:
     shares: tuple[tuple[float, ...], ...] = ()
     known: tuple[Run, ...] = ()
     standardised: tuple[float, ...] = ()
+    floated: Run | None = None
+    reference: str = ""
 
 
 def known_weight(profile: Profile) -> KnownWeight:
@@ -230,17 +241,31 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str,
 
 def judged_trim(profile: Profile, payload: str, seed: int, options: str,
                 estimate_with: Callable[[SimVehicle], Profile] | None = None
-                ) -> tuple[Run, tuple[float, ...]]:
-    """The trim of ``seed`` judged, and the noise and band shares of the variance of q
-    (:class:`Seed`; NaN when it did not end with an estimate); ``estimate_with`` as
-    :func:`tests.helpers.sim_trim`'s."""
+                ) -> tuple[Run, tuple[float, ...], SimTrim]:
+    """The trim of ``seed`` judged, the noise and band shares of the variance of q
+    (:class:`Seed`; NaN when it did not end with an estimate), and the trim;
+    ``estimate_with`` as :func:`tests.helpers.sim_trim`'s."""
     trial = sim_trim(profile, payload, seed, options, estimate_with=estimate_with)
     est = trial.result.estimate
     share = np.full(8, np.nan)
     if est is not None and est.q_cov_noise is not None and est.q_cov_band is not None:
         share = np.r_[np.diag(est.q_cov_noise), np.diag(est.q_cov_band)] / np.tile(
             np.diag(est.q_cov), 2)
-    return judge(seed, trial), tuple(map(float, share))
+    return judge(seed, trial), tuple(map(float, share)), trial
+
+
+def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
+               post: ThrustMapPosterior, first: int) -> tuple[ThrustMapPosterior, str]:
+    """``post`` updated by the float reference after ``trial`` (the proposal's ballast
+    fitted, a level hold, a float: :func:`tests.helpers.sim_float_reference`, the dives
+    ``seed + (first + k)·NOISE`` of the same vehicle), and what became of it."""
+    made = sim_float_reference(trial, payload, seed + first * NOISE,
+                               seed + (first + 1) * NOISE, f"truth_seed={seed},{options}",
+                               FLOAT_EXCURSION_M)
+    if made.reference is None:
+        return post, made.reason
+    updated, outcome = update(post, made.reference, profile)
+    return updated, _verdict(outcome.accepted)
 
 
 def _verdict(accepted: bool) -> str:
@@ -253,7 +278,7 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
     the profile's ``collect_max_s``); at the tiny size each hold collects for less
     (:func:`bench.size.sized_profile`)."""
     profile = sized_profile(load_profile(name))
-    before, before_share = judged_trim(profile, payload, seed, options)
+    before, before_share, trial = judged_trim(profile, payload, seed, options)
     weights = series(profile, size(len(SERIES[name]), 1))
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(tmp) / "trimd.db"
@@ -269,11 +294,18 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
             profile, parse_sim_options(f"seed={seed},{options}"))[1])
         sd = np.sqrt(np.diag(post.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
-        after, after_share = judged_trim(calibrated, payload, seed, options)
+        after, after_share, _ = judged_trim(calibrated, payload, seed, options)
+        float_run, reference = None, ""
+        if with_float():
+            floated, reference = referenced(profile, payload, seed, options, trial, post,
+                                            len(weights) + 4)
+            float_run = judged_trim(replace(calibrated, thrust_map=floated), payload, seed,
+                                    options)[0]
         learnt = sum(o.accepted for o in good.outcomes)
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
                    narrowed, shares=(before_share, after_share),
+                   floated=float_run, reference=reference,
                    known=tuple(judged_trim(calibrated, payload, seed, options, lambda _v, g=g:
                                            replace(calibrated, thrust_map=pinned(
                                                post, truth, GROUPS[g][1](profile))))[0]
@@ -339,6 +371,11 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
     for k, g in enumerate(known_groups()):
         lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
                           profile)
+    if with_float():
+        lines += _figures("calibrated + float reference",
+                          [r for s in pairs if (r := s.floated) is not None], profile)
+        lines.append("  float reference: " + ", ".join(
+            f"{n} {v}" for v, n in Counter(s.reference for s in pairs).most_common()))
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
                  f"{target_m:.3g} mm-equivalent; coverage 90–99 %")

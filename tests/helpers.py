@@ -27,7 +27,9 @@ from trimd.app.session import Session, SessionResult
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.ballast.verify import verify_hold
+from trimd.core.calibration import FloatReference, calibration_hold
 from trimd.core.estimate import HoldSamples, StaticEstimate
+from trimd.core.events import Phase
 from trimd.core.floating import FloatResult
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.procedure import Procedure
@@ -341,6 +343,24 @@ def sim_verify(profile: Profile, payload: str, seed: int, options: str,
     return asyncio.run(go())
 
 
+@shared_run
+def sim_level_hold(profile: Profile, payload: str, seed: int, options: str) -> HoldSamples:
+    """One level hold of the in-process simulated vehicle
+    ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (a verify hold's procedure), its samples."""
+    async def go() -> HoldSamples:
+        link = await open_link(f"sim:payload={payload},seed={seed},{options}", profile)
+        procedure = Procedure(profile, confirmed=True, verify=lambda hold: hold)
+        try:
+            result = await Session(link, profile, recorder=None, presenters=[],
+                                   procedure=procedure, wall_clock=False).run()
+        finally:
+            await link.close()
+        assert result.phase is Phase.DONE, result.reason
+        assert isinstance(result.verification, HoldSamples)
+        return result.verification
+    return asyncio.run(go())
+
+
 @dataclass(frozen=True)
 class SimFloat:
     """One float check on the simulated vehicle: the session's result, the TRUE passive
@@ -381,6 +401,47 @@ def sim_float(profile: Profile, payload: str, seed: int, options: str,
         finally:
             await link.close()
     return asyncio.run(go())
+
+
+@dataclass(frozen=True)
+class SimReference:
+    """:func:`sim_float_reference`'s: the reference (None when there is none, ``reason``
+    says why), the ballasted payload and the TRUE q of that vehicle [N, N·m]."""
+
+    reference: FloatReference | None
+    reason: str = ""
+    payload: str = ""
+    q_true: np.ndarray = field(default_factory=lambda: np.zeros(4))
+
+
+def sim_float_reference(trim: SimTrim, payload: str, hold_seed: int, float_seed: int,
+                        options: str, depth_excursion_m: float | None = None
+                        ) -> SimReference:
+    """The use case after ``trim`` (of ``payload``): fit its proposal's ballast, hold the
+    vehicle level, then float it (:class:`trimd.core.float_reference.FloatReference`; the
+    dives ``sim:…,seed=HOLD_SEED,OPTIONS`` and ``…FLOAT_SEED…``: give ``truth_seed`` in
+    ``options`` to keep the trim's vehicle). q_z is the trim's estimate moved by the
+    ballast's weights at their slots' depths; the float's depth envelope
+    ``depth_excursion_m`` [m] (default: the profile's)."""
+    profile = trim.vehicle.profile
+    est, proposal = trim.result.estimate, trim.result.proposal
+    if est is None or not isinstance(proposal, Proposal):
+        return SimReference(None, f"no proposal: {trim.result.reason}")
+    extra = ballast_payload(proposal, profile)
+    ballasted = f"{payload}+{extra}" if extra else payload
+    floated = sim_float(profile, ballasted, float_seed, options, depth_excursion_m)
+    f = floated.floated
+    if f is None:
+        return SimReference(None, f"no float: {floated.result.reason}")
+    added = sum((s["net_down_N"] * np.r_[1.0, profile.slot(s["name"]).position_m]
+                 for s in proposal_to_dict(proposal)["slots"]), np.zeros(4))
+    hold = calibration_hold(sim_level_hold(profile, ballasted, hold_seed, options), profile,
+                            est.q + added)
+    angle_cov = np.diag(np.radians([f.roll_std_deg, f.pitch_std_deg]) ** 2)
+    return SimReference(FloatReference(
+        "level hold → float", hold, math.radians(f.roll_deg), math.radians(f.pitch_deg),
+        angle_cov, float(est.q[3] + added[3]), float(est.q_cov[3, 3])),
+        payload=ballasted, q_true=trim.vehicle.ballasted(extra).net)
 
 
 def command_plan(sent: Sequence[Command]) -> list[tuple[float, float] | str]:

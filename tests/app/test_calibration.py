@@ -8,7 +8,6 @@ vehicle, and a piece heavier than its inventory entry must be caught, not learnt
 from __future__ import annotations
 
 import asyncio
-import functools
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -16,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import sim_trim
+from tests.helpers import sim_level_hold, sim_trim
 from trimd.app.connect import open_link
 from trimd.app.session import Session
 from trimd.core.calibration import (
@@ -31,11 +30,9 @@ from trimd.core.calibration import (
     update,
 )
 from trimd.core.errors import EstimationError
-from trimd.core.estimate import HoldSamples, StaticEstimate
-from trimd.core.events import Phase
+from trimd.core.estimate import StaticEstimate
 from trimd.core.learnt import gains
 from trimd.core.link import Link
-from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.core.segment import estimate_segment
@@ -52,25 +49,6 @@ STEPS = ((PieceChange("W-front-stbd", "lead-200g", 3),),
 #: A third step, checked against the first two.
 THIRD = (PieceChange("W-aft-ctr", "lead-200g", 3), PieceChange("W-front-port", "lead-200g", 3))
 Z95 = 1.96
-
-
-@functools.cache
-def level_hold(profile: Profile, payload: str, seed: int) -> HoldSamples:
-    """One level hold of the simulated vehicle (a verify hold's procedure, its samples);
-    the same hold for the same vehicle, payload and seed (the simulator is deterministic),
-    so it is held once per test run."""
-    async def go() -> HoldSamples:
-        link = await open_link(f"sim:payload={payload},seed={seed},{OPTIONS}", profile)
-        procedure = Procedure(profile, confirmed=True, verify=lambda hold: hold)
-        try:
-            result = await Session(link, profile, recorder=None, presenters=[],
-                                   procedure=procedure, wall_clock=False).run()
-        finally:
-            await link.close()
-        assert result.phase is Phase.DONE, result.reason
-        assert isinstance(result.verification, HoldSamples)
-        return result.verification
-    return asyncio.run(go())
 
 
 def fitted(profile: Profile, steps: tuple[tuple[PieceChange, ...], ...], heavier: float = 1.0
@@ -92,8 +70,9 @@ def experiments(profile: Profile, seed: int, steps: tuple[tuple[PieceChange, ...
     """A level hold before the first step and after each (the last step's pieces in the
     simulator ``heavier`` than the inventory says): one experiment per step, q before it
     from the first hold's level fit and the pieces fitted since."""
-    holds = [level_hold(profile, fitted(profile, steps[:k], heavier if k == len(steps) else 1),
-                        seed) for k in range(len(steps) + 1)]
+    holds = [sim_level_hold(profile, fitted(profile, steps[:k],
+                                            heavier if k == len(steps) else 1), seed, OPTIONS)
+             for k in range(len(steps) + 1)]
     q = estimate_segment(holds[0], profile).q
     q_cov = np.diag([0.1, 0.01, 0.01, 0.1])  # [N², N²·m²]: enters through G₂ − G₁ only
     out = []

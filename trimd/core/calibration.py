@@ -60,6 +60,7 @@ from numpy.typing import NDArray
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
+from trimd.core.float_reference import FloatReference, reference_model
 from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands, readable_edges
 from trimd.core.longrun import mean_covariance
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
@@ -70,8 +71,8 @@ from trimd.core.systematics import attitude_error_factors, exposure_factors, thr
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
 from trimd.core.types import FloatArray
 
-__all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "Outcome",
-           "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
+__all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "FloatReference",
+           "Outcome", "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
            "calibration_hold", "change_model", "edges_of", "experiment_rows", "posterior",
            "prior", "update"]
 
@@ -238,7 +239,12 @@ class Outcome:
     message: str
 
 
-def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
+def _what_to_check(profile: Profile, exp: Experiment | FloatReference) -> str:
+    if isinstance(exp, FloatReference):
+        return ("check that nothing moved or was hung between the hold and the float, that "
+                "nothing touched the vehicle while it floated, and the stiffness it was "
+                "given (a trim's z_g)")
+    change = exp.change
     pieces = sorted({profile.piece(c.piece).name for c in change if c.net_down_N is None})
     known = sorted({c.piece for c in change if c.net_down_N is not None})
     slots = sorted({profile.slot(c.slot).name for c in change})
@@ -249,8 +255,10 @@ def _what_to_check(profile: Profile, change: Sequence[PieceChange]) -> str:
             f"{', '.join(slots)} (position_m) and that the pieces went where recorded")
 
 
-def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
+def change_model(exp: Experiment | FloatReference, profile: Profile) -> ChangeModel:
     """``exp`` as the fit sees it (:mod:`trimd.core.thrust_fit`)."""
+    if isinstance(exp, FloatReference):
+        return reference_model(exp, profile)
     b, a = exp.before.outputs, exp.after.outputs
     hunting = (() if b is None else tuple(spikes_seen(b, profile)),
                () if a is None else tuple(spikes_seen(a, profile)))
@@ -261,8 +269,8 @@ def change_model(exp: Experiment, profile: Profile) -> ChangeModel:
                        hunting)
 
 
-def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
-             profile: Profile) -> Outcome:
+def _checked(post: ThrustMapPosterior, exp: Experiment | FloatReference,
+             model: ChangeModel, profile: Profile) -> Outcome:
     """Whether ``exp`` agrees with ``post``, and what to say of it. Two tests of its
     innovation v (covariance S), each at half :data:`REJECT_P`, so that an experiment that
     agrees is rejected at most that often: its χ² (anything amiss: a wrong slot, a piece
@@ -274,7 +282,7 @@ def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
     from scipy.stats import chi2, norm  # 1 s to import: only when a calibration is checked
 
     v, S = innovation(model, profile, post.mean, post.cov)
-    a = exp.after
+    a = exp.hold if isinstance(exp, FloatReference) else exp.after
     d = (restoring_matrix(a.phi_rad, a.theta_rad) @ ballast_change(profile, exp.change)[0]
          )[model.rows]
     S_inv_v = np.linalg.solve(S, v)
@@ -302,20 +310,25 @@ def _checked(post: ThrustMapPosterior, exp: Experiment, model: ChangeModel,
             f"calibration experiment {exp.label!r} disagrees with {earlier}: {off} "
             f"(χ² {d2:.1f} on {len(v)} rows and the scale together {about}); rejected, "
             "not learnt: "
-            f"{_what_to_check(profile, exp.change)}"))
+            f"{_what_to_check(profile, exp)}"))
     return Outcome(exp.label, True, d2, len(v), sigma,
                    f"calibration experiment {exp.label!r} learnt ({off}; {about})")
 
 
-def edges_of(experiments: Sequence[Experiment], profile: Profile) -> list[EdgeObservation]:
+def edges_of(experiments: Sequence[Experiment | FloatReference], profile: Profile
+             ) -> list[EdgeObservation]:
     """The dead-band edges the experiments' holds show by hunting
     (:mod:`trimd.core.hunting`): what the holds teach of the bands whatever the ballast
     change, so a rejected experiment's too."""
-    return [o for exp in experiments for h in (exp.before, exp.after) if h.outputs is not None
+    return [o for exp in experiments for h in _holds(exp) if h.outputs is not None
             for o in readable_edges(spikes_seen(h.outputs, profile), profile)]
 
 
-def update(post: ThrustMapPosterior, exp: Experiment, profile: Profile
+def _holds(exp: Experiment | FloatReference) -> tuple[CalibrationHold, ...]:
+    return (exp.hold,) if isinstance(exp, FloatReference) else (exp.before, exp.after)
+
+
+def update(post: ThrustMapPosterior, exp: Experiment | FloatReference, profile: Profile
            ) -> tuple[ThrustMapPosterior, Outcome]:
     """``post`` updated by ``exp`` (the fit with ``post`` as its prior), or ``post``
     unchanged when ``exp`` disagrees with it (:func:`_checked`), with the outcome."""
@@ -341,7 +354,8 @@ class Calibration:
         return tuple(o for o in self.outcomes if not o.accepted)
 
 
-def calibrate(experiments: Sequence[Experiment], profile: Profile) -> Calibration:
+def calibrate(experiments: Sequence[Experiment | FloatReference], profile: Profile
+              ) -> Calibration:
     """The profile's prior updated by ``experiments`` in order, each inconsistent one left
     out (and said so in its :class:`Outcome`): each is checked against those accepted
     before it, then all accepted are fitted afresh from the prior."""

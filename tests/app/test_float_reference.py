@@ -1,0 +1,58 @@
+"""A float as the thrust map's absolute reference (docs/method.md §7): a level hold of the
+simulated Sabertooth whose thrust curves and ESC bands are off its profile
+(``truth=perturbed``), then a float of the same vehicle, teach the thrust map what no
+difference of two holds can: where the vertical thrusters' straight stretches lie. Judged
+by the quantity the operator acts on: the net moments another level hold of the same
+vehicle (another dive's noise) reads with what was learnt, against the TRUE vehicle."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.helpers import sim_float_reference, sim_level_hold, sim_trim
+from trimd.core.calibration import calibrate
+from trimd.core.float_reference import float_moments
+from trimd.core.profile import Profile
+from trimd.core.segment import estimate_segment
+
+OPTIONS = "disturb=real,truth=perturbed"
+PAYLOAD = "10@AftSB"
+#: The float's depth envelope [m]: the ballasted vehicle is near neutral, not at it.
+EXCURSION_M = 10.0
+#: Another dive of the same vehicle: its holds' noise and disturbances (seed + NOISE).
+NOISE = 100_000
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [3, 1])
+def test_a_float_teaches_the_net_moments_another_hold_reads(sabertooth: Profile,
+                                                            seed: int) -> None:
+    made = sim_float_reference(sim_trim(sabertooth, PAYLOAD, seed, OPTIONS), PAYLOAD, seed,
+                               seed, OPTIONS, EXCURSION_M)
+    assert made.reference is not None, made.reason
+    ballasted, q_true = made.payload, made.q_true
+    learnt = calibrate([made.reference], sabertooth)
+    assert [o.accepted for o in learnt.outcomes] == [True], learnt.outcomes[0].message
+    other = sim_level_hold(sabertooth, ballasted, seed + NOISE, f"truth_seed={seed},{OPTIONS}")
+    before = estimate_segment(other, sabertooth)
+    after = estimate_segment(other, replace(sabertooth, thrust_map=learnt.posterior))
+    mm_eq = 1e3 / sabertooth.weight_N
+    err_before = np.abs(before.q[1:3] - q_true[1:3]) * mm_eq
+    err_after = np.abs(after.q[1:3] - q_true[1:3]) * mm_eq
+    sd_after = np.sqrt(np.diag(after.q_cov)[1:3]) * mm_eq
+    print(f"seed {seed}: x, y net error {err_before.round(3)} → {err_after.round(3)} mm-eq "
+          f"(± {sd_after.round(3)})")
+    assert np.all(err_after <= 1.96 * sd_after), (err_after, sd_after)
+    assert np.all(sd_after < np.sqrt(np.diag(before.q_cov)[1:3]) * mm_eq)
+    assert np.linalg.norm(err_after) < np.linalg.norm(err_before)
+
+
+def test_the_float_moments_leave_no_restoring_moment_at_the_float() -> None:
+    q = float_moments(math.radians(3.0), math.radians(-2.0), 450.0)
+    assert q[2] == pytest.approx(450.0 * math.tan(math.radians(3.0)))
+    assert q[1] == pytest.approx(450.0 * math.tan(math.radians(2.0)) / math.cos(
+        math.radians(3.0)))
