@@ -26,7 +26,10 @@ and which thrust-map parameters they narrowed; how many wrong-weight calibration
 rejected. With ``TRIMD_CALIB_KNOWN`` (comma-separated groups of :data:`GROUPS`: what the
 calibration left of the error, docs/method.md §7) the calibrated trim again per group, its
 posterior's parameters of that group set to the simulated vehicle's truth
-(:func:`trimd.drivers.sim.truth.thrust_map_errors`) with a σ of :data:`EXACT_STD`.
+(:func:`trimd.drivers.sim.truth.thrust_map_errors`) with a σ of :data:`EXACT_STD`. With
+``TRIMD_CALIB_FLOAT=1`` (at the tiny size too) the calibrated trim again after a float
+reference (:mod:`trimd.core.float_reference`) is added to the calibration: the first
+trim's ballast fitted, a level hold and a float of the same vehicle.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects

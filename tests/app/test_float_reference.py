@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import sim_float_reference, sim_level_hold, sim_trim
-from trimd.core.calibration import calibrate
+from trimd.core.calibration import CalibrationHold, FloatReference, calibrate
+from trimd.core.errors import EstimationError
 from trimd.core.float_reference import float_moments
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
@@ -56,3 +57,12 @@ def test_the_float_moments_leave_no_restoring_moment_at_the_float() -> None:
     assert q[2] == pytest.approx(450.0 * math.tan(math.radians(3.0)))
     assert q[1] == pytest.approx(450.0 * math.tan(math.radians(2.0)) / math.cos(
         math.radians(3.0)))
+
+
+def test_a_hold_that_is_not_level_is_no_reference(sabertooth: Profile) -> None:
+    n = len(sabertooth.thrusters)
+    tilted = CalibrationHold("tilted hold", math.radians(10.0), 0.0, np.zeros(6),
+                             np.eye(6), np.zeros(4 * n))
+    ref = FloatReference("tilted → float", tilted, 0.0, 0.0, np.eye(2) * 1e-6, 450.0, 100.0)
+    with pytest.raises(EstimationError, match="'tilted hold' is not level"):
+        calibrate([ref], sabertooth)

@@ -30,7 +30,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from trimd.core.estimate import measurable_dofs
+from trimd.core.errors import EstimationError
+from trimd.core.estimate import LEVEL_RAD, measurable_dofs
 from trimd.core.hunting import hunting_factors
 from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.output_hist import OutputHistogram, spikes_seen
@@ -96,8 +97,16 @@ def float_moments(phi_rad: float, theta_rad: float, q_z: float) -> FloatArray:
 
 def reference_model(ref: FloatReference, profile: Profile) -> ChangeModel:
     """``ref`` as the fit and the check see it: the change of τ on K and M from the float
-    (every output at neutral, no thrust) to the hold."""
+    (every output at neutral, no thrust) to the hold. EstimationError when the hold is not
+    level or its thrusters are not the profile's."""
     hold = ref.hold
+    if max(abs(hold.phi_rad), abs(hold.theta_rad)) >= LEVEL_RAD:
+        raise EstimationError(f"float reference {ref.label!r}: hold {hold.label!r} is not "
+                              "level (a float is compared with a level hold)")
+    if hold.exposure.shape != (4 * len(profile.thrusters),):
+        raise EstimationError(f"float reference {ref.label!r}: hold {hold.label!r} has "
+                              f"{len(hold.exposure) // 4} thrusters, the profile "
+                              f"{len(profile.thrusters)}")
     r = ROWS & np.array(measurable_dofs(profile), bool)
     G = restoring_matrix(hold.phi_rad, hold.theta_rad)[r]
 
