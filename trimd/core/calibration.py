@@ -41,7 +41,9 @@ degree of freedom per row, and its component along the change the recorded balla
 (how many times that change the thrusters saw; one degree of freedom). An experiment
 that disagrees with what the earlier ones taught (a piece heavier than its inventory
 entry, a wrong slot) is rejected and says which, by how much and what to check.
-Experiments are combined in order, the rejected ones left out.
+Experiments are combined in order, the rejected ones left out. A float right after a
+level hold (:mod:`trimd.core.float_reference`) is checked and learnt alike; it changes no
+ballast, so its χ² alone checks it.
 
 A later estimate uses the posterior through the profile's ``thrust_map``
 (:class:`ThrustMapPosterior`): each hold's mean τ is read again through the curves with
