@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import io
 import json
+import re
 import sqlite3
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -17,7 +18,7 @@ import numpy as np
 import pytest
 
 from tests.app.test_calibration import OPTIONS, PAYLOAD, true_gain_errors
-from tests.helpers import carried, sim_trim
+from tests.helpers import carried, sim_float, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
 from trimd.app.calibrate import (
@@ -30,7 +31,13 @@ from trimd.app.calibrate import (
 from trimd.app.connect import open_link
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History
-from trimd.app.history.calibration import calibrated_profile, stored_calibration
+from trimd.app.history.calibration import (
+    REFERENCE_WITHIN_S,
+    calibrated_profile,
+    record_float_reference,
+    stored_calibration,
+)
+from trimd.app.history.installed import current_installed
 from trimd.app.history.report import format_history, history_to_dict
 from trimd.app.history.schema import connect
 from trimd.app.replay import replay_calibration, replay_profile, replay_session
@@ -148,6 +155,27 @@ def test_trim_apply_verify_stores_an_experiment_that_later_sessions_use(
     assert after.store(verify()) is not None  # no ballast change since: no experiment
     with History(db) as h:
         assert len(h.experiments("rov")) == 1 and len(h.level_holds("rov")) == 3
+    # a float right after that verify hold, nothing changed: a float reference, learnt
+    floated = sim_float(bluerov, f"{PAYLOAD}+{extra}", SEED, OPTIONS, 10.0)
+    assert floated.floated is not None, floated.result.reason
+    line = after.store(floated.result)
+    assert line is not None and re.search(r"calibration experiment 'verify \d+ → float \d+' "
+                                          "learnt", line), line
+    with History(db) as h:
+        assert [r.values["experiment"].get("kind") for r in h.experiments("rov")] == [
+            None, "float"]
+        assert "thrust map calibration: 2 experiment(s) learnt, 0 rejected" in format_history(
+            h, ["rov"])
+    later = calibrated_profile(db, "rov", bluerov)
+    assert later.thrust_map is not None and later.thrust_map.experiments == 2
+    installed, _ = current_installed(db, "rov", bluerov)
+    with History(db) as h:   # no reference: floated too late, or with the ballast changed
+        hold_t = h.level_holds("rov")[-1].t_unix
+        assert record_float_reference(h, "rov", bluerov, floated.floated, 99, installed,
+                                      hold_t + REFERENCE_WITHIN_S + 1) is None
+        assert record_float_reference(h, "rov", bluerov, floated.floated, 99, (),
+                                      hold_t + 1) is None
+        assert len(h.experiments("rov")) == 2
 
 
 def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, bluerov: Profile

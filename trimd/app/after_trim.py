@@ -24,7 +24,7 @@ from trimd.app.announce import announce_run
 from trimd.app.apply import Applied, apply_ballast
 from trimd.app.float_check import float_correction, float_settings
 from trimd.app.history import History
-from trimd.app.history.calibration import record_level_hold
+from trimd.app.history.calibration import record_float_reference, record_level_hold
 from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result, stored_text
 from trimd.app.results import AnyPresenter, AnyResult, Finding
@@ -88,6 +88,9 @@ class AfterTrim:
                                    correction=correction)
             outcome = None if record is None else record_level_hold(
                 history, self.vehicle, self.profile, result, record, installed)
+            if record is not None and isinstance(result.verification, FloatResult):
+                outcome = record_float_reference(history, self.vehicle, self.profile,
+                                                 result.verification, record, installed)
         stored = stored_text(self.vehicle, history.path)
         return stored if outcome is None else f"{stored}; {outcome.message}"
 

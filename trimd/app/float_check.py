@@ -19,6 +19,7 @@ from typing import Any, Never
 
 from trimd.app.headless import StdinConfirm, stop_on_signals
 from trimd.app.history import History
+from trimd.app.history.calibration import record_float_reference
 from trimd.app.history.installed import current_installed
 from trimd.app.history.trims import record_result, stored_text
 from trimd.app.results import AnyPresenter
@@ -132,7 +133,17 @@ def store_float_check(db: str | Path, vehicle: str, profile: Profile,
     history ``db``, its ``correction`` linked to it (a later ``trimd run --verify`` or
     ``trimd float --correct`` of the vehicle checks that correction once it is applied:
     :mod:`trimd.app.history.chain`); a line for people, None when the session gave no
-    result. DataError when the file cannot take it."""
+    result; with the outcome of the float reference it makes with the level hold just
+    before it (:func:`trimd.app.history.calibration.record_float_reference`). DataError
+    when the file cannot take it, ProfileError when its installed ballast is not the
+    profile's."""
+    installed, _ = current_installed(db, vehicle, profile)
     with History(db) as history:
         stored = record_result(history, vehicle, profile.name, result, correction=correction)
-    return None if stored is None else stored_text(vehicle, history.path)
+        f = result.verification
+        outcome = None if stored is None or f is None else record_float_reference(
+            history, vehicle, profile, f, stored, installed)
+    if stored is None:
+        return None
+    text = stored_text(vehicle, history.path)
+    return text if outcome is None else f"{text}; {outcome.message}"

@@ -11,6 +11,7 @@ import numpy as np
 from trimd.core.calibration import (
     CalibrationHold,
     Experiment,
+    FloatReference,
     PieceChange,
     ThrustMapPosterior,
     posterior,
@@ -76,8 +77,14 @@ def hold_from_dict(d: JsonObject, source: str) -> CalibrationHold:
                            _outputs(d, len(exposure) // 4, source))
 
 
-def experiment_to_dict(exp: Experiment) -> JsonObject:
-    """JSON-ready dict of ``exp`` (what the trim history stores)."""
+def experiment_to_dict(exp: Experiment | FloatReference) -> JsonObject:
+    """JSON-ready dict of ``exp`` (what the trim history stores); a float reference's has
+    ``"kind": "float"``."""
+    if isinstance(exp, FloatReference):
+        return {"kind": "float", "label": exp.label, "hold": hold_to_dict(exp.hold),
+                "float_roll_rad": exp.phi_rad, "float_pitch_rad": exp.theta_rad,
+                "float_angle_cov": exp.angle_cov.tolist(), "q_z_Nm": exp.q_z,
+                "q_z_var": exp.q_z_var}
     return {"label": exp.label, "before": hold_to_dict(exp.before),
             "after": hold_to_dict(exp.after),
             "change": [{"slot": c.slot, "piece": c.piece, "count": c.count}
@@ -87,9 +94,16 @@ def experiment_to_dict(exp: Experiment) -> JsonObject:
             "q_before_N_Nm": exp.q_before.tolist(), "q_before_cov": exp.q_before_cov.tolist()}
 
 
-def experiment_from_dict(d: JsonObject, source: str) -> Experiment:
+def experiment_from_dict(d: JsonObject, source: str) -> Experiment | FloatReference:
     """The experiment of :func:`experiment_to_dict`'s dict; DataError naming ``source``."""
     try:
+        if d.get("kind") == "float":
+            return FloatReference(str(d["label"]), hold_from_dict(d["hold"], source),
+                                  float(_array(d, "float_roll_rad", (), source)),
+                                  float(_array(d, "float_pitch_rad", (), source)),
+                                  _array(d, "float_angle_cov", (2, 2), source),
+                                  float(_array(d, "q_z_Nm", (), source)),
+                                  float(_array(d, "q_z_var", (), source)))
         change = tuple(PieceChange(str(c["slot"]), str(c["piece"]), int(c["count"]),
                                    None if c.get("net_down_N") is None
                                    else float(c["net_down_N"]),

@@ -16,6 +16,7 @@ correction of the vehicle uses it (:func:`calibrated_profile`).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import replace
@@ -30,6 +31,7 @@ from trimd.ballast.verify import Verification
 from trimd.core.calibration import (
     Calibration,
     Experiment,
+    FloatReference,
     Outcome,
     PieceChange,
     ThrustMapPosterior,
@@ -43,11 +45,17 @@ from trimd.core.calibration_json import (
     hold_from_dict,
     hold_to_dict,
 )
+from trimd.core.floating import FloatResult
 from trimd.core.learnt import band_edge_to_dict, band_edges, gain_to_dict, gains
 from trimd.core.profile import InstalledPiece, Profile
 
-__all__ = ["calibrated_profile", "record_level_hold", "store_experiment",
-           "stored_calibration"]
+__all__ = ["REFERENCE_WITHIN_S", "calibrated_profile", "record_float_reference",
+           "record_level_hold", "store_experiment", "stored_calibration"]
+
+#: A float check this soon [s] after the vehicle's last level hold, with no ballast change
+#: recorded between, is taken to float the vehicle of that hold (the same dive): a float
+#: reference (:mod:`trimd.core.float_reference`).
+REFERENCE_WITHIN_S = 1800.0
 
 
 def stored_calibration(history: History, vehicle: str, profile: Profile) -> Calibration:
@@ -83,7 +91,8 @@ def _change(before: Sequence[dict[str, Any]], now: Sequence[InstalledPiece]
     return tuple(PieceChange(s, p, n) for (s, p), n in sorted(counts.items()) if n)
 
 
-def store_experiment(history: History, vehicle: str, profile: Profile, exp: Experiment,
+def store_experiment(history: History, vehicle: str, profile: Profile,
+                     exp: Experiment | FloatReference,
                      before: ThrustMapPosterior | None = None, t_unix: float | None = None
                      ) -> tuple[ThrustMapPosterior, Outcome]:
     """Check ``exp`` against the vehicle's calibration so far (``before``; None: as stored),
@@ -139,3 +148,27 @@ def record_level_hold(history: History, vehicle: str, profile: Profile,
         "installed": [{"slot": p.slot, "piece": p.piece, "count": p.count}
                       for p in installed]})
     return outcome
+
+
+def record_float_reference(history: History, vehicle: str, profile: Profile, f: FloatResult,
+                           record_id: int, installed: Sequence[InstalledPiece],
+                           t_unix: float | None = None) -> Outcome | None:
+    """For the float check ``f`` (record ``record_id``, ``installed`` the ballast on the
+    vehicle) within :data:`REFERENCE_WITHIN_S` of the vehicle's last level hold, with no
+    ballast change recorded since, the float reference the two make (q_z the hold's
+    stored estimate): checked, stored, what became of it; None when there is none."""
+    t = time.time() if t_unix is None else t_unix
+    previous = [r for r in history.level_holds(vehicle) if r.values["profile"] == profile.name]
+    if not previous or t - previous[-1].t_unix > REFERENCE_WITHIN_S:
+        return None
+    last = previous[-1].values
+    if _change(last["installed"], installed):
+        return None
+    where = f"{history.path}: level hold {previous[-1].id}"
+    q_cov = np.asarray(last["q_cov"], float)
+    ref = FloatReference(f"{last['source']} {last['record_id']} → float {record_id}",
+                         hold_from_dict(last["hold"], where), math.radians(f.roll_deg),
+                         math.radians(f.pitch_deg),
+                         np.diag(np.radians([f.roll_std_deg, f.pitch_std_deg]) ** 2),
+                         float(last["q_N_Nm"][3]), float(q_cov[3, 3]))
+    return store_experiment(history, vehicle, profile, ref, t_unix=t)[1]

@@ -23,8 +23,10 @@ its covariance then, the ballast installed then and the trim's or verify hold's 
 id), and each known ballast change between two of them is a calibration experiment
 (``calibration_experiments``: the experiment as
 :func:`trimd.core.calibration_json.experiment_to_dict` gives it, accepted or rejected and
-why, and the gains and band edges after it); the vehicle's calibration is recomputed
-from these (docs/method.md §7).
+why, and the gains and band edges after it), as is a float check right after a level
+hold (a float reference, ``"kind": "float"`` in its JSON, which records before
+2026-11-30 never have: no new table); the vehicle's calibration is recomputed from these
+(docs/method.md §7).
 """
 
 from __future__ import annotations
