@@ -30,6 +30,7 @@ from trimd.ballast.verify import verify_hold
 from trimd.core.calibration import FloatReference, calibration_hold
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.events import Phase
+from trimd.core.float_reference import float_reference
 from trimd.core.floating import FloatResult
 from trimd.core.model import pwm_from_thrust, restoring_forces, thrust_configuration
 from trimd.core.procedure import Procedure
@@ -437,11 +438,9 @@ def sim_float_reference(trim: SimTrim, payload: str, hold_seed: int, float_seed:
                  for s in proposal_to_dict(proposal)["slots"]), np.zeros(4))
     hold = calibration_hold(sim_level_hold(profile, ballasted, hold_seed, options), profile,
                             est.q + added)
-    angle_cov = np.diag(np.radians([f.roll_std_deg, f.pitch_std_deg]) ** 2)
-    return SimReference(FloatReference(
-        "level hold → float", hold, math.radians(f.roll_deg), math.radians(f.pitch_deg),
-        angle_cov, float(est.q[3] + added[3]), float(est.q_cov[3, 3])),
-        payload=ballasted, q_true=trim.vehicle.ballasted(extra).net)
+    return SimReference(float_reference("level hold → float", hold, f,
+                                        float(est.q[3] + added[3]), float(est.q_cov[3, 3])),
+                        payload=ballasted, q_true=trim.vehicle.ballasted(extra).net)
 
 
 def command_plan(sent: Sequence[Command]) -> list[tuple[float, float] | str]:

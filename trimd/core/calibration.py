@@ -63,13 +63,13 @@ from numpy.typing import NDArray
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, HoldSamples, measurable_dofs
 from trimd.core.float_reference import FloatReference, reference_model
-from trimd.core.hunting import EdgeObservation, hunting_factors, observed_bands, readable_edges
+from trimd.core.hunting import EdgeObservation, observed_bands, readable_edges
 from trimd.core.longrun import mean_covariance
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.output_hist import OutputHistogram, output_histogram, spikes_seen
 from trimd.core.profile import Profile
-from trimd.core.systematics import attitude_error_factors, exposure_factors, thrust_exposure
+from trimd.core.systematics import exposure_factors, hold_error_cov, thrust_exposure
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
 from trimd.core.types import FloatArray
 
@@ -211,11 +211,7 @@ def experiment_rows(exp: Experiment, profile: Profile, hunting: Hunting = ((), (
     R = (b.tau_cov[np.ix_(r, r)] + a.tau_cov[np.ix_(r, r)] + G2 @ dq_cov @ G2.T
          + D @ exp.q_before_cov @ D.T)
     for h, q, spikes in ((b, q1, hunting[0]), (a, q2, hunting[1])):
-        E = attitude_error_factors([(h.phi_rad, h.theta_rad)], [r], profile, q)[0]
-        R = R + E @ E.T
-        if spikes:   # what its hunting samples delivered
-            U = hunting_factors(spikes, r, profile)
-            R = R + U @ U.T
+        R = R + hold_error_cov(h.phi_rad, h.theta_rad, r, profile, q, spikes)
     return y, H, R, r
 
 

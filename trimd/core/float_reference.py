@@ -32,18 +32,18 @@ import numpy as np
 
 from trimd.core.errors import EstimationError
 from trimd.core.estimate import LEVEL_RAD, measurable_dofs
-from trimd.core.hunting import hunting_factors
+from trimd.core.floating import FloatResult
 from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.output_hist import OutputHistogram, spikes_seen
 from trimd.core.profile import Profile
-from trimd.core.systematics import attitude_error_factors, exposure_factors
+from trimd.core.systematics import exposure_factors, hold_error_cov
 from trimd.core.thrust_fit import ChangeModel
 from trimd.core.types import FloatArray
 
 if TYPE_CHECKING:
     from trimd.core.calibration import CalibrationHold
 
-__all__ = ["FloatReference", "float_moments", "reference_model"]
+__all__ = ["FloatReference", "float_moments", "float_reference", "reference_model"]
 
 #: The rows of τ a float fixes at a level hold: K, M.
 ROWS = np.array([False, False, False, True, True, False])
@@ -78,6 +78,17 @@ class FloatReference:
     def change(self) -> tuple[()]:
         """No ballast changes between the hold and the float."""
         return ()
+
+
+def float_reference(label: str, hold: CalibrationHold, floated: FloatResult, q_z: float,
+                    q_z_var: float) -> FloatReference:
+    """The reference of ``hold`` and the float check ``floated`` after it: its mean roll
+    and pitch and their 1σ as the float measured them, the stiffness ``q_z`` [N·m] and
+    its variance [N²·m²]."""
+    return FloatReference(label, hold, math.radians(floated.roll_deg),
+                          math.radians(floated.pitch_deg),
+                          np.diag(np.radians([floated.roll_std_deg,
+                                              floated.pitch_std_deg]) ** 2), q_z, q_z_var)
 
 
 def float_moments(phi_rad: float, theta_rad: float, q_z: float) -> FloatArray:
@@ -121,13 +132,9 @@ def reference_model(ref: FloatReference, profile: Profile) -> ChangeModel:
     D = np.column_stack([(target(x0 + h * e) - target(x0 - h * e)) / (2 * h)
                          for h, e in zip(steps, np.eye(3), strict=True)])
     q = float_moments(*x0)
-    R = hold.tau_cov[np.ix_(r, r)] + D @ cov @ D.T
-    E = attitude_error_factors([(hold.phi_rad, hold.theta_rad)], [r], profile, q)[0]
-    R = R + E @ E.T
     spikes = () if hold.outputs is None else tuple(spikes_seen(hold.outputs, profile))
-    if spikes:
-        U = hunting_factors(spikes, r, profile)
-        R = R + U @ U.T
+    R = (hold.tau_cov[np.ix_(r, r)] + D @ cov @ D.T
+         + hold_error_cov(hold.phi_rad, hold.theta_rad, r, profile, q, spikes))
     neutral = None if hold.outputs is None else OutputHistogram(
         tuple(np.array([t.curve.neutral_us]) for t in profile.thrusters),
         tuple(np.ones(1) for _ in profile.thrusters), hold.outputs.voltage_V)

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from trimd.core.curve_error import BAND_SIGMA_SHARE, error_scales, thrusters_with_errors
 from trimd.core.drift import munk_moment
 from trimd.core.errors import EstimationError
+from trimd.core.hunting import EdgeObservation, hunting_factors
 from trimd.core.longrun import MeanCovariance
 from trimd.core.model import (
     band_offset_sensitivity,
@@ -34,9 +35,18 @@ from trimd.core.types import FloatArray
 if TYPE_CHECKING:
     from trimd.core.estimate import HoldSamples
 
-__all__ = ["BAND_SIGMA_SHARE", "attitude_error_factors", "band_notes", "drift_moments",
-           "exposure_factors", "thrust_exposure", "thrust_map_bias", "thrust_map_factors",
-           "thrust_map_std"]
+__all__ = [
+    "BAND_SIGMA_SHARE",
+    "attitude_error_factors",
+    "band_notes",
+    "drift_moments",
+    "exposure_factors",
+    "hold_error_cov",
+    "thrust_exposure",
+    "thrust_map_bias",
+    "thrust_map_factors",
+    "thrust_map_std",
+]
 
 _TAU_NAMES = ("X", "Y", "Z", "K", "M", "N")
 
@@ -145,6 +155,21 @@ def attitude_error_factors(attitude: Sequence[tuple[float, float]],
         out.append(np.einsum("ijk,j->ik", dG, q)[r] * sigma)
     return out
 
+
+
+def hold_error_cov(phi_rad: float, theta_rad: float, rows: NDArray[np.bool_],
+                   profile: Profile, q: FloatArray,
+                   spikes: Sequence[EdgeObservation] = ()) -> FloatArray:
+    """The covariance one hold adds to a comparison of its mean τ on ``rows`` [N², N·m
+    squared]: its attitude reference's error at roll ``phi_rad``, pitch ``theta_rad``
+    [rad] with the vehicle's ``q`` (:func:`attitude_error_factors`) and what its hunting
+    ``spikes`` delivered (:func:`~trimd.core.hunting.hunting_factors`)."""
+    E = attitude_error_factors([(phi_rad, theta_rad)], [rows], profile, q)[0]
+    cov: FloatArray = E @ E.T
+    if spikes:
+        U = hunting_factors(spikes, rows, profile)
+        cov = cov + U @ U.T
+    return cov
 
 def drift_moments(attitude: Sequence[tuple[float, float]],
                    used: Sequence[NDArray[np.bool_]], profile: Profile,

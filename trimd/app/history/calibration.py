@@ -16,7 +16,6 @@ correction of the vehicle uses it (:func:`calibrated_profile`).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import replace
@@ -45,6 +44,7 @@ from trimd.core.calibration_json import (
     hold_from_dict,
     hold_to_dict,
 )
+from trimd.core.float_reference import float_reference
 from trimd.core.floating import FloatResult
 from trimd.core.learnt import band_edge_to_dict, band_edges, gain_to_dict, gains
 from trimd.core.profile import InstalledPiece, Profile
@@ -165,10 +165,7 @@ def record_float_reference(history: History, vehicle: str, profile: Profile, f: 
     if _change(last["installed"], installed):
         return None
     where = f"{history.path}: level hold {previous[-1].id}"
-    q_cov = np.asarray(last["q_cov"], float)
-    ref = FloatReference(f"{last['source']} {last['record_id']} → float {record_id}",
-                         hold_from_dict(last["hold"], where), math.radians(f.roll_deg),
-                         math.radians(f.pitch_deg),
-                         np.diag(np.radians([f.roll_std_deg, f.pitch_std_deg]) ** 2),
-                         float(last["q_N_Nm"][3]), float(q_cov[3, 3]))
+    ref = float_reference(f"{last['source']} {last['record_id']} → float {record_id}",
+                          hold_from_dict(last["hold"], where), f, float(last["q_N_Nm"][3]),
+                          float(np.asarray(last["q_cov"], float)[3, 3]))
     return store_experiment(history, vehicle, profile, ref, t_unix=t)[1]
