@@ -27,9 +27,11 @@ rejected. With ``TRIMD_CALIB_KNOWN`` (comma-separated groups of :data:`GROUPS`: 
 calibration left of the error, docs/method.md §7) the calibrated trim again per group, its
 posterior's parameters of that group set to the simulated vehicle's truth
 (:func:`trimd.drivers.sim.truth.thrust_map_errors`) with a σ of :data:`EXACT_STD`. With
-``TRIMD_CALIB_FLOAT=1`` (at the tiny size too) the calibrated trim again after a float
-reference (:mod:`trimd.core.float_reference`) is added to the calibration: the first
-trim's ballast fitted, a level hold and a float of the same vehicle.
+``TRIMD_CALIB_FLOAT=1`` (at the tiny size too) the calibrated trim again after what the
+loop's trim → apply → verify → float teaches is added to the calibration: the experiment
+of the first trim's ballast fitted (a level hold before, one after), then also the float
+reference (:mod:`trimd.core.float_reference`: that second hold and a float), each hold
+another dive of the same vehicle.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
@@ -66,7 +68,7 @@ from bench.bench_sim_coverage import (
     seeding,
 )
 from bench.size import size, sized_profile
-from tests.helpers import SimTrim, sim_float_reference, sim_trim
+from tests.helpers import SimTrim, sim_apply_experiment, sim_float_reference, sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
@@ -180,7 +182,9 @@ class Seed:
     (without, with) the shares of the variance of W − B and of each net moment that
     collecting longer would reduce (``q_cov_noise``) and that rests on the dead bands
     (``q_cov_band``), those of W − B, x, y, z net in that order (the rest: the curves'
-    gains, the attitude reference, the drift model)."""
+    gains, the attitude reference, the drift model); with :func:`with_float` the
+    calibrated trim after the apply experiment and after it and the float reference
+    (:func:`referenced`), and what became of those two."""
 
     seed: int
     before: Run
@@ -194,7 +198,7 @@ class Seed:
     shares: tuple[tuple[float, ...], ...] = ()
     known: tuple[Run, ...] = ()
     standardised: tuple[float, ...] = ()
-    floated: Run | None = None
+    looped: tuple[Run, ...] = ()
     reference: str = ""
 
 
@@ -258,17 +262,25 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
 
 
 def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
-               post: ThrustMapPosterior, first: int) -> tuple[ThrustMapPosterior, str]:
-    """``post`` updated by the float reference after ``trial`` (the proposal's ballast
-    fitted, a level hold, a float: :func:`tests.helpers.sim_float_reference`, the dives
-    ``seed + (first + k)·NOISE`` of the same vehicle), and what became of it."""
+               post: ThrustMapPosterior, first: int
+               ) -> tuple[ThrustMapPosterior, ThrustMapPosterior, str]:
+    """``post`` updated by what the loop after ``trial`` teaches: the experiment of its
+    proposal's ballast fitted (:func:`tests.helpers.sim_apply_experiment`, from a level
+    hold of the vehicle as trimmed to one of it ballasted), then also the float reference
+    of the ballasted vehicle (that hold and a float:
+    :func:`tests.helpers.sim_float_reference`); the dives ``seed + (first + k)·NOISE`` of
+    the same vehicle, never the trim's own; what became of each."""
+    vehicle = f"truth_seed={seed},{options}"
     made = sim_float_reference(trial, payload, seed + first * NOISE,
-                               seed + (first + 1) * NOISE, f"truth_seed={seed},{options}",
-                               FLOAT_EXCURSION_M)
+                               seed + (first + 1) * NOISE, vehicle, FLOAT_EXCURSION_M)
     if made.reference is None:
-        return post, made.reason
-    updated, outcome = update(post, made.reference, profile)
-    return updated, _verdict(outcome.accepted)
+        return post, post, made.reason
+    exp = sim_apply_experiment(trial, payload, made.reference.hold,
+                               seed + (first + 2) * NOISE, vehicle)
+    applied, outcome = update(post, exp, profile)
+    both, referenced = update(applied, made.reference, profile)
+    return applied, both, (f"apply {_verdict(outcome.accepted)}, "
+                           f"float {_verdict(referenced.accepted)}")
 
 
 def _verdict(accepted: bool) -> str:
@@ -298,17 +310,17 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         sd = np.sqrt(np.diag(post.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         after, after_share, _ = judged_trim(calibrated, payload, seed, options)
-        float_run, reference = None, ""
+        looped, reference = (), ""
         if with_float():
-            floated, reference = referenced(profile, payload, seed, options, trial, post,
-                                            len(weights) + 4)
-            float_run = judged_trim(replace(calibrated, thrust_map=floated), payload, seed,
-                                    options)[0]
+            *posts, reference = referenced(profile, payload, seed, options, trial, post,
+                                           len(weights) + 4)
+            looped = tuple(judged_trim(replace(calibrated, thrust_map=p), payload, seed,
+                                       options)[0] for p in posts)
         learnt = sum(o.accepted for o in good.outcomes)
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
                    narrowed, shares=(before_share, after_share),
-                   floated=float_run, reference=reference,
+                   looped=looped, reference=reference,
                    known=tuple(judged_trim(calibrated, payload, seed, options, lambda _v, g=g:
                                            replace(calibrated, thrust_map=pinned(
                                                post, truth, GROUPS[g][1](profile))))[0]
@@ -375,9 +387,10 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
         lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
                           profile)
     if with_float():
-        lines += _figures("calibrated + float reference",
-                          [r for s in pairs if (r := s.floated) is not None], profile)
-        lines.append("  float reference: " + ", ".join(
+        for k, label in enumerate(("+ apply", "+ apply + float")):
+            lines += _figures(f"calibrated {label}", [s.looped[k] for s in pairs
+                                                      if s.looped], profile)
+        lines.append("  the loop's experiments: " + ", ".join(
             f"{n} {v}" for v, n in Counter(s.reference for s in pairs).most_common()))
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "

@@ -27,7 +27,13 @@ from trimd.app.session import Session, SessionResult
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict, propose_ballast
 from trimd.ballast.verify import verify_hold
-from trimd.core.calibration import FloatReference, calibration_hold
+from trimd.core.calibration import (
+    CalibrationHold,
+    Experiment,
+    FloatReference,
+    calibration_hold,
+    installed_change,
+)
 from trimd.core.estimate import HoldSamples, StaticEstimate
 from trimd.core.events import Phase
 from trimd.core.float_reference import float_reference
@@ -441,6 +447,25 @@ def sim_float_reference(trim: SimTrim, payload: str, hold_seed: int, float_seed:
     return SimReference(float_reference("level hold → float", hold, f,
                                         float(est.q[3] + added[3]), float(est.q_cov[3, 3])),
                         payload=ballasted, q_true=trim.vehicle.ballasted(extra).net)
+
+
+def sim_apply_experiment(trim: SimTrim, payload: str, after: CalibrationHold,
+                         seed: int | None, options: str) -> Experiment:
+    """The calibration experiment of the loop's trim → apply → verify: ``trim``'s
+    proposal (of ``payload``) fitted between a level hold of the vehicle as trimmed and
+    ``after``, the ballasted vehicle's. The first hold is the trim's own, or with ``seed``
+    one on the dive ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (a bench that trims that
+    dive again must not learn its noise)."""
+    profile = trim.vehicle.profile
+    est, proposal = trim.result.estimate, trim.result.proposal
+    assert est is not None and isinstance(proposal, Proposal), trim.result.reason
+    held = trim.result.level_hold if seed is None else sim_level_hold(profile, payload, seed,
+                                                                      options)
+    assert held is not None
+    return Experiment("trim level hold → apply → level hold",
+                      calibration_hold(held, profile, est.q), after,
+                      installed_change(proposal.installed, proposal.installed_after),
+                      est.q, est.q_cov)
 
 
 def command_plan(sent: Sequence[Command]) -> list[tuple[float, float] | str]:

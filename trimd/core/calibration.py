@@ -68,15 +68,15 @@ from trimd.core.longrun import mean_covariance
 from trimd.core.map_posterior import ThrustMapPosterior, posterior, prior
 from trimd.core.model import restoring_matrix, thrust_configuration
 from trimd.core.output_hist import OutputHistogram, output_histogram, spikes_seen
-from trimd.core.profile import Profile
+from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.systematics import exposure_factors, hold_error_cov, thrust_exposure
 from trimd.core.thrust_fit import ChangeModel, Gaussian, fit, innovation
 from trimd.core.types import FloatArray
 
 __all__ = ["REJECT_P", "Calibration", "CalibrationHold", "Experiment", "FloatReference",
            "Outcome", "PieceChange", "ThrustMapPosterior", "ballast_change", "calibrate",
-           "calibration_hold", "change_model", "edges_of", "experiment_rows", "posterior",
-           "prior", "update"]
+           "calibration_hold", "change_model", "edges_of", "experiment_rows", "installed_change",
+           "posterior", "prior", "update"]
 
 #: The rows of τ a level hold measures: Z, K, M.
 ROWS = np.array([False, False, True, True, True, False])
@@ -158,6 +158,17 @@ class Experiment:
     change: tuple[PieceChange, ...]
     q_before: FloatArray
     q_before_cov: FloatArray
+
+
+def installed_change(before: Sequence[InstalledPiece], now: Sequence[InstalledPiece]
+                     ) -> tuple[PieceChange, ...]:
+    """What was fitted between the ballast configurations ``before`` and ``now``: each
+    slot and piece whose count changed, by how much (sorted by slot, then piece)."""
+    counts: dict[tuple[str, str], int] = {}
+    for sign, pieces in ((-1, before), (1, now)):
+        for p in pieces:
+            counts[(p.slot, p.piece)] = counts.get((p.slot, p.piece), 0) + sign * p.count
+    return tuple(PieceChange(s, p, n) for (s, p), n in sorted(counts.items()) if n)
 
 
 def ballast_change(profile: Profile, change: Sequence[PieceChange]

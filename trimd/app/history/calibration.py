@@ -32,10 +32,10 @@ from trimd.core.calibration import (
     Experiment,
     FloatReference,
     Outcome,
-    PieceChange,
     ThrustMapPosterior,
     calibrate,
     calibration_hold,
+    installed_change,
     update,
 )
 from trimd.core.calibration_json import (
@@ -80,15 +80,9 @@ def calibrated_profile(db: str | Path | None, vehicle: str, profile: Profile) ->
                                                                    thrust_map=cal.posterior)
 
 
-def _change(before: Sequence[dict[str, Any]], now: Sequence[InstalledPiece]
-            ) -> tuple[PieceChange, ...]:
-    """What was fitted between the configuration ``before`` (stored dicts) and ``now``."""
-    counts: dict[tuple[str, str], int] = {}
-    for sign, pieces in ((-1, [InstalledPiece(str(p["slot"]), str(p["piece"]), int(p["count"]))
-                               for p in before]), (1, list(now))):
-        for p in pieces:
-            counts[(p.slot, p.piece)] = counts.get((p.slot, p.piece), 0) + sign * p.count
-    return tuple(PieceChange(s, p, n) for (s, p), n in sorted(counts.items()) if n)
+def _installed(stored: Sequence[dict[str, Any]]) -> list[InstalledPiece]:
+    """A stored configuration's pieces."""
+    return [InstalledPiece(str(p["slot"]), str(p["piece"]), int(p["count"])) for p in stored]
 
 
 def store_experiment(history: History, vehicle: str, profile: Profile,
@@ -135,7 +129,7 @@ def record_level_hold(history: History, vehicle: str, profile: Profile,
     outcome = None
     if source == "verify" and previous:
         last = previous[-1].values
-        change = _change(last["installed"], installed)
+        change = installed_change(_installed(last["installed"]), installed)
         if change:
             where = f"{history.path}: level hold {previous[-1].id}"
             exp = Experiment(f"{last['source']} {last['record_id']} → {source} {record_id}",
@@ -162,7 +156,7 @@ def record_float_reference(history: History, vehicle: str, profile: Profile, f: 
     if not previous or t - previous[-1].t_unix > REFERENCE_WITHIN_S:
         return None
     last = previous[-1].values
-    if _change(last["installed"], installed):
+    if installed_change(_installed(last["installed"]), installed):
         return None
     where = f"{history.path}: level hold {previous[-1].id}"
     ref = float_reference(f"{last['source']} {last['record_id']} → float {record_id}",
