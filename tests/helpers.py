@@ -449,21 +449,18 @@ def sim_float_reference(trim: SimTrim, payload: str, hold_seed: int, float_seed:
                         payload=ballasted, q_true=trim.vehicle.ballasted(extra).net)
 
 
-def sim_apply_experiment(trim: SimTrim, payload: str, after: CalibrationHold,
-                         seed: int | None, options: str) -> Experiment:
+def sim_apply_experiment(trim: SimTrim, payload: str, after: CalibrationHold, seed: int,
+                         options: str) -> Experiment:
     """The calibration experiment of the loop's trim → apply → verify: ``trim``'s
     proposal (of ``payload``) fitted between a level hold of the vehicle as trimmed and
-    ``after``, the ballasted vehicle's. The first hold is the trim's own, or with ``seed``
-    one on the dive ``sim:payload=PAYLOAD,seed=SEED,OPTIONS`` (a bench that trims that
-    dive again must not learn its noise)."""
+    ``after``, the ballasted vehicle's. The first hold is not the trim's own but one on the
+    dive ``sim:payload=PAYLOAD,seed=SEED,OPTIONS``: a bench that trims the trim's dive again
+    must not learn that dive's noise."""
     profile = trim.vehicle.profile
     est, proposal = trim.result.estimate, trim.result.proposal
     assert est is not None and isinstance(proposal, Proposal), trim.result.reason
-    held = trim.result.level_hold if seed is None else sim_level_hold(profile, payload, seed,
-                                                                      options)
-    assert held is not None
-    return Experiment("trim level hold → apply → level hold",
-                      calibration_hold(held, profile, est.q), after,
+    before = calibration_hold(sim_level_hold(profile, payload, seed, options), profile, est.q)
+    return Experiment("trim level hold → apply → level hold", before, after,
                       installed_change(proposal.installed, proposal.installed_after),
                       est.q, est.q_cov)
 

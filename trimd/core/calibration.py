@@ -163,7 +163,16 @@ class Experiment:
 def installed_change(before: Sequence[InstalledPiece], now: Sequence[InstalledPiece]
                      ) -> tuple[PieceChange, ...]:
     """What was fitted between the ballast configurations ``before`` and ``now``: each
-    slot and piece whose count changed, by how much (sorted by slot, then piece)."""
+    slot and piece whose count changed, by how much (sorted by slot, then piece).
+
+    Examples
+    --------
+    >>> [(c.slot, c.piece, c.count) for c in installed_change(
+    ...     [InstalledPiece("B", "lead", 2), InstalledPiece("A", "foam", 1)],
+    ...     [InstalledPiece("B", "lead", 1), InstalledPiece("A", "foam", 1),
+    ...      InstalledPiece("C", "lead", 3)])]
+    [('B', 'lead', -1), ('C', 'lead', 3)]
+    """
     counts: dict[tuple[str, str], int] = {}
     for sign, pieces in ((-1, before), (1, now)):
         for p in pieces:
