@@ -30,6 +30,7 @@ from trimd.core.errors import DataError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.profile import Profile
+from trimd.drivers.sim.truth import passive_trim_deg
 
 #: The audited estimate's 1σ of q = [W − B, m_x, m_y, m_z] [N, N·m].
 Q_STD = (0.04, 0.097, 0.095, 0.306)
@@ -156,6 +157,61 @@ def test_node_limit_keeps_the_best_found(sabertooth: Profile,
     assert p.success
     assert "search limit reached at the 'ballast' stage: best found, not proven optimal" \
         in p.message
+    assert_no_trim(p)
+
+
+#: The estimate of a trim of the perturbed BlueROV2 Heavy, 0.4 kg at W-aft-stbd
+#: (``bench_calibration``'s seed 54), q [N, N·m] and its covariance, to the last digit: the
+#: window and level stages solve, and HiGHS calls the ballast stage, holding their optima
+#: to 1e-7 + 1e-6 relative, infeasible (before the retry nothing was proposed).
+SEED54_Q = [3.0694928575227944, -0.8832019478232292, 0.9093116753913149, 2.4271979784641933]
+SEED54_Q_COV = [
+    [0.19935582858229306, -0.0017836182660352208, 0.0007384895117000482, -0.01692667480028711],
+    [-0.0017836182660352189, 0.0030180497338158007, -0.0025510928973575065,
+     -0.004498470453202669],
+    [0.0007384895117000472, -0.0025510928973575073, 0.004061697401021036, 0.00455969345525747],
+    [-0.01692667480028711, -0.004498470453202672, 0.0045596934552574716, 0.020749929229946243]]
+
+
+def test_a_stage_the_solver_calls_infeasible_is_solved_again_with_looser_holds(
+        bluerov: Profile) -> None:
+    """The earlier stages' solution meets every row held, so an infeasible later stage is
+    the solver's tolerance: solved again with the optima held looser, it proposes ballast
+    that brings the vehicle of that q within the window and the level tolerance
+    (the simulator's passive trim, :func:`~trimd.drivers.sim.truth.passive_trim_deg`, of
+    q plus the pieces' forces and moments)."""
+    est = dataclasses.replace(with_net(bluerov, SEED54_Q[0], tuple(SEED54_Q[1:])),
+                              q_cov=np.array(SEED54_Q_COV))
+    p = propose_ballast(est, bluerov, "milp")
+    assert p.success and p.feasible and p.pieces_handled > 0, p.message
+    assert "not optimal" not in p.message
+    print(f"{p.pieces_handled} pieces; {p.message}")
+    q = np.array(SEED54_Q) + sum(
+        (s.net_down_N * np.r_[1.0, s.position_m] for s in p.slots), np.zeros(4))
+    roll, pitch = passive_trim_deg(q)
+    assert max(abs(roll), abs(pitch)) <= bluerov.level_tol_deg, (roll, pitch)
+    lo, hi = bluerov.net_buoyancy_pct
+    assert lo <= -100 * q[0] / (est.buoyancy_N + q[0]) <= hi, q[0]
+
+
+def test_a_stage_infeasible_again_keeps_the_previous_stages_solution(
+        sabertooth: Profile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """When the retry fails too, the previous stage's solution (which meets every row
+    held so far) is proposed, and the message says the stage found none."""
+    solve = ballast_lp.solve
+
+    def ballast_stage_infeasible(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
+                                 node_limit: int) -> OptimizeResult:
+        if A.shape[0] == 20:  # 16 rows + window (2) + level held: the ballast stage
+            return OptimizeResult(status=2, x=None, fun=None,
+                                  message="The problem is infeasible.")
+        return solve(c, A, b, upper, integrality, node_limit)
+
+    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_infeasible)
+    p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
+    assert p.success
+    assert ("the 'ballast' stage found no solution within the solver's tolerances: the "
+            "previous stage's kept, not optimal for it") in p.message
     assert_no_trim(p)
 
 

@@ -77,6 +77,9 @@ STRICT_NODES = 200
 STAGE_NODES = 20_000
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
+#: How far beyond its optimum [relative, and absolute in its units] a stage's optimum is
+#: held when the solver calls the next stage infeasible (:func:`_solve_stages`).
+HOLD_RETRY = 1e-5
 #: The share of :func:`moment_resolution` the lexicographic stages leave free where the
 #: pieces can aim near level (module docstring).
 ALLOWANCE_SHARE = 0.25
@@ -348,29 +351,41 @@ def _solve_stages(prog: Programme, upper: FloatArray,
     """Solve ``objectives`` in order, holding each optimum (to 1e-7 + 1e-6 relative),
     each within ``node_limit`` branch-and-bound nodes. A stage cut short keeps its best
     solution, or when it found none, the previous stage's (which meets every row held so
-    far)."""
+    far). A stage the solver calls infeasible after an earlier one was solved is
+    solved again with the optima held to :data:`HOLD_RETRY` (the earlier solution meets
+    every row: what failed was the solver's tolerance on the held optima), and keeps the
+    previous stage's solution when that fails too; the note says so."""
     A, b = prog.A, prog.b
     x: FloatArray | None = None
-    cut = []
+    cut: list[str] = []
+    kept: list[str] = []
+    looser = np.zeros(len(b))
     for name, c in objectives:
         res = solve(c, A, b, upper, integer, node_limit)
+        if res.x is None and x is not None and not cut_short(res):
+            res = solve(c, A, b + looser, upper, integer, node_limit)
         if cut_short(res):
             cut.append(name)
         if res.x is not None:
             x, fun = res.x, float(res.fun)
-        elif x is None or not cut_short(res):
+        elif x is None:
             why = "search limit reached before any solution" if cut_short(res) else res.message
             return Solution(False, f"no solution at the '{name}' stage: {why}",
                             np.zeros(len(prog.items)), "search limit" if cut else "")
         else:
+            if not cut_short(res):
+                kept.append(name)
             fun = float(c @ x)
         A = np.vstack([A, c])
         b = np.r_[b, fun + 1e-7 + 1e-6 * abs(fun)]
+        looser = np.r_[looser, HOLD_RETRY * (1.0 + abs(fun))]
     assert x is not None  # objectives is never empty
     u = np.clip(x[:len(prog.items)], 0.0, None)
-    note = (f"search limit reached at the {', '.join(repr(n) for n in cut)} stage: best "
-            "found, not proven optimal" if cut else "")
-    return Solution(True, "ok", u if integer is None else np.round(u), note)
+    notes = ([f"search limit reached at the {', '.join(repr(n) for n in cut)} stage: best "
+              "found, not proven optimal"] if cut else []) + (
+        [f"the {', '.join(repr(n) for n in kept)} stage found no solution within the "
+         "solver's tolerances: the previous stage's kept, not optimal for it"] if kept else [])
+    return Solution(True, "ok", u if integer is None else np.round(u), "; ".join(notes))
 
 
 def solve_programme(prog: Programme, *, relax: bool = False,
