@@ -140,26 +140,6 @@ def test_node_limit_before_any_solution(sabertooth: Profile,
                                 "limit reached before any solution; nothing proposed.")
 
 
-def test_node_limit_keeps_the_best_found(sabertooth: Profile,
-                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    """A stage cut short with no solution of its own keeps the previous stage's."""
-    solve = ballast_lp.solve
-
-    def ballast_stage_runs_out(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
-                                node_limit: int) -> OptimizeResult:
-        if A.shape[0] == 20:  # 16 rows + window (2) + level held: the ballast stage
-            return OptimizeResult(status=4, x=None, fun=None,
-                                  message="model_status is Node limit reached")
-        return solve(c, A, b, upper, integrality, node_limit)
-
-    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_runs_out)
-    p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
-    assert p.success
-    assert "search limit reached at the 'ballast' stage: best found, not proven optimal" \
-        in p.message
-    assert_no_trim(p)
-
-
 #: The estimate of a trim of the perturbed BlueROV2 Heavy, 0.4 kg at W-aft-stbd
 #: (``bench_calibration``'s seed 54), q [N, N·m] and its covariance, to the last digit: the
 #: window and level stages solve, and HiGHS calls the ballast stage, holding their optima
@@ -194,24 +174,30 @@ def test_a_stage_the_solver_calls_infeasible_is_solved_again_with_looser_holds(
     assert lo <= -100 * q[0] / (est.buoyancy_N + q[0]) <= hi, q[0]
 
 
-def test_a_stage_infeasible_again_keeps_the_previous_stages_solution(
-        sabertooth: Profile, monkeypatch: pytest.MonkeyPatch) -> None:
-    """When the retry fails too, the previous stage's solution (which meets every row
-    held so far) is proposed, and the message says the stage found none."""
+@pytest.mark.parametrize(("status", "solver_says", "message"), [
+    (4, "model_status is Node limit reached",
+     "search limit reached at the 'ballast' stage: best found, not proven optimal"),
+    (2, "The problem is infeasible.",
+     "the 'ballast' stage found no solution within the solver's tolerances: the previous "
+     "stage's kept, not optimal for it")])
+def test_a_stage_without_a_solution_keeps_the_previous_stages(
+        sabertooth: Profile, monkeypatch: pytest.MonkeyPatch, status: int, solver_says: str,
+        message: str) -> None:
+    """A stage cut short with no solution of its own, or infeasible again when solved with
+    the optima held looser, keeps the previous stage's solution (which meets every row held
+    so far), and the message says so."""
     solve = ballast_lp.solve
 
-    def ballast_stage_infeasible(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
-                                 node_limit: int) -> OptimizeResult:
+    def ballast_stage_fails(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
+                            node_limit: int) -> OptimizeResult:
         if A.shape[0] == 20:  # 16 rows + window (2) + level held: the ballast stage
-            return OptimizeResult(status=2, x=None, fun=None,
-                                  message="The problem is infeasible.")
+            return OptimizeResult(status=status, x=None, fun=None, message=solver_says)
         return solve(c, A, b, upper, integrality, node_limit)
 
-    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_infeasible)
+    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_fails)
     p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
     assert p.success
-    assert ("the 'ballast' stage found no solution within the solver's tolerances: the "
-            "previous stage's kept, not optimal for it") in p.message
+    assert message in p.message
     assert_no_trim(p)
 
 
