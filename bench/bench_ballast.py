@@ -10,8 +10,9 @@ import numpy as np
 
 from bench.size import size
 from bench.timing import best_time
-from trimd.ballast.lp import STAGE_NODES, build_programme, piece_items, solve_programme
+from trimd.ballast.lp import build_programme, piece_items
 from trimd.ballast.propose import propose_ballast
+from trimd.ballast.stages import STAGE_NODES, solve_programme
 from trimd.core.estimate import HoldSamples, StaticEstimate, estimate_static
 from trimd.core.model import restoring_forces
 from trimd.core.profile import Profile

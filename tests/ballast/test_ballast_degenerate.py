@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from scipy.optimize import OptimizeResult
 
-import trimd.ballast.lp as ballast_lp
+import trimd.ballast.stages as ballast_stages
 from tests.ballast.test_ballast import estimate_for
 from trimd.app.report import format_proposal
 from trimd.ballast.check import equilibrium_attitude
@@ -133,7 +133,7 @@ def test_node_limit_before_any_solution(sabertooth: Profile,
         return OptimizeResult(status=4, x=None, fun=None,
                               message="model_status is Node limit reached")
 
-    monkeypatch.setattr(ballast_lp, "solve", no_solution_in_budget)
+    monkeypatch.setattr(ballast_stages, "solve", no_solution_in_budget)
     p = propose_ballast(with_net(sabertooth, *CASES["small"]), sabertooth, "milp")
     assert not p.success and not p.feasible and p.added_mass_kg == 0.0
     assert p.message.startswith("no solution at the 'net-buoyancy window' stage: search "
@@ -186,7 +186,7 @@ def test_a_stage_without_a_solution_keeps_the_previous_stages(
     """A stage cut short with no solution of its own, or infeasible again when solved with
     the optima held looser, keeps the previous stage's solution (which meets every row held
     so far), and the message says so."""
-    solve = ballast_lp.solve
+    solve = ballast_stages.solve
 
     def ballast_stage_fails(c: Any, A: Any, b: Any, upper: Any, integrality: Any,
                             node_limit: int) -> OptimizeResult:
@@ -194,7 +194,7 @@ def test_a_stage_without_a_solution_keeps_the_previous_stages(
             return OptimizeResult(status=status, x=None, fun=None, message=solver_says)
         return solve(c, A, b, upper, integrality, node_limit)
 
-    monkeypatch.setattr(ballast_lp, "solve", ballast_stage_fails)
+    monkeypatch.setattr(ballast_stages, "solve", ballast_stage_fails)
     p = propose_ballast(with_net(sabertooth, *CASES["zero"]), sabertooth, "milp")
     assert p.success
     assert message in p.message

@@ -61,25 +61,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trimd.ballast.check import MIN_GM_M
-from trimd.ballast.highs import cut_short, solve
 from trimd.core.estimate import StaticEstimate
 from trimd.core.profile import InstalledPiece, Profile
 from trimd.core.types import FloatArray
 
-__all__ = ["ALLOWANCE_SHARE", "FINE_LATTICE", "Item", "Programme", "Solution",
-           "build_programme", "ideal_items", "moment_resolution", "piece_items",
-           "solve_programme"]
+__all__ = ["ALLOWANCE_SHARE", "FINE_LATTICE", "N_SLACK", "Item", "Programme",
+           "build_programme", "ideal_items", "moment_resolution", "piece_items"]
 
-_N_SLACK = 6
-#: Branch-and-bound nodes of the solve exactly as asked (slacks at zero) and by default of
-#: each later stage: budgets, not time limits (the same proposal on any machine).
-STRICT_NODES = 200
-STAGE_NODES = 20_000
+#: Slack columns after the items: s_x, s_y, b_lo, b_hi, r_x, r_y (module docstring).
+N_SLACK = 6
 #: CG shift [m] whose moment W·shift is the least moment resolution (a micrometre).
 _MIN_RESOLUTION_M = 1e-6
-#: How far beyond its optimum [relative, and absolute in its units] a stage's optimum is
-#: held when the solver calls the next stage infeasible (:func:`_solve_stages`).
-HOLD_RETRY = 1e-5
 #: The share of :func:`moment_resolution` the lexicographic stages leave free where the
 #: pieces can aim near level (module docstring).
 ALLOWANCE_SHARE = 0.25
@@ -176,20 +168,6 @@ class Programme:
     exact: bool
 
 
-@dataclass(frozen=True)
-class Solution:
-    """Item amounts (rounded to whole pieces where integer) or the solver's complaint.
-
-    ``note`` says when a time limit cut a solve short (then the amounts are the best
-    found, not proven optimal); empty otherwise.
-    """
-
-    success: bool
-    message: str
-    amounts: FloatArray
-    note: str = ""
-
-
 def _moment_arms(items: Sequence[Item], profile: Profile) -> tuple[FloatArray, FloatArray]:
     """Net downward force of one unit of every item [N] and its slot position [m]."""
     f = np.array([it.sign * (it.mass_kg * profile.gravity_m_s2 - it.buoyancy_N)
@@ -204,7 +182,7 @@ def _level_rows(items: Sequence[Item], profile: Profile, m: FloatArray, t: float
     rows, rhs = [], []
     for axis in (0, 1):
         for sign in (1.0, -1.0):
-            slack = np.zeros(_N_SLACK)
+            slack = np.zeros(N_SLACK)
             slack[[axis, 4 + axis]] = -1.0
             rows.append(np.r_[f * (sign * r[:, axis] - t * r[:, 2]), slack])
             rhs.append(t * m[2] - sign * m[axis])
@@ -262,12 +240,12 @@ def _limit_rows(items: Sequence[Item], profile: Profile
             if np.any(use):
                 installed = sum(it.capacity_kg * (it.count or 0) for it in items
                                 if it.removal and (it.slot, it.kind) == (i, kind))
-                rows.append(np.r_[use, np.zeros(_N_SLACK)])
+                rows.append(np.r_[use, np.zeros(N_SLACK)])
                 rhs.append(room - installed)
     for p in profile.inventory:
         mine = np.array([it.sign if it.piece == p.name else 0.0 for it in items])
         if np.any(mine):
-            rows.append(np.r_[mine, np.zeros(_N_SLACK)])
+            rows.append(np.r_[mine, np.zeros(N_SLACK)])
             rhs.append(float(p.count))
     return rows, rhs
 
@@ -296,21 +274,21 @@ def build_programme(estimate: StaticEstimate, profile: Profile, items: Sequence[
         parts.append(_window_rows(items, profile, estimate, window_pct))
     rows = [row for part in parts for row in part[0]]
     rhs = [v for part in parts for v in part[1]]
-    integer = np.array([it.count is not None for it in items] + [False] * _N_SLACK, dtype=int)
+    integer = np.array([it.count is not None for it in items] + [False] * N_SLACK, dtype=int)
     resolution = moment_resolution(estimate) if np.any(integer) else 0.0
     if levelable and _aims_near_level(items, profile, t * float(estimate.q[3]), resolution):
         resolution *= ALLOWANCE_SHARE
     upper = np.r_[units, math.inf, math.inf, [math.inf if window_pct is not None else 0.0] * 2,
                   resolution, resolution]
-    slack = np.zeros((_N_SLACK, n + _N_SLACK))
-    slack[:, n:] = np.eye(_N_SLACK)
-    mass = np.r_[[it.sign * it.cost_kg for it in items], np.zeros(_N_SLACK)]
+    slack = np.zeros((N_SLACK, n + N_SLACK))
+    slack[:, n:] = np.eye(N_SLACK)
+    mass = np.r_[[it.sign * it.cost_kg for it in items], np.zeros(N_SLACK)]
     cost = mass
     if np.any(integer):
         # fewest pieces, then least mass: the mass term stays below one piece
         scale = 1.0 + float(np.abs(mass[:n]) @ upper[:n])
         cost = (0.0 if any(it.removal for it in items) else integer) + mass / scale
-    A = np.array(rows, dtype=float).reshape(-1, n + _N_SLACK)
+    A = np.array(rows, dtype=float).reshape(-1, n + N_SLACK)
     b = np.array(rhs, dtype=float)
     objectives = [("net-buoyancy window", slack[2] + slack[3]),
                   ("level", slack[0] + slack[1]), ("ballast", cost)]
@@ -332,10 +310,10 @@ def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: F
     rows = []
     for j, kind in enumerate(kinds):
         for removal in (False, True):
-            row = np.zeros(n + _N_SLACK + k)
+            row = np.zeros(n + N_SLACK + k)
             row[:n] = [1.0 if (it.piece, it.removal) == (kind, removal) else 0.0
                        for it in items]
-            row[n + _N_SLACK + j] = -1.0
+            row[n + N_SLACK + j] = -1.0
             rows.append(row)
     A = np.vstack([np.hstack([A, np.zeros((A.shape[0], k))]), *rows])
     b = np.r_[b, np.zeros(len(rows))]
@@ -343,73 +321,3 @@ def _with_handling(items: Sequence[Item], A: FloatArray, b: FloatArray, upper: F
                for name, c in objectives]
     return (A, b, np.r_[upper, np.full(k, math.inf)], np.r_[integer, np.zeros(k, dtype=int)],
             handled)
-
-
-def _solve_stages(prog: Programme, upper: FloatArray,
-                  objectives: Sequence[tuple[str, FloatArray]], integer: NDArray[np.int_] | None,
-                  node_limit: int) -> Solution:
-    """Solve ``objectives`` in order, holding each optimum (to 1e-7 + 1e-6 relative),
-    each within ``node_limit`` branch-and-bound nodes. A stage cut short keeps its best
-    solution, or when it found none, the previous stage's (which meets every row held so
-    far). A stage the solver calls infeasible after an earlier one was solved is
-    solved again with the optima held to :data:`HOLD_RETRY` (the earlier solution meets
-    every row: what failed was the solver's tolerance on the held optima), and keeps the
-    previous stage's solution when that fails too; the note says so."""
-    A, b = prog.A, prog.b
-    x: FloatArray | None = None
-    cut: list[str] = []
-    kept: list[str] = []
-    looser = np.zeros(len(b))
-    for name, c in objectives:
-        res = solve(c, A, b, upper, integer, node_limit)
-        if res.x is None and x is not None and not cut_short(res):
-            res = solve(c, A, b + looser, upper, integer, node_limit)
-        if cut_short(res):
-            cut.append(name)
-        if res.x is not None:
-            x, fun = res.x, float(res.fun)
-        elif x is None:
-            why = "search limit reached before any solution" if cut_short(res) else res.message
-            return Solution(False, f"no solution at the '{name}' stage: {why}",
-                            np.zeros(len(prog.items)), "search limit" if cut else "")
-        else:
-            if not cut_short(res):
-                kept.append(name)
-            fun = float(c @ x)
-        A = np.vstack([A, c])
-        b = np.r_[b, fun + 1e-7 + 1e-6 * abs(fun)]
-        looser = np.r_[looser, HOLD_RETRY * (1.0 + abs(fun))]
-    assert x is not None  # objectives is never empty
-    u = np.clip(x[:len(prog.items)], 0.0, None)
-    notes = ([f"search limit reached at the {', '.join(repr(n) for n in cut)} stage: best "
-              "found, not proven optimal"] if cut else []) + (
-        [f"the {', '.join(repr(n) for n in kept)} stage found no solution within the "
-         "solver's tolerances: the previous stage's kept, not optimal for it"] if kept else [])
-    return Solution(True, "ok", u if integer is None else np.round(u), "; ".join(notes))
-
-
-def solve_programme(prog: Programme, *, relax: bool = False,
-                    node_limit: int = STAGE_NODES) -> Solution:
-    """Item amounts that meet the requirement at least ballast, or the best achievable.
-
-    First with the slacks held at zero (one solve when the requirement can be met, within
-    :data:`STRICT_NODES` nodes at most; unless ``prog.exact`` is False), else
-    lexicographically: window slack, level slack, ballast, each within ``node_limit``
-    branch-and-bound nodes. ``relax`` drops integrality (the LP relaxation, solved by
-    linprog). Deterministic: no time limit, so the answer does not depend on the machine.
-    """
-    integer = None if relax or not np.any(prog.integrality) else prog.integrality
-    n = len(prog.items)
-    note = ""
-    strict_nodes = min(STRICT_NODES, node_limit)
-    if prog.exact:
-        strict = np.r_[prog.upper[:n], np.zeros(_N_SLACK), prog.upper[n + _N_SLACK:]]
-        exact = _solve_stages(prog, strict, prog.objectives[-1:], integer, strict_nodes)
-        if exact.success:
-            return exact
-        if exact.note:
-            note = (f"no level proposal found within the exact search's limit ({strict_nodes}"
-                    " nodes)")
-    lex = _solve_stages(prog, prog.upper, prog.objectives, integer, node_limit)
-    return Solution(lex.success, lex.message, lex.amounts,
-                    "; ".join(n for n in (note, lex.note) if n))

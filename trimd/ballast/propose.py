@@ -34,16 +34,9 @@ import numpy as np
 
 from trimd.ballast.check import SlotLoad, Trim, check_trim
 from trimd.ballast.line import line_split
-from trimd.ballast.lp import (
-    STAGE_NODES,
-    Item,
-    build_programme,
-    ideal_items,
-    moment_resolution,
-    piece_items,
-    solve_programme,
-)
+from trimd.ballast.lp import Item, build_programme, ideal_items, moment_resolution, piece_items
 from trimd.ballast.proposal import Proposal, proposal_to_dict, slot_to_dict
+from trimd.ballast.stages import STAGE_NODES, solve_programme
 from trimd.core.errors import DataError, ProfileError
 from trimd.core.estimate import StaticEstimate
 from trimd.core.estimate_json import covariance_problem

@@ -10,8 +10,8 @@ from trimd.app.files import read_estimate
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
 from trimd.app.report import format_proposal
-from trimd.ballast.lp import STAGE_NODES
 from trimd.ballast.propose import METHODS, proposal_to_dict, propose_ballast
+from trimd.ballast.stages import STAGE_NODES
 from trimd.cli import ballast_apply
 from trimd.cli.argtypes import Subcommands, integer
 from trimd.cli.history_args import add_history_args, db_path, vehicle_of
