@@ -31,7 +31,8 @@ posterior's parameters of that group set to the simulated vehicle's truth
 loop's trim → apply → verify → float teaches is added to the calibration: the experiment
 of the first trim's ballast fitted (a level hold before, one after), then also the float
 reference (:mod:`trimd.core.float_reference`: that second hold and a float), each hold
-another dive of the same vehicle.
+another dive of the same vehicle, then also the band calibration of the ballasted vehicle
+(``trimd calibrate --band``: :func:`banded`).
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
@@ -69,11 +70,11 @@ from bench.bench_sim_coverage import (
 )
 from bench.size import size, sized_profile
 from tests.helpers import SimTrim, sim_apply_experiment, sim_float_reference, sim_trim
-from trimd.app.calibrate import CalibrationRun, KnownWeight, calibrate_with_weights
+from trimd.app.calibrate import CalibrationRun, KnownWeight, Load, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history.calibration import calibrated_profile
 from trimd.core.calibration import prior, update
-from trimd.core.errors import EstimationError, LinkError
+from trimd.core.errors import EstimationError, LinkError, UsageError
 from trimd.core.hunting import LIFTING
 from trimd.core.learnt import DETERMINED
 from trimd.core.link import Link
@@ -241,7 +242,8 @@ def calibrate(profile: Profile, payload: str, seed: int, options: str,
                          f",truth_seed={seed},{options}", profile)
 
     calibrated = calibrated_profile(db, "bench", profile)
-    return asyncio.run(calibrate_with_weights(opener, calibrated, weights, lambda _text: True,
+    return asyncio.run(calibrate_with_weights(opener, calibrated, [(w,) for w in weights],
+                                              lambda _text, _load: True,
                                               db=db, vehicle="bench", wall_clock=False,
                                               hold_s=hold_s))
 
@@ -263,24 +265,55 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
 
 def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
                post: ThrustMapPosterior, first: int
-               ) -> tuple[ThrustMapPosterior, ThrustMapPosterior, str]:
+               ) -> tuple[ThrustMapPosterior, ThrustMapPosterior, ThrustMapPosterior, str]:
     """``post`` updated by what the loop after ``trial`` teaches: the experiment of its
     proposal's ballast fitted (:func:`tests.helpers.sim_apply_experiment`, from a level
     hold of the vehicle as trimmed to one of it ballasted), then also the float reference
     of the ballasted vehicle (that hold and a float:
-    :func:`tests.helpers.sim_float_reference`); the dives ``seed + (first + k)·NOISE`` of
-    the same vehicle, never the trim's own; what became of each."""
+    :func:`tests.helpers.sim_float_reference`), then also the band calibration of the
+    ballasted vehicle (:func:`banded`); the dives ``seed + (first + k)·NOISE`` of the same
+    vehicle, never the trim's own; what became of each."""
     vehicle = f"truth_seed={seed},{options}"
     made = sim_float_reference(trial, payload, seed + first * NOISE,
                                seed + (first + 1) * NOISE, vehicle, FLOAT_EXCURSION_M)
     if made.reference is None:
-        return post, post, made.reason
+        return post, post, post, made.reason
     exp = sim_apply_experiment(trial, payload, made.reference.hold,
                                seed + (first + 2) * NOISE, vehicle)
     applied, outcome = update(post, exp, profile)
     both, referenced = update(applied, made.reference, profile)
-    return applied, both, (f"apply {_verdict(outcome.accepted)}, "
-                           f"float {_verdict(referenced.accepted)}")
+    band, told = banded(replace(profile, thrust_map=both), made.payload, seed, first + 3,
+                        vehicle)
+    return applied, both, band, (f"apply {_verdict(outcome.accepted)}, "
+                                 f"float {_verdict(referenced.accepted)}, band {told}")
+
+
+def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
+           ) -> tuple[ThrustMapPosterior, str]:
+    """The band calibration (``trimd calibrate --band``) of the simulated vehicle of
+    ``seed`` with ``ballasted`` aboard and ``profile``'s thrust map, its two holds the
+    dives ``seed + (first + k)·NOISE``: the calibration after it (as before, when the hold
+    failed) and what became of it."""
+    loads: list[Load] = []
+
+    def opener() -> Awaitable[Link]:
+        extra = "".join(f"+{w.kg:.6f}@{x},{y},{z}" for load in loads for w in load
+                        for x, y, z in [profile.slot(w.slot).position_m])
+        return open_link(f"sim:payload={ballasted}{extra},"
+                         f"seed={seed + (first + len(loads)) * NOISE},{vehicle}", profile)
+
+    def hang(_text: str, load: Load) -> bool:
+        loads.append(load)
+        return True
+
+    assert profile.thrust_map is not None
+    try:
+        done = asyncio.run(calibrate_with_weights(opener, profile, (), hang, db=None,
+                                                  vehicle="bench", wall_clock=False,
+                                                  band_pct=1.0))
+    except (EstimationError, LinkError, UsageError) as exc:
+        return profile.thrust_map, f"failed: {exc}"
+    return done.posterior, _verdict(done.outcomes[0].accepted)
 
 
 def _verdict(accepted: bool) -> str:
@@ -348,7 +381,7 @@ def _figures(label: str, runs: list[Run], profile: Profile,
     done = [r.sigma[:4] for r in runs if r.sigma is not None]
     sigma = np.mean(done, axis=0) if done else np.full(4, np.nan)
     sigma[1:] *= 1e3 / profile.weight_N
-    return [f"  {label:32s} {what:22s} " + " ".join(f"{v:{form}}" for v in values)
+    return [f"  {label:34s} {what:22s} " + " ".join(f"{v:{form}}" for v in values)
             for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
                                        ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
                                        ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
@@ -377,7 +410,7 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
              and s.after.error is not None]
     target_wb, target_m = TARGETS[profile.name]
     lines = [f"{len(pairs)} of {len(seeds)} seeds with both trims done and a calibration",
-             f"  {'':55s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
+             f"  {'':57s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
     for k, label in enumerate(("uncalibrated", "calibrated")):
         runs = [r for s in pairs if (r := (s.before, s.after)[k]) is not None]
         share = np.nanmean([s.shares[k] for s in pairs], axis=0)
@@ -387,7 +420,7 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
         lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
                           profile)
     if with_float():
-        for k, label in enumerate(("+ apply", "+ apply + float")):
+        for k, label in enumerate(("+ apply", "+ apply + float", "+ apply + float + band")):
             lines += _figures(f"calibrated {label}", [s.looped[k] for s in pairs
                                                       if s.looped], profile)
         lines.append("  the loop's experiments: " + ", ".join(

@@ -191,9 +191,9 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
     series with the first experiment kept."""
     db = tmp_path / "trimd.db"
     opened: list[str] = []
-    weights = (KnownWeight(0.5, "W-front-stbd"), KnownWeight(-0.5, "W-aft-port", 5.0))
+    weights = ((KnownWeight(0.5, "W-front-stbd"),), (KnownWeight(-0.5, "W-aft-port", 5.0),))
     hung_at = [""] + [f"+{w.kg}@{','.join(map(str, bluerov.slot(w.slot).position_m))}"
-                      for w in weights]
+                      for (w,) in weights]
 
     def link(hung: bool) -> Callable[[], Awaitable[Link]]:
         async def open_() -> Link:
@@ -211,7 +211,7 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
                             calibration_hold=hold)
 
     done = asyncio.run(calibrate_with_weights(link(True), bluerov, weights,
-                                              lambda text: asked.append(text) or True,
+                                              lambda text, _: asked.append(text) or True,
                                               db=db, vehicle="rov", wall_clock=False,
                                               record=record, hold_s=60.0))
     assert opened == hung_at and "hang 0.5 kg" in asked[0] and "W-front-stbd" in asked[0]
@@ -244,7 +244,7 @@ def test_a_deliberate_calibration_with_a_weight_then_a_float(tmp_path: Path, blu
     opened.clear()
     answers = iter([True, False])
     never = asyncio.run(calibrate_with_weights(link(False), bluerov, weights,
-                                               lambda text: next(answers), db=None,
+                                               lambda _text, _: next(answers), db=None,
                                                vehicle="rov", wall_clock=False))
     assert [o.accepted for o in never.outcomes] == [False]
     assert "the known weight 0.5 kg" in never.outcomes[0].message
@@ -255,14 +255,19 @@ def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
     """What a calibration hold's recording says of itself reads back, and a record that is
     not one (an unknown hold, a slot that is no name, a weight that is no finite number)
     is a DataError naming its source."""
-    series = (KnownWeight(0.5, "W-front-stbd", 2.0), KnownWeight(-0.5, "W-aft-port", 5.0))
+    series = ((KnownWeight(0.5, "W-front-stbd", 2.0),),
+              (KnownWeight(-0.5, "W-aft-port", 5.0), KnownWeight(0.2, "W-mid-ctr")))
     assert hold_from_record(hold_record(2, series), "x") == (2, series)
+    assert hold_from_record(hold_record(0, (), band=True), "x") == (0, ())  # load not chosen
+    assert hold_from_record(hold_record(1, series[1:], band=True), "x") == (1, series[1:])
     old = {"hold": "after", "kg": 0.5, "slot": "W-front-stbd", "uncertainty_pct": 2.0}
     assert hold_from_record(old, "x") == (1, series[:1])  # recorded before series
     for bad in ({**hold_record(0, series), "hold": "during"},
                 {**hold_record(0, series), "hold": 3},
                 {**hold_record(0, series), "weights": [{"kg": 0.5, "slot": 3}]},
                 {**hold_record(0, series), "weights": [{**old, "kg": float("nan")}]},
+                {**hold_record(0, series), "weights": [[]]}, hold_record(0, ()),
+                {**hold_record(1, series, band=True), "weights": []},
                 {**old, "kg": float("nan")}, {"hold": "before"}):
         with pytest.raises(DataError, match="x: the recorded calibration hold is malformed"):
             hold_from_record(bad, "x")

@@ -43,9 +43,12 @@ def test_float_correct_alone_without_the_history_says_to_give_the_trim(
 
 
 @pytest.mark.parametrize(("args", "said"), [
-    ([], "--link, --mass required (or --replay HOLD1 HOLD2 …)"),
-    (["--link", "sim:"], "--mass required (or --replay HOLD1 HOLD2 …)"),
-    (["--link", "sim:", "--mass", "0.5"], "expected KG@SLOT, e.g. 0.5@W-front-stbd"),
+    ([], "--link, --mass (or --band) required (or --replay HOLD1 HOLD2 …)"),
+    (["--link", "sim:"], "--mass (or --band) required (or --replay HOLD1 HOLD2 …)"),
+    (["--link", "sim:", "--mass", "0.5"], "expected KG@SLOT (or KG@SLOT+KG@SLOT"),
+    (["--link", "sim:", "--mass", "0.5@W-mid-ctr+"], "expected KG@SLOT (or KG@SLOT+"),
+    (["--link", "sim:", "--mass", "0.5@W-mid-ctr", "--band"],
+     "--band chooses the load itself: give --band or --mass, not both"),
     (["--link", "sim:", "--mass", "0.5@W-front-stbd", "--hold-s", "5"],
      "--hold-s 5: a level hold collects for at least 10 s"),
     (["--replay", "a.tlog", "b.tlog", "--hold-s", "60"],

@@ -1,12 +1,17 @@
 """A deliberate calibration of the thrust map (``trimd calibrate``, docs/method.md §7): a
 level hold, the operator hangs a known weight at a known ballast slot, a second level
 hold; optionally a series: the operator then swaps the weight for the next known one
-(another slot, a float) before each further level hold. Each two consecutive holds and
+(another slot, a float) before each further level hold; a step of the series may hang
+several weights at once. Each two consecutive holds and
 the change of weight between them are a calibration experiment, checked against the
 vehicle's calibration so far (and the series' earlier experiments) and stored in its trim
 history like those of ``ballast apply`` and a verify hold
 (:mod:`trimd.app.history.calibration`). A weight and a float at each corner make the
-vertical thrusters cross their dead band, whose edges the fit then sees.
+vertical thrusters cross their dead band, whose edges the fit then sees. The band
+calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its one step after
+the first hold: the load that makes the vehicle just heavy enough for its vertical
+thrusters to hunt at the upper edges of their bands (:mod:`trimd.core.band`), which the
+second hold then shows.
 
 Each hold is a session of its own on the link opened again (the verify hold's
 procedure: the profile's first hold, level), so the vehicle is released while the weight
@@ -31,6 +36,7 @@ from typing import Never
 from trimd.app.history import History
 from trimd.app.history.calibration import store_experiment
 from trimd.app.session import Presenter, Recorder, Session
+from trimd.core.band import band_load
 from trimd.core.calibration import (
     Experiment,
     Outcome,
@@ -49,7 +55,7 @@ from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 
-__all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "CalibrationRun", "KnownWeight",
+__all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "CalibrationRun", "KnownWeight", "Load",
            "calibrate_with_weights", "calibration_experiment", "check_against_profile",
            "checked_hold_s", "hold_from_record", "hold_record", "level_hold_procedure",
            "light_weight_advice", "recorded_hold_s", "swap_text"]
@@ -80,6 +86,10 @@ class KnownWeight:
     uncertainty_pct: float = 1.0
 
 
+#: The weights hung together for one hold of a series (usually one).
+Load = tuple[KnownWeight, ...]
+
+
 @dataclass(frozen=True, eq=False)
 class CalibrationRun:
     """A deliberate calibration's experiments in order, what became of each, the
@@ -108,13 +118,20 @@ def _the_hold(hold: HoldSamples) -> HoldSamples:
     return hold
 
 
-def hold_record(index: int, series: Sequence[KnownWeight], hold_s: float | None = None
-                ) -> dict[str, object]:
+def _weight_dict(w: KnownWeight) -> dict[str, object]:
+    return {"kg": w.kg, "slot": w.slot, "uncertainty_pct": w.uncertainty_pct}
+
+
+def hold_record(index: int, series: Sequence[Load], hold_s: float | None = None,
+                band: bool = False) -> dict[str, object]:
     """What a calibration hold's recording says of itself: which hold of the series it is
-    (0: before any weight), the series' weights in order and, when the operator chose it,
-    how long each hold collects [s]."""
-    return {"hold": index, "weights": [{"kg": w.kg, "slot": w.slot,
-                                        "uncertainty_pct": w.uncertainty_pct} for w in series],
+    (0: before any weight), the series' loads in order (one weight as its dict, several
+    as a list of them; a band calibration's first hold, made before its load is chosen:
+    none), whether it is a band calibration and, when the operator chose it, how long
+    each hold collects [s]."""
+    return {"hold": index, "weights": [_weight_dict(load[0]) if len(load) == 1 else
+                                       [_weight_dict(w) for w in load] for load in series],
+            **({"band": True} if band else {}),
             **({"hold_s": hold_s} if hold_s is not None else {})}
 
 
@@ -160,6 +177,12 @@ def recorded_hold_s(d: dict[str, object], source: str) -> float | None:
     return float(value)
 
 
+def _load_of(d: object) -> Load | None:
+    weights = [_weight_of(w) for w in (d if isinstance(d, list) else [d])]
+    return tuple(w for w in weights if w is not None) if weights and None not in weights \
+        else None
+
+
 def _weight_of(d: object) -> KnownWeight | None:
     if not isinstance(d, dict):
         return None
@@ -170,19 +193,21 @@ def _weight_of(d: object) -> KnownWeight | None:
     return None
 
 
-def hold_from_record(d: dict[str, object], source: str
-                     ) -> tuple[int, tuple[KnownWeight, ...]]:
+def hold_from_record(d: dict[str, object], source: str) -> tuple[int, tuple[Load, ...]]:
     """Which hold and the series from :func:`hold_record`'s dict (or a one-weight
     calibration's recording from before series: its hold "before" or "after" and its
-    weight); DataError naming ``source`` when it is not one."""
+    weight); DataError naming ``source`` when it is not one. A band calibration's first
+    hold has no series yet."""
     which = d.get("hold")
     if which in _OLD_HOLDS:
         weight = _weight_of(d)
         if weight is not None:
-            return _OLD_HOLDS.index(str(which)), (weight,)
+            return _OLD_HOLDS.index(str(which)), ((weight,),)
     elif isinstance(which, int) and not isinstance(which, bool) and isinstance(
             d.get("weights"), list):
-        series = [_weight_of(w) for w in d["weights"]]  # type: ignore[attr-defined]
+        series = [_load_of(w) for w in d["weights"]]  # type: ignore[attr-defined]
+        if which == 0 and not series and d.get("band") is True:
+            return 0, ()
         if series and 0 <= which <= len(series) and all(w is not None for w in series):
             return which, tuple(w for w in series if w is not None)
     raise DataError(f"{source}: the recorded calibration hold is malformed ({d!r})")
@@ -211,18 +236,22 @@ def _change(profile: Profile, weight: KnownWeight, count: int) -> PieceChange:
                        weight.kg * profile.gravity_m_s2, weight.uncertainty_pct)
 
 
+def _load_text(load: Load, profile: Profile) -> str:
+    return " + ".join(f"{w.kg:g} kg at {profile.slot(w.slot).name}" for w in load)
+
+
 def calibration_experiment(before: HoldSamples, after: HoldSamples, profile: Profile,
-                           hung: KnownWeight, removed: KnownWeight | None = None) -> Experiment:
+                           hung: Load, removed: Load | None = None) -> Experiment:
     """The experiment of the level holds ``before`` and ``after``, between which
     ``removed`` was taken off (None: nothing) and ``hung`` hung."""
-    change = ((_change(profile, removed, -1),) if removed else ()) + (
-        _change(profile, hung, 1),)
+    change = tuple(_change(profile, w, -1) for w in removed or ()) + tuple(
+        _change(profile, w, 1) for w in hung)
     fit = estimate_segment(before, profile)
     q_cov = fit.q_cov.copy()
     q_cov[3, 3] += _M_Z_STD**2
     q_after = fit.q + ballast_change(profile, change)[0]
-    moved = f"{removed.kg:g} kg at {change[0].slot} → " if removed else ""
-    return Experiment(f"calibrate {moved}{hung.kg:g} kg at {change[-1].slot}",
+    moved = f"{_load_text(removed, profile)} → " if removed else ""
+    return Experiment(f"calibrate {moved}{_load_text(hung, profile)}",
                       calibration_hold(before, profile, fit.q),
                       calibration_hold(after, profile, q_after), change, fit.q, q_cov)
 
@@ -238,59 +267,68 @@ def check_against_profile(experiments: Sequence[Experiment], profile: Profile,
     return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile, stopped)
 
 
-def swap_text(hung: KnownWeight, removed: KnownWeight | None, profile: Profile) -> str:
+def swap_text(hung: Load, removed: Load | None, profile: Profile) -> str:
     """What the operator does before the next hold: take ``removed`` off, hang ``hung``."""
-    def what(w: KnownWeight) -> str:
-        return (f"{w.kg:g} kg (its weight in water)" if w.kg > 0
-                else f"the float of {-w.kg:g} kgf lift") + f" at slot {profile.slot(w.slot).name}"
+    def what(load: Load) -> str:
+        return " and ".join((f"{w.kg:g} kg (its weight in water)" if w.kg > 0
+                             else f"the float of {-w.kg:g} kgf lift")
+                            + f" at slot {profile.slot(w.slot).name}" for w in load)
     off = f"take {what(removed)} off; " if removed else ""
     return f"{off}hang {what(hung)}, clear of the thrusters, then confirm"
 
 
 async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profile: Profile,
-                                 weights: Sequence[KnownWeight], hung: Callable[[str], bool],
+                                 weights: Sequence[Load], hung: Callable[[str, Load], bool],
                                  *, db: Path | None, vehicle: str,
                                  presenters: Sequence[Presenter[Never, HoldSamples]] | None
                                  = None, wall_clock: bool = True,
                                  record: Callable[[dict[str, object]], Recorder | None]
-                                 | None = None, hold_s: float | None = None
-                                 ) -> CalibrationRun:
-    """A level hold, then per weight of ``weights``: ``hung(text)`` (the operator takes
-    the previous weight off, hangs this one and says so), a level hold, and the experiment
+                                 | None = None, hold_s: float | None = None,
+                                 band_pct: float | None = None) -> CalibrationRun:
+    """A level hold, then per load of ``weights``: ``hung(text, load)`` (the operator takes
+    the previous load off, hangs this one and says so), a level hold, and the experiment
     of the two holds checked against the calibration so far, ``profile``'s thrust map
     (the vehicle's stored calibration: :func:`~trimd.app.history.calibration.
     calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
     ``db`` (None: not stored) as soon as it is made.
-    ``hung`` False before the first weight aborts with UsageError; later it stops the
+    With ``band_pct`` (the load's 1σ [%]) and no ``weights``, a band calibration: its one
+    load is :func:`~trimd.core.band.band_load` of the first hold's W − B (module
+    docstring).
+    ``hung`` False before the first load aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
     (:func:`hold_record`; None: not recorded). Each hold collects for ``hold_s`` [s]
     (None: the profile's ``collect_max_s``): longer holds make each experiment's noise
     smaller, and its check against the calibration so far sharper (docs/method.md §7).
-    ProfileError for a slot the profile does not have; UsageError for a weight of 0 kg
-    or a hold shorter than :data:`MIN_HOLD_S`; LinkError, EstimationError when a hold
-    fails."""
+    ProfileError for a slot the profile does not have; UsageError for a weight of 0 kg,
+    a hold shorter than :data:`MIN_HOLD_S` or a band load the slots cannot take;
+    LinkError, EstimationError when a hold fails."""
     checked_hold_s(hold_s)
-    for w in weights:
+    for w in (w for load in weights for w in load):
         slot = profile.slot(w.slot)
         if not (math.isfinite(w.kg) and w.kg != 0):
             raise UsageError(f"--mass {w.kg:g}@{slot.name}: a weight of 0 kg calibrates "
                              "nothing", "trimd calibrate")
-    if not weights:
+    if not weights and band_pct is None:
         raise UsageError("no weight to calibrate with: give --mass KG@SLOT", "trimd calibrate")
     shown = list(presenters or [])
+    band = band_pct is not None
 
     def level_hold(k: int) -> Awaitable[HoldSamples]:
         return _level_hold(open_link, profile, shown, wall_clock, f"level hold {k + 1}",
-                           record(hold_record(k, weights, hold_s)) if record else None, hold_s)
+                           record(hold_record(k, weights, hold_s, band)) if record else None,
+                           hold_s)
 
     post = profile.thrust_map or prior(profile)
     holds = [await level_hold(0)]
+    text = ""
+    if band_pct is not None and not weights:
+        weights, text = _band_series(holds[0], profile, band_pct)
     experiments: list[Experiment] = []
     outcomes: list[Outcome] = []
-    for k, weight in enumerate(weights):
+    for k, load in enumerate(weights):
         removed = weights[k - 1] if k else None
-        if not hung(swap_text(weight, removed, profile)):
+        if not hung(text + swap_text(load, removed, profile), load):
             if not k:
                 raise UsageError("calibration aborted: the weight was not hung",
                                  "trimd calibrate")
@@ -298,7 +336,7 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
                                   f"stopped by the operator after {k} of {len(weights)} "
                                   "weights")
         holds.append(await level_hold(k + 1))
-        exp = calibration_experiment(holds[-2], holds[-1], profile, weight, removed)
+        exp = calibration_experiment(holds[-2], holds[-1], profile, load, removed)
         if db is None:
             post, outcome = update(post, exp, profile)
         else:  # a rejected experiment leaves the calibration as it was
@@ -307,3 +345,24 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
         experiments.append(exp)
         outcomes.append(outcome)
     return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile)
+
+
+def _band_series(first: HoldSamples, profile: Profile, uncertainty_pct: float
+                 ) -> tuple[tuple[Load], str]:
+    """The band calibration's series, its one load chosen from the ``first`` hold's
+    W − B (with the profile's calibration), and what it is for, for the operator."""
+    fit = estimate_segment(first, profile)
+    load = band_load(profile, float(fit.q[0]))
+    g = profile.gravity_m_s2
+    sd = math.sqrt(fit.q_cov[0, 0])
+    text = (f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N; for its "
+            f"vertical thrusters to hunt at their upper band edges it should be "
+            f"{load.margin_N:+.2f} N"
+            + (f" (its W − B is known to ± {sd:.2f} N only, more than the band's "
+               f"{load.margin_N:.2f} N: the load may miss it; a calibration first, e.g. "
+               "the verify hold after `trimd ballast apply`, narrows it)"
+               if sd > load.margin_N else "")
+            + (", the slots leaving {:+.3f}, {:+.3f} N·m of x, y moment".format(*load.moment_Nm)
+               if max(map(abs, load.moment_Nm)) > 1e-6 else "") + ": ")
+    return (tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
+                  for slot, f in load.pieces if round(f / g, 3)),), text

@@ -14,7 +14,7 @@ import yaml
 
 from trimd.app.calibrate import (
     CalibrationRun,
-    KnownWeight,
+    Load,
     calibration_experiment,
     check_against_profile,
     hold_from_record,
@@ -121,14 +121,14 @@ async def replay_calibration(paths: Sequence[str], name: str | None) -> Calibrat
                         "holds, in order")
     holds: list[HoldSamples] = []
     profiles = []
-    series: tuple[KnownWeight, ...] = ()
+    series: tuple[Load, ...] = ()
     for k, path in enumerate(paths):
         d = recorded_calibration_hold(path)
         if d is None:
             raise DataError(f"{path}: not a recording of a calibration's level hold (trimd "
                             "calibrate records one per hold)")
         index, weights = hold_from_record(d, path)
-        if k and weights != series:
+        if k and series and weights != series:   # a band calibration's first: none yet
             raise DataError(f"{paths[0]} and {path} record different weights: not holds of "
                             "one calibration")
         if index != k:

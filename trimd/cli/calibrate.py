@@ -1,7 +1,10 @@
 """``trimd calibrate --link URL --profile P --mass KG@SLOT [--mass KG@SLOT …]``: a
 deliberate calibration of the thrust map (:mod:`trimd.app.calibrate`; docs/method.md §7):
 a level hold, the operator hangs a known weight at a known slot, a second level hold; with
-more ``--mass``, the operator swaps the weight for the next before each further hold. Each
+more ``--mass``, the operator swaps the weight for the next before each further hold
+(``--mass A+B`` hangs two at once). ``--band`` on a trimmed vehicle: trimd chooses the one
+load after the first hold, the one that makes its vertical thrusters hunt at the upper
+edges of their dead bands (docs/method.md §7). Each
 experiment is checked and stored in the vehicle's trim history as soon as it is made, and
 every later session of the vehicle uses it. Each hold is recorded (``-calibrate-1``,
 ``-calibrate-2``, … in the log's name); ``trimd calibrate --replay HOLD1 HOLD2 …``
@@ -20,6 +23,7 @@ from pathlib import Path
 from trimd.app.calibrate import (
     CalibrationRun,
     KnownWeight,
+    Load,
     calibrate_with_weights,
     checked_hold_s,
     light_weight_advice,
@@ -58,7 +62,14 @@ def register(sub: Subcommands) -> None:
                    "float's lift) and the ballast slot it hangs at, e.g. 0.5@W-front-stbd "
                    "(required unless --replay). Give it again for a series: before each "
                    "further level hold you swap the weight for the next (a weight and a "
-                   "float at each corner teach the most, docs/method.md §7)")
+                   "float at each corner teach the most, docs/method.md §7); "
+                   "KG@SLOT+KG@SLOT hangs several at once")
+    p.add_argument("--band", action="store_true",
+                   help="instead of --mass, on a trimmed vehicle: after the first level "
+                   "hold trimd says what to hang (and where) to make the vehicle just heavy "
+                   "enough for its vertical thrusters to hunt at the upper edges of their "
+                   "dead bands, which the second hold shows: the edges a later trim of the "
+                   "vehicle with a heavy payload works beyond (docs/method.md §7)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
     p.add_argument("--hold-s", type=float, metavar="S",
@@ -83,12 +94,14 @@ def register(sub: Subcommands) -> None:
     p.set_defaults(func=run)
 
 
-def _weight(text: str, uncertainty_pct: float) -> KnownWeight:
-    m = _MASS.match(text.strip())
-    if m is None:
-        raise UsageError(f"--mass {text!r}: expected KG@SLOT, e.g. 0.5@W-front-stbd",
-                         "trimd calibrate")
-    return KnownWeight(float(m["kg"]), m["slot"].strip(), uncertainty_pct)
+def _load(text: str, uncertainty_pct: float) -> Load:
+    """``--mass KG@SLOT[+KG@SLOT…]``: the weights hung together for one hold."""
+    found = [_MASS.match(item.strip()) for item in text.split("+")]
+    if not all(found):
+        raise UsageError(f"--mass {text!r}: expected KG@SLOT (or KG@SLOT+KG@SLOT to hang "
+                         "several at once), e.g. 0.5@W-front-stbd", "trimd calibrate")
+    return tuple(KnownWeight(float(m["kg"]), m["slot"].strip(), uncertainty_pct)
+                 for m in found if m is not None)
 
 
 def _ask(text: str) -> bool:
@@ -114,28 +127,33 @@ def _recorder(args: argparse.Namespace, profile: Profile
 
 def _live(args: argparse.Namespace) -> CalibrationRun | None:
     """The calibration on the vehicle; None when the operator did not confirm it."""
-    missing = [f"--{k}" for k in ("link", "profile", "mass") if not getattr(args, k)]
+    if args.band and args.mass:
+        raise UsageError("--band chooses the load itself: give --band or --mass, not both",
+                         "trimd calibrate")
+    missing = [f"--{k}" for k in ("link", "profile") if not getattr(args, k)] + (
+        [] if args.mass or args.band else ["--mass (or --band)"])
     if missing:
         raise UsageError(f"{', '.join(missing)} required (or --replay HOLD1 HOLD2 …)",
                          "trimd calibrate")
     profile = load_profile(args.profile)
-    weights = [_weight(m, args.uncertainty_pct) for m in args.mass]
-    for w in weights:
+    weights = [_load(m, args.uncertainty_pct) for m in args.mass or []]
+    for w in (w for load in weights for w in load):
         profile.slot(w.slot)  # a wrong slot fails before anything is commanded
-    advice = light_weight_advice(profile, weights)
+    advice = None if args.band else light_weight_advice(
+        profile, [w for load in weights for w in load])
     if advice:
         print(f"trimd calibrate: note: {advice}", file=sys.stderr)
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    if not args.yes and not _ask(f"{len(weights) + 1} level holds: let trimd command the "
+    if not args.yes and not _ask(f"{max(len(weights), 1) + 1} level holds: let trimd command the "
                                  "vehicle?"):
         return None
     vehicle = vehicle_of(args, profile.name)
     db = None if args.no_history else Path(db_path(args))
     profile = calibrated_profile(db, vehicle, profile)
 
-    def hung(text: str) -> bool:
+    def hung(text: str, _load: Load) -> bool:
         if args.yes:
             print(f"trimd calibrate: {text} (--yes: taken as done)", file=sys.stderr)
             return True
@@ -143,7 +161,8 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
 
     run: CalibrationRun = asyncio.run(calibrate_with_weights(
         lambda: open_link(args.link, profile), profile, weights, hung, db=db, vehicle=vehicle,
-        record=_recorder(args, profile), hold_s=args.hold_s))
+        record=_recorder(args, profile), hold_s=args.hold_s,
+        band_pct=args.uncertainty_pct if args.band else None))
     return run
 
 
