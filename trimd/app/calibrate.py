@@ -178,9 +178,11 @@ def recorded_hold_s(d: dict[str, object], source: str) -> float | None:
 
 
 def _load_of(d: object) -> Load | None:
+    """A load as :func:`hold_record` writes it (a weight's dict, or a list of them)."""
     weights = [_weight_of(w) for w in (d if isinstance(d, list) else [d])]
-    return tuple(w for w in weights if w is not None) if weights and None not in weights \
-        else None
+    if not weights or None in weights:
+        return None
+    return tuple(w for w in weights if w is not None)
 
 
 def _weight_of(d: object) -> KnownWeight | None:
