@@ -49,6 +49,7 @@ def test_the_band_load_cancels_its_moments_and_says_when_the_slots_cannot_take_i
         band_load(bluerov, -500.0)
 
 
+@pytest.mark.slow
 def test_the_band_hold_shows_the_upper_edges_of_the_trimmed_vehicles_vertical_thrusters(
         tmp_path: Path, bluerov: Profile) -> None:
     """The perturbed Heavy trimmed, its proposal fitted, then ``calibrate --band``: the
