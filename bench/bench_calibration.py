@@ -32,7 +32,9 @@ loop's trim → apply → verify → float teaches is added to the calibration: 
 of the first trim's ballast fitted (a level hold before, one after), then also the float
 reference (:mod:`trimd.core.float_reference`: that second hold and a float), each hold
 another dive of the same vehicle, then also the band calibration of the ballasted vehicle
-(``trimd calibrate --band``: :func:`banded`).
+(``trimd calibrate --band``: :func:`banded`); each experiment stored in (a copy of) the
+seed's history and the calibration recomputed from them all, as trimd gives it to every
+later trim of the vehicle.
 
 ``TRIMD_CALIB_SEEDS`` (default 60) seeds per case; ``TRIMD_CALIB_OPTIONS`` the sim options
 (default :data:`OPTIONS`); ``TRIMD_CALIB_HOLD_S`` how long each calibration hold collects
@@ -49,6 +51,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import shutil
 import tempfile
 from collections import Counter
 from collections.abc import Awaitable, Callable, Sequence
@@ -72,7 +75,8 @@ from bench.size import size, sized_profile
 from tests.helpers import SimTrim, sim_apply_experiment, sim_float_reference, sim_trim
 from trimd.app.calibrate import CalibrationRun, KnownWeight, Load, calibrate_with_weights
 from trimd.app.connect import open_link
-from trimd.app.history.calibration import calibrated_profile
+from trimd.app.history import History
+from trimd.app.history.calibration import calibrated_profile, store_experiment
 from trimd.core.calibration import prior, update
 from trimd.core.errors import EstimationError, LinkError, UsageError
 from trimd.core.hunting import LIFTING
@@ -264,9 +268,11 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
 
 
 def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
-               post: ThrustMapPosterior, first: int
-               ) -> tuple[ThrustMapPosterior, ThrustMapPosterior, ThrustMapPosterior, str]:
-    """``post`` updated by what the loop after ``trial`` teaches: the experiment of its
+               db: Path, first: int) -> tuple[tuple[Profile, Profile, Profile], str]:
+    """The calibrated profile after what the loop after ``trial`` teaches, each stored in
+    the history ``db`` beside the calibration there and the calibration recomputed from
+    them all, as every later trim of the vehicle gets it
+    (:func:`~trimd.app.history.calibration.calibrated_profile`): the experiment of its
     proposal's ballast fitted (:func:`tests.helpers.sim_apply_experiment`, from a level
     hold of the vehicle as trimmed to one of it ballasted), then also the float reference
     of the ballasted vehicle (that hold and a float:
@@ -277,23 +283,27 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
     made = sim_float_reference(trial, payload, seed + first * NOISE,
                                seed + (first + 1) * NOISE, vehicle, FLOAT_EXCURSION_M)
     if made.reference is None:
-        return post, post, post, made.reason
+        same = calibrated_profile(db, "bench", profile)
+        return (same, same, same), made.reason
     exp = sim_apply_experiment(trial, payload, made.reference.hold,
                                seed + (first + 2) * NOISE, vehicle)
-    applied, outcome = update(post, exp, profile)
-    both, referenced = update(applied, made.reference, profile)
-    band, told = banded(replace(profile, thrust_map=both), made.payload, seed, first + 3,
-                        vehicle)
-    return applied, both, band, (f"apply {_verdict(outcome.accepted)}, "
-                                 f"float {_verdict(referenced.accepted)}, band {told}")
+    learnt: list[Profile] = []
+    told: list[str] = []
+    for what, e in (("apply", exp), ("float", made.reference)):
+        with History(db) as history:
+            outcome = store_experiment(history, "bench", profile, e)[1]
+        told.append(f"{what} {_verdict(outcome.accepted)}")
+        learnt.append(calibrated_profile(db, "bench", profile))
+    told.append(f"band {banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)}")
+    return (learnt[0], learnt[1], calibrated_profile(db, "bench", profile)), ", ".join(told)
 
 
-def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
-           ) -> tuple[ThrustMapPosterior, str]:
+def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str, db: Path
+           ) -> str:
     """The band calibration (``trimd calibrate --band``) of the simulated vehicle of
-    ``seed`` with ``ballasted`` aboard and ``profile``'s thrust map, its two holds the
-    dives ``seed + (first + k)·NOISE``: the calibration after it (as before, when the hold
-    failed) and what became of it."""
+    ``seed`` with ``ballasted`` aboard and ``profile`` (the vehicle's calibration in the
+    history ``db``), its two holds the dives ``seed + (first + k)·NOISE``, its experiment
+    stored in ``db``: what became of it."""
     loads: list[Load] = []
 
     def opener() -> Awaitable[Link]:
@@ -306,14 +316,13 @@ def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
         loads.append(load)
         return True
 
-    assert profile.thrust_map is not None
     try:
-        done = asyncio.run(calibrate_with_weights(opener, profile, (), hang, db=None,
+        done = asyncio.run(calibrate_with_weights(opener, profile, (), hang, db=db,
                                                   vehicle="bench", wall_clock=False,
                                                   band_pct=1.0))
     except (EstimationError, LinkError, UsageError) as exc:
-        return profile.thrust_map, f"failed: {exc}"
-    return done.posterior, _verdict(done.outcomes[0].accepted)
+        return f"failed: {exc}"
+    return _verdict(done.outcomes[0].accepted)
 
 
 def _verdict(accepted: bool) -> str:
@@ -343,12 +352,14 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         sd = np.sqrt(np.diag(post.cov)).reshape(len(BLOCKS), -1)
         narrowed = tuple(int(n) for n in np.sum(sd < DETERMINED, axis=1))
         after, after_share, _ = judged_trim(calibrated, payload, seed, options)
-        looped, reference = (), ""
+        looped: tuple[Run, ...] = ()
+        reference = ""
         if with_float():
-            *posts, reference = referenced(profile, payload, seed, options, trial, post,
-                                           len(weights) + 4)
-            looped = tuple(judged_trim(replace(calibrated, thrust_map=p), payload, seed,
-                                       options)[0] for p in posts)
+            loop_db = Path(tmp) / "loop.db"     # the wrong weight's check: as before
+            shutil.copyfile(db, loop_db)
+            profiles, reference = referenced(profile, payload, seed, options, trial, loop_db,
+                                             len(weights) + 4)
+            looped = tuple(judged_trim(p, payload, seed, options)[0] for p in profiles)
         learnt = sum(o.accepted for o in good.outcomes)
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),

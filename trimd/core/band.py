@@ -25,7 +25,7 @@ from scipy.optimize import linprog
 from trimd.core.errors import UsageError
 from trimd.core.hunting import LIFTING
 from trimd.core.model import band_at, thrust_configuration, thrust_from_pwm
-from trimd.core.profile import Profile
+from trimd.core.profile import BallastSlot, Profile
 
 __all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N"]
 
@@ -88,9 +88,13 @@ def band_load(profile: Profile, w_minus_b_N: float) -> BandLoad:
     need = margin - w_minus_b_N
     sign = 1.0 if need > 0 else -1.0
     g = profile.gravity_m_s2
-    slots = [s for s in profile.slots
-             if (s.max_weight_kg if sign > 0 else s.max_float_kg) > 0]
-    capacity = sum((s.max_weight_kg if sign > 0 else s.max_float_kg) * g for s in slots)
+
+    def cap(slot: BallastSlot) -> float:
+        """What ``slot`` takes of the load's kind [N]."""
+        return (slot.max_weight_kg if sign > 0 else slot.max_float_kg) * g
+
+    slots = [s for s in profile.slots if cap(s) > 0]
+    capacity = sum(cap(s) for s in slots)
     if not slots or capacity < abs(need):
         kind = "weight" if sign > 0 else "float"
         raise UsageError(f"the band hold needs {abs(need):.2f} N of {kind} (the vehicle "
@@ -104,7 +108,7 @@ def band_load(profile: Profile, w_minus_b_N: float) -> BandLoad:
     A_eq[0, :n] = 1.0
     A_eq[1, :n], A_eq[1, n:n + 2] = P[:, 0], (1.0, -1.0)
     A_eq[2, :n], A_eq[2, n + 2:] = P[:, 1], (1.0, -1.0)
-    bounds = [(0.0, (s.max_weight_kg if sign > 0 else s.max_float_kg) * g) for s in slots]
+    bounds = [(0.0, cap(s)) for s in slots]
     found = linprog(cost, A_eq=A_eq, b_eq=[abs(need), 0.0, 0.0],
                     bounds=bounds + [(0.0, None)] * 4, method="highs")
     w = np.asarray(found.x[:n]) * sign
