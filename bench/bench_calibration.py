@@ -77,8 +77,11 @@ from trimd.app.calibrate import CalibrationRun, KnownWeight, Load, calibrate_wit
 from trimd.app.connect import open_link
 from trimd.app.history import History
 from trimd.app.history.calibration import calibrated_profile, store_experiment
-from trimd.core.calibration import prior, update
+from trimd.core.calibration import Experiment, prior, update
+from trimd.core.calibration import calibrate as recalibrate
+from trimd.core.calibration_json import experiment_from_dict
 from trimd.core.errors import EstimationError, LinkError, UsageError
+from trimd.core.float_reference import FloatReference
 from trimd.core.hunting import LIFTING
 from trimd.core.learnt import DETERMINED
 from trimd.core.link import Link
@@ -268,7 +271,7 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
 
 
 def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
-               db: Path, first: int) -> tuple[tuple[Profile, Profile, Profile], str]:
+               db: Path, first: int) -> tuple[tuple[Profile, ...], str]:
     """The calibrated profile after what the loop after ``trial`` teaches, each stored in
     the history ``db`` beside the calibration there and the calibration recomputed from
     them all, as every later trim of the vehicle gets it
@@ -277,14 +280,15 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
     hold of the vehicle as trimmed to one of it ballasted), then also the float reference
     of the ballasted vehicle (that hold and a float:
     :func:`tests.helpers.sim_float_reference`), then also the band calibration of the
-    ballasted vehicle (:func:`banded`); the dives ``seed + (first + k)·NOISE`` of the same
-    vehicle, never the trim's own; what became of each."""
+    ballasted vehicle (:func:`banded`): its first experiment, the upper edges', then both;
+    the dives ``seed + (first + k)·NOISE`` of the same vehicle, never the trim's own;
+    what became of each."""
     vehicle = f"truth_seed={seed},{options}"
     made = sim_float_reference(trial, payload, seed + first * NOISE,
                                seed + (first + 1) * NOISE, vehicle, FLOAT_EXCURSION_M)
     if made.reference is None:
         same = calibrated_profile(db, "bench", profile)
-        return (same, same, same), made.reason
+        return (same,) * 4, made.reason
     exp = sim_apply_experiment(trial, payload, made.reference.hold,
                                seed + (first + 2) * NOISE, vehicle)
     learnt: list[Profile] = []
@@ -294,20 +298,31 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
             outcome = store_experiment(history, "bench", profile, e)[1]
         told.append(f"{what} {_verdict(outcome.accepted)}")
         learnt.append(calibrated_profile(db, "bench", profile))
+    before = len(_experiments(db))
     told.append(f"band {banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)}")
-    return (learnt[0], learnt[1], calibrated_profile(db, "bench", profile)), ", ".join(told)
+    upper = recalibrate(_experiments(db)[:before + 1], profile).posterior
+    return (learnt[0], learnt[1], replace(profile, thrust_map=upper),
+            calibrated_profile(db, "bench", profile)), ", ".join(told)
+
+
+def _experiments(db: Path) -> list[Experiment | FloatReference]:
+    """The experiments stored in the history ``db``, in order."""
+    with History(db) as history:
+        return [experiment_from_dict(r.values["experiment"], str(db))
+                for r in history.experiments("bench")]
 
 
 def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str, db: Path
            ) -> str:
     """The band calibration (``trimd calibrate --band``) of the simulated vehicle of
     ``seed`` with ``ballasted`` aboard and ``profile`` (the vehicle's calibration in the
-    history ``db``), its two holds the dives ``seed + (first + k)·NOISE``, its experiment
-    stored in ``db``: what became of it."""
+    history ``db``), its holds the dives ``seed + (first + k)·NOISE``, its experiments
+    (the upper edges', then the lower edges') stored in ``db``: what became of each."""
     loads: list[Load] = []
 
     def opener() -> Awaitable[Link]:
-        extra = "".join(f"+{w.kg:.6f}@{x},{y},{z}" for load in loads for w in load
+        hung = loads[-1] if loads else ()       # each load swapped for the next
+        extra = "".join(f"+{w.kg:.6f}@{x},{y},{z}" for w in hung
                         for x, y, z in [profile.slot(w.slot).position_m])
         return open_link(f"sim:payload={ballasted}{extra},"
                          f"seed={seed + (first + len(loads)) * NOISE},{vehicle}", profile)
@@ -322,7 +337,7 @@ def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
                                                   band_pct=1.0))
     except (EstimationError, LinkError, UsageError) as exc:
         return f"failed: {exc}"
-    return _verdict(done.outcomes[0].accepted)
+    return " + ".join(_verdict(o.accepted) for o in done.outcomes)
 
 
 def _verdict(accepted: bool) -> str:
@@ -392,7 +407,7 @@ def _figures(label: str, runs: list[Run], profile: Profile,
     done = [r.sigma[:4] for r in runs if r.sigma is not None]
     sigma = np.mean(done, axis=0) if done else np.full(4, np.nan)
     sigma[1:] *= 1e3 / profile.weight_N
-    return [f"  {label:34s} {what:22s} " + " ".join(f"{v:{form}}" for v in values)
+    return [f"  {label:37s} {what:22s} " + " ".join(f"{v:{form}}" for v in values)
             for what, values, form in (("rms error (N, mm-eq)", rms, "8.3f"),
                                        ("mean ± 1σ (N, mm-eq)", sigma, "8.3f"),
                                        ("95 % interval covers", coverage(runs)[0][:4], "8.0%"),
@@ -414,6 +429,16 @@ def _edges_learnt(seeds: list[Seed], profile: Profile) -> list[str]:
     return out
 
 
+def _worst(runs: list[tuple[int, Run]], count: int = 5) -> str:
+    """The seeds of ``runs`` whose W − B is furthest off, each with its error and 1σ
+    [N], for people: where to look first."""
+    done = sorted(((seed, r.error[0], r.sigma[0]) for seed, r in runs
+                   if r.error is not None and r.sigma is not None),
+                  key=lambda e: -abs(e[1]))[:count]
+    return "W − B furthest off, last row: " + ", ".join(
+        f"seed {seed} {e:+.3f} ± {sd:.3f} N" for seed, e, sd in done)
+
+
 def report(seeds: list[Seed], profile: Profile) -> list[str]:
     """The figures of ``seeds`` for people (module docstring), one string per line."""
     calibrated = [s for s in seeds if s.after is not None]
@@ -421,7 +446,7 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
              and s.after.error is not None]
     target_wb, target_m = TARGETS[profile.name]
     lines = [f"{len(pairs)} of {len(seeds)} seeds with both trims done and a calibration",
-             f"  {'':57s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
+             f"  {'':60s}" + " ".join(f"{n:>8s}" for n in NAMES[:4])]
     for k, label in enumerate(("uncalibrated", "calibrated")):
         runs = [r for s in pairs if (r := (s.before, s.after)[k]) is not None]
         share = np.nanmean([s.shares[k] for s in pairs], axis=0)
@@ -431,11 +456,13 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
         lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
                           profile)
     if with_float():
-        for k, label in enumerate(("+ apply", "+ apply + float", "+ apply + float + band")):
+        for k, label in enumerate(("+ apply", "+ apply + float", "+ apply + float + band up",
+                                   "+ apply + float + band")):
             lines += _figures(f"calibrated {label}", [s.looped[k] for s in pairs
                                                       if s.looped], profile)
         lines.append("  the loop's experiments: " + ", ".join(
             f"{n} {v}" for v, n in Counter(s.reference for s in pairs).most_common()))
+        lines.append("  " + _worst([(s.seed, s.looped[-1]) for s in pairs if s.looped]))
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
                  f"{target_m:.3g} mm-equivalent; coverage 90–99 %")

@@ -35,13 +35,18 @@ SEED = 1
 
 def test_the_band_load_cancels_its_moments_and_says_when_the_slots_cannot_take_it(
         bluerov: Profile, sabertooth: Profile) -> None:
-    """The load aims W − B at the margin, at slots whose x and y moments cancel: weights
-    for a buoyant vehicle, floats' lift for one heavier than the margin."""
-    for profile, w_minus_b in ((bluerov, -1.3), (bluerov, 2.0), (sabertooth, -8.0)):
-        load = band_load(profile, w_minus_b)
+    """The load aims W − B at the margin (heavy for the upper edges, buoyant for the lower
+    ones), at slots whose x and y moments cancel: weights for a vehicle lighter than
+    that, floats' lift for one heavier."""
+    for profile, w_minus_b, upward in ((bluerov, -1.3, True), (bluerov, 2.0, True),
+                                       (sabertooth, -8.0, True), (bluerov, -1.3, False),
+                                       (bluerov, 0.1, False), (sabertooth, 8.0, False)):
+        load = band_load(profile, w_minus_b, upward)
         forces = np.array([f for _, f in load.pieces])
         where = np.array([profile.slot(s).position_m for s, _ in load.pieces])
-        assert forces.sum() == pytest.approx(band_margin_N(profile) - w_minus_b)
+        aim = band_margin_N(profile, upward) * (1 if upward else -1)
+        assert load.margin_N == pytest.approx(aim) and aim * (1 if upward else -1) > 0
+        assert forces.sum() == pytest.approx(aim - w_minus_b)
         assert np.all(np.sign(forces) == np.sign(forces.sum()))
         assert np.allclose(forces @ where[:, :2], 0.0, atol=1e-9)
         assert load.moment_Nm == pytest.approx((0.0, 0.0), abs=1e-9)
@@ -50,25 +55,27 @@ def test_the_band_load_cancels_its_moments_and_says_when_the_slots_cannot_take_i
 
 
 @pytest.mark.slow
-def test_the_band_hold_shows_the_upper_edges_of_the_trimmed_vehicles_vertical_thrusters(
+def test_the_band_holds_show_the_edges_of_the_trimmed_vehicles_vertical_thrusters(
         tmp_path: Path, bluerov: Profile) -> None:
-    """The perturbed Heavy trimmed, its proposal fitted, then ``calibrate --band``: the
-    load trimd chooses after the first hold makes the TRUE vehicle as heavy as it aims
-    (within twice the first hold's ± of W − B), the second hold shows the upper edges of
-    vertical thrusters, each where the simulated ESC's really is, the experiment is learnt,
-    and the two recordings replay to it."""
+    """The perturbed Heavy trimmed, its proposal fitted, then ``calibrate --band``: each
+    load trimd chooses after the first hold makes the TRUE vehicle as heavy (then as
+    buoyant) as it aims (within twice the first hold's ± of W − B), the hold with it
+    shows the upper (then lower) edges of vertical thrusters, each where the simulated
+    ESC's really is, both experiments are learnt, and the three recordings replay to
+    them."""
     trial = sim_trim(bluerov, PAYLOAD, SEED, OPTIONS)
     proposal = trial.result.proposal
     assert isinstance(proposal, Proposal), trial.result.reason
     extra = ballast_payload(proposal, bluerov)
     loads: list[Load] = []
 
-    def carried_load() -> str:
+    def carried(load: Load) -> str:
         return "".join(f"+{w.kg:.6f}@{','.join(map(str, bluerov.slot(w.slot).position_m))}"
-                       for load in loads for w in load)
+                       for w in load)
 
     def opener() -> Awaitable[Link]:
-        return open_link(f"sim:payload={PAYLOAD}+{extra}{carried_load()},"
+        now = carried(loads[-1]) if loads else ""      # each load swapped for the next
+        return open_link(f"sim:payload={PAYLOAD}+{extra}{now},"
                          f"seed={SEED + 10 * (1 + len(loads))},truth_seed={SEED},{OPTIONS}",
                          bluerov)
 
@@ -88,40 +95,49 @@ def test_the_band_hold_shows_the_upper_edges_of_the_trimmed_vehicles_vertical_th
     done = asyncio.run(calibrate_with_weights(opener, bluerov, (), hang, db=None,
                                               vehicle="rov", wall_clock=False, record=record,
                                               band_pct=1.0))
-    assert len(loads) == 1 and "upper band edges" in asked[0], asked
-    [exp] = done.experiments
-    aimed = band_margin_N(bluerov)
-    true_after = trial.vehicle.ballasted(f"{extra}{carried_load()}").net[0]
-    assert abs(true_after - aimed) <= 2 * np.sqrt(exp.q_before_cov[0, 0]), (true_after, aimed)
+    assert len(loads) == 2 and "upper band edges" in asked[0], asked
+    assert "lower band edges" in asked[1] and "take " in asked[1], asked
     T = thrust_configuration(bluerov.thrusters)
     lifting = [i for i in range(len(bluerov.thrusters)) if abs(T[2, i]) >= LIFTING]
     true_offsets = trial.vehicle.offset.band_offsets_us
-    upper = [o for o in edges_of([exp], bluerov)
-             if o.thruster in lifting and o.positive == (T[2, o.thruster] < 0)]
-    assert len({o.thruster for o in upper}) >= 2, upper
-    for o in upper:
-        assert abs(o.offset_us - true_offsets[o.thruster][int(o.positive)]) <= 1.0, o
-    assert done.outcomes[0].accepted, done.outcomes[0].message
-    again = asyncio.run(replay_calibration([str(tmp_path / f"hold{k}.tlog") for k in (0, 1)],
-                                           None))
+    known = np.sqrt(done.experiments[0].q_before_cov[0, 0])   # the first hold's ± on W − B
+    for exp, load, upward in zip(done.experiments, loads, (True, False), strict=True):
+        aimed = band_margin_N(bluerov, upward) * (1 if upward else -1)
+        true_w_minus_b = trial.vehicle.ballasted(f"{extra}{carried(load)}").net[0]
+        assert abs(true_w_minus_b - aimed) <= 2 * known, (true_w_minus_b, aimed, known)
+        shown = [o for o in edges_of([exp], bluerov) if o.thruster in lifting
+                 and o.positive == ((T[2, o.thruster] < 0) == upward)]
+        assert len({o.thruster for o in shown}) >= 2, (upward, shown)
+        for o in shown:
+            assert abs(o.offset_us - true_offsets[o.thruster][int(o.positive)]) <= 1.0, o
+    assert all(o.accepted for o in done.outcomes), [o.message for o in done.outcomes]
+    again = asyncio.run(replay_calibration([str(tmp_path / f"hold{k}.tlog")
+                                            for k in (0, 1, 2)], None))
     assert [o.message for o in again.outcomes] == [o.message for o in done.outcomes]
 
 
 def test_trimd_calibrate_band_says_what_to_hang_and_checks_it(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``trimd calibrate --band --yes --json`` on a served simulator nobody hangs anything
-    on: it says what to hang and where after the first hold, and the second hold, which
-    sees no change, is rejected as the load never put on, stored so, exit 1."""
+    on: after the first hold it says what to hang and where for the upper edges, then
+    what to swap it for for the lower ones; the second hold, which sees none of the
+    first load, is rejected as the load never put on, stored so, exit 1. (The swap
+    between the two loads is some 30 g, within the third hold's noise: its experiment
+    cannot tell.)"""
     code = main(["calibrate", "--link", "sim:seed=4,truth=perturbed", "--profile",
                  "bluerov2-heavy", "--band", "--yes", "--json", "--no-record", "--hold-s",
                  "30", "--db", str(tmp_path / "trimd.db")])
     out, err = capsys.readouterr()
     done = json.loads(out)
     assert code == 1 and not done["accepted"], (out, err)
-    assert "upper band edges it should be +0.13 N (its W − B is known to ± 0.48 N only" in err
+    assert ("upper band edges it should be heavy at +0.13 N (its W − B is known to ± 0.48 N "
+            "only") in err
     assert "the load may miss it" in err and "): hang 0.147 kg" in err and "W-amid-ctr" in err
-    [exp] = done["experiments_run"]
-    assert not exp["accepted"] and "W-amid-ctr" in exp["label"], exp
-    assert "the known weight" in exp["message"], exp["message"]
+    assert "lower band edges it should be buoyant at -0.16 N" in err, err
+    assert "take 0.147 kg (its weight in water) at slot W-mid-ctr and 0.246 kg" in err, err
+    first, _ = done["experiments_run"]
+    assert not first["accepted"] and "W-amid-ctr" in first["label"], first
+    assert "the known weight" in first["message"], first["message"]
     with History(tmp_path / "trimd.db") as h:
-        assert [r.values["accepted"] for r in h.experiments("bluerov2-heavy")] == [False]
+        stored = [r.values["accepted"] for r in h.experiments("bluerov2-heavy")]
+    assert len(stored) == 2 and stored[0] is False, stored

@@ -8,10 +8,11 @@ vehicle's calibration so far (and the series' earlier experiments) and stored in
 history like those of ``ballast apply`` and a verify hold
 (:mod:`trimd.app.history.calibration`). A weight and a float at each corner make the
 vertical thrusters cross their dead band, whose edges the fit then sees. The band
-calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its one step after
-the first hold: the load that makes the vehicle just heavy enough for its vertical
+calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its two steps
+after the first hold: the load that makes the vehicle just heavy enough for its vertical
 thrusters to hunt at the upper edges of their bands (:mod:`trimd.core.band`), which the
-second hold then shows.
+second hold then shows, then the one that makes it just buoyant enough for the lower
+edges, which the third shows.
 
 Each hold is a session of its own on the link opened again (the verify hold's
 procedure: the profile's first hold, level), so the vehicle is released while the weight
@@ -293,9 +294,9 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     (the vehicle's stored calibration: :func:`~trimd.app.history.calibration.
     calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
     ``db`` (None: not stored) as soon as it is made.
-    With ``band_pct`` (the load's 1σ [%]) and no ``weights``, a band calibration: its one
-    load is :func:`~trimd.core.band.band_load` of the first hold's W − B (module
-    docstring).
+    With ``band_pct`` (the loads' 1σ [%]) and no ``weights``, a band calibration: its two
+    loads are :func:`~trimd.core.band.band_load` of the first hold's W − B, upward then
+    downward (module docstring).
     ``hung`` False before the first load aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
@@ -323,14 +324,14 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
 
     post = profile.thrust_map or prior(profile)
     holds = [await level_hold(0)]
-    text = ""
+    texts: Sequence[str] = [""] * len(weights)
     if band_pct is not None and not weights:
-        weights, text = _band_series(holds[0], profile, band_pct)
+        weights, texts = _band_series(holds[0], profile, band_pct)
     experiments: list[Experiment] = []
     outcomes: list[Outcome] = []
     for k, load in enumerate(weights):
         removed = weights[k - 1] if k else None
-        if not hung(text + swap_text(load, removed, profile), load):
+        if not hung(texts[k] + swap_text(load, removed, profile), load):
             if not k:
                 raise UsageError("calibration aborted: the weight was not hung",
                                  "trimd calibrate")
@@ -350,21 +351,32 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
 
 
 def _band_series(first: HoldSamples, profile: Profile, uncertainty_pct: float
-                 ) -> tuple[tuple[Load], str]:
-    """The band calibration's series, its one load chosen from the ``first`` hold's
-    W − B (with the profile's calibration), and what it is for, for the operator."""
+                 ) -> tuple[tuple[Load, ...], tuple[str, ...]]:
+    """The band calibration's series, chosen from the ``first`` hold's W − B (with the
+    profile's calibration): the load for the upper edges, then the one for the lower
+    edges (either left out when the vehicle is there already: a load of less than a
+    gram); and what each is for, for the operator."""
     fit = estimate_segment(first, profile)
-    load = band_load(profile, float(fit.q[0]))
-    g = profile.gravity_m_s2
     sd = math.sqrt(fit.q_cov[0, 0])
-    text = (f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N; for its "
-            f"vertical thrusters to hunt at their upper band edges it should be "
+    g = profile.gravity_m_s2
+    loads: list[Load] = []
+    texts: list[str] = []
+    for upward in (True, False):
+        load = band_load(profile, float(fit.q[0]), upward)
+        side, state = ("upper", "heavy") if upward else ("lower", "buoyant")
+        text = (
+            f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N; for its vertical "
+            f"thrusters to hunt at their {side} band edges it should be {state} at "
             f"{load.margin_N:+.2f} N"
             + (f" (its W − B is known to ± {sd:.2f} N only, more than the band's "
-               f"{load.margin_N:.2f} N: the load may miss it; a calibration first, e.g. "
-               "the verify hold after `trimd ballast apply`, narrows it)"
-               if sd > load.margin_N else "")
-            + (", the slots leaving {:+.3f}, {:+.3f} N·m of x, y moment".format(*load.moment_Nm)
-               if max(map(abs, load.moment_Nm)) > 1e-6 else "") + ": ")
-    return (tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
-                  for slot, f in load.pieces if round(f / g, 3)),), text
+               f"{abs(load.margin_N):.2f} N: the load may miss it; a calibration first, "
+               "e.g. the verify hold after `trimd ballast apply`, narrows it)"
+               if sd > abs(load.margin_N) else "")
+            + (", the slots leaving {:+.3f}, {:+.3f} N·m of x, y moment".format(
+                *load.moment_Nm) if max(map(abs, load.moment_Nm)) > 1e-6 else "") + ": ")
+        hung = tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
+                     for slot, f in load.pieces if round(f / g, 3))
+        if hung:
+            loads.append(hung)
+            texts.append(text)
+    return tuple(loads), tuple(texts)

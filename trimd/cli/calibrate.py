@@ -68,8 +68,9 @@ def register(sub: Subcommands) -> None:
                    help="instead of --mass, on a trimmed vehicle: after the first level "
                    "hold trimd says what to hang (and where) to make the vehicle just heavy "
                    "enough for its vertical thrusters to hunt at the upper edges of their "
-                   "dead bands, which the second hold shows: the edges a later trim of the "
-                   "vehicle with a heavy payload works beyond (docs/method.md §7)")
+                   "dead bands, which the second hold shows, then what to swap it for to "
+                   "make it just buoyant enough for the lower edges, which the third shows: "
+                   "the edges a later trim of the vehicle works beyond (docs/method.md §7)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
     p.add_argument("--hold-s", type=float, metavar="S",

@@ -1,18 +1,19 @@
-"""The band load: what to hang on a vehicle so that, held level, its vertical thrusters
-lift it with the first µs of their thrust and hunt at the upper edges of their ESCs' dead
-bands, which the hold then shows (docs/method.md §7, "Reading the vertical thrusters'
-upper edges").
+"""The band loads: what to hang on a vehicle so that, held level, its vertical thrusters
+move it with the first µs of their thrust and hunt at the edges of their ESCs' dead
+bands, which the hold then shows (docs/method.md §7, "The band calibration").
 
 A calibration experiment compares two holds, so an offset of a band edge cancels in it;
 the holds' hunting spikes show the edges themselves (:mod:`trimd.core.hunting`). A
-trimmed vehicle is buoyant: held level its vertical thrusters push down and show the lower
-edges, if any. A trim of the untrimmed vehicle, heavy with its new payload, has them push
-up, beyond the upper edges. The band load makes the vehicle heavy by
-:func:`band_margin_N`, half what the lifting thrusters' first µs beyond their bands would
-lift, so that each of them lifts its share from within that µs: it hunts at its upper
-edge. The load hangs at weight slots (or, for a vehicle heavier than the margin, float
-slots) whose x and y moments cancel, so that the hold's roll and pitch demands stay as
-they were.
+trimmed vehicle is buoyant by whatever its ballast left: held level its vertical
+thrusters push down, beyond their lower edges or at them. A trim of the untrimmed
+vehicle, heavy with its new payload, has them push up, beyond the upper edges, which
+nothing showed. The upper band load makes the vehicle heavy by :func:`band_margin_N`,
+half what the lifting thrusters' first µs beyond their upward edges would lift, so that
+each of them lifts its share from within that µs: it hunts at its upper edge. The lower
+band load makes it buoyant by the margin of the downward edges, so that they hunt at
+their lower edges. Each load hangs at weight slots (floats at float slots, whichever
+the vehicle needs) whose x and y moments cancel, so that the hold's roll and pitch
+demands stay as they were.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ class BandLoad:
     ----------
     pieces : (slot name, net downward force in water [N]; negative: a float's lift), the
         slots' order, none of zero.
-    margin_N : the W − B [N] the loaded vehicle aims at (:func:`band_margin_N`).
+    margin_N : the W − B [N] the loaded vehicle aims at (:func:`band_margin_N`; negative
+        for the lower edges: buoyant).
     moment_Nm : the x and y net moments [N·m] the load adds (zero when the slots can
         cancel them).
     """
@@ -54,37 +56,40 @@ class BandLoad:
     moment_Nm: tuple[float, float]
 
 
-def band_margin_N(profile: Profile) -> float:
+def band_margin_N(profile: Profile, upward: bool = True) -> float:
     """:data:`BAND_SHARE` of what the lifting thrusters (their thrust at least
-    :data:`~trimd.core.hunting.LIFTING` vertical) lift with the first µs beyond their
-    dead bands' upward edges, at the profile's nominal voltage [N]: the W − B at which
-    each lifts from within that µs.
+    :data:`~trimd.core.hunting.LIFTING` vertical) lift (``upward``; else push down) with
+    the first µs beyond their dead bands' edges on that side, at the profile's nominal
+    voltage [N]: the |W − B| at which each moves the vehicle from within that µs.
 
     Examples
     --------
     >>> from trimd.core.profile_yaml import load_profile
-    >>> round(band_margin_N(load_profile("bluerov2-heavy")), 2)
-    0.13
+    >>> heavy = load_profile("bluerov2-heavy")
+    >>> round(band_margin_N(heavy), 2), round(band_margin_N(heavy, upward=False), 2)
+    (0.13, 0.16)
     """
     T = thrust_configuration(profile.thrusters)
     v = profile.nominal_voltage_V
-    lift = 0.0
+    push = 0.0
     for i, t in enumerate(profile.thrusters):
         if abs(T[2, i]) < LIFTING:
             continue
         low, high = band_at(t.curve, v)
-        up_pwm = low - 1 if T[2, i] > 0 else high + 1   # FRD: lifting is −z
-        lift += abs(float(thrust_from_pwm(t.curve, up_pwm, v)) * T[2, i])
-    return float(BAND_SHARE * lift)
+        lifts_forward = T[2, i] < 0            # FRD: lifting is −z
+        pwm = high + 1 if lifts_forward == upward else low - 1
+        push += abs(float(thrust_from_pwm(t.curve, pwm, v)) * T[2, i])
+    return float(BAND_SHARE * push)
 
 
-def band_load(profile: Profile, w_minus_b_N: float) -> BandLoad:
+def band_load(profile: Profile, w_minus_b_N: float, upward: bool = True) -> BandLoad:
     """The load that makes a vehicle of ``w_minus_b_N`` [N] (a level hold's estimate, with
-    the vehicle's calibration) heavy by :func:`band_margin_N`: net down force at weight
-    slots (floats' lift at float slots when the vehicle is heavier than that) whose x and
-    y moments cancel where they can, else least, the slots nearest the vehicle's centre
-    first (scipy's ``linprog``). UsageError when the slots cannot take it."""
-    margin = band_margin_N(profile)
+    the vehicle's calibration) heavy by :func:`band_margin_N` (``upward``; else buoyant
+    by the downward margin): net down force at weight slots (floats' lift at float slots
+    when the vehicle needs lift) whose x and y moments cancel where they can, else least,
+    the slots nearest the vehicle's centre first (scipy's ``linprog``). UsageError when
+    the slots cannot take it."""
+    margin = band_margin_N(profile, upward) * (1.0 if upward else -1.0)
     need = margin - w_minus_b_N
     sign = 1.0 if need > 0 else -1.0
     g = profile.gravity_m_s2
