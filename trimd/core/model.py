@@ -151,12 +151,19 @@ def thrust_configuration(thrusters: Sequence[Thruster]) -> FloatArray:
 
     ``d_i`` is the force direction of a positive output, flipped for a reversed thruster,
     so that τ = T·f with f the thrust of each thruster [N] along its positive direction.
+
+    In Python floats (the products and differences ``np.cross`` forms, bit for bit): the
+    estimator asks for T several times per estimate, and ``np.cross`` on 3-vectors costs
+    ≈ 50× more than the arithmetic.
     """
-    T = np.empty((6, len(thrusters)))
-    for i, t in enumerate(thrusters):
-        d = np.asarray(t.direction) * (-1.0 if t.reversed else 1.0)
-        T[:3, i] = d
-        T[3:, i] = np.cross(np.asarray(t.position_m), d)
+    columns = []
+    for t in thrusters:
+        s = -1.0 if t.reversed else 1.0
+        d0, d1, d2 = (float(v) * s for v in t.direction)
+        x, y, z = (float(v) for v in t.position_m)
+        columns.append((d0, d1, d2, y * d2 - z * d1, z * d0 - x * d2, x * d1 - y * d0))
+    T: FloatArray = np.array([[c[k] for c in columns] for k in range(6)], dtype=float
+                             ).reshape(6, len(columns))
     return T
 
 
