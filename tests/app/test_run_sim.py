@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.helpers import REPO, assert_proposal_levels, ballast_payload, sim_trim
+from tests.helpers import PROFILES, REPO, assert_proposal_levels, ballast_payload, sim_trim
 from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
 from trimd.core.estimate import StaticEstimate
@@ -39,7 +39,7 @@ CASES = [
 @pytest.mark.parametrize(("name", "payload", "seed", "xy_tol", "z_tol", "m_tol"), CASES)
 def test_trim_on_the_simulated_vehicle(name: str, payload: str, seed: int, xy_tol: float,
                                        z_tol: float, m_tol: float) -> None:
-    profile = load_profile(name)
+    profile = load_profile(PROFILES / f"{name}.yaml")   # the fixtures': shared runs agree
     run = sim_trim(profile, payload, seed)
     result, vehicle = run.result, run.vehicle
     assert result.phase is Phase.DONE, result.reason

@@ -570,7 +570,7 @@ def test_trimd_run_over_mavlink_estimates_the_served_vehicle(
     assert abs(result["estimate"]["m_ext_kg"] - truth.m_ext_kg) < max(
         m_tol, 1.96 * result["estimate"]["m_ext_std_kg"])
     assert result["proposal"]["method"] == "milp"
-    assert_proposal_levels(load_profile(name), payload, result["proposal"])
+    assert_proposal_levels(load_profile(PROFILES / f"{name}.yaml"), payload, result["proposal"])
     # the log holds the packets as received; replaying it gives the same numbers
     replayed = subprocess.run([*TRIMD, "replay", str(log), "--json"], capture_output=True,
                               text=True, cwd=REPO, timeout=120, check=True,

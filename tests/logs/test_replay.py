@@ -217,7 +217,7 @@ def test_an_old_verify_recording_says_what_it_is(
     from trimd.core.profile_yaml import load_profile, read_profile_text
     from trimd.logs.recorder import TlogRecorder
 
-    profile = load_profile("sabertooth-dh2")
+    profile = load_profile(PROFILES / "sabertooth-dh2.yaml")   # the fixture's: a shared trim
     trim = sim_trim(profile, "10@AftSB", 0)
     estimate, proposal = trim.result.estimate, trim.result.proposal
     assert estimate is not None and isinstance(proposal, Proposal)
