@@ -343,7 +343,7 @@ def test_trimd_float_over_mavlink_against_the_served_simulator(tmp_path: Path) -
         [*TRIMD, "float", "--link", f"mavlink:udpin:127.0.0.1:{port}?pilot=always",
          "--profile", "bluerov2-heavy", "--yes", "--json", "--record", str(log)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
-    wait_bound(port)
+    wait_bound(port, run)
     sim = subprocess.Popen(
         [*TRIMD, "sim", "--profile", "bluerov2-heavy", "--payload", payload, "--seed",
          str(seed), "--serve", f"mavlink:udpout:127.0.0.1:{port}", "--rate", "2",

@@ -484,15 +484,29 @@ def fast_profile(tmp_path: Path, name: str) -> Path:
     return path
 
 
-def wait_bound(port: int) -> None:
-    """Until something binds udp 127.0.0.1:port (trimd run's link is listening)."""
+def udp_bound(port: int) -> bool:
+    """Whether a socket is bound to udp ``port`` (any address), read from the kernel's
+    table: probing by binding the port ourselves would, for an instant, take it from the
+    process that is about to bind it (which then exits with "address already in use")."""
+    needle = f":{port:04X}"
+    for table in (Path("/proc/net/udp"), Path("/proc/net/udp6")):
+        if table.exists():
+            lines = table.read_text(encoding="ascii").splitlines()[1:]
+            if any(line.split()[1].endswith(needle) for line in lines):
+                return True
+    return False
+
+
+def wait_bound(port: int, proc: subprocess.Popen[Any] | None = None) -> None:
+    """Until something binds udp 127.0.0.1:port (trimd run's link is listening); fails at
+    once, with its stderr, if ``proc`` (the process that should bind it) has exited."""
     deadline = time.monotonic() + WALL_LIMIT_S
     while time.monotonic() < deadline:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-            try:
-                probe.bind(("127.0.0.1", port))
-            except OSError:
-                return
+        if udp_bound(port):
+            return
+        if proc is not None and proc.poll() is not None:
+            err = proc.stderr.read() if proc.stderr is not None else ""
+            raise AssertionError(f"exited ({proc.returncode}) before binding udp {port}: {err}")
         time.sleep(0.05)
     raise AssertionError(f"nothing listens on udp {port}")
 
@@ -526,7 +540,7 @@ def start_pair(tmp_path: Path, name: str, payload: str, log: Path
         [*TRIMD, "run", "--link", f"mavlink:udpin:127.0.0.1:{port}?pilot=always", "--profile",
          str(profile), "--headless", "--yes", "--json", "--record", str(log)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
-    wait_bound(port)
+    wait_bound(port, run)
     sim = subprocess.Popen(
         [*TRIMD, "sim", "--profile", str(profile), "--payload", payload, "--serve",
          f"mavlink:udpout:127.0.0.1:{port}", "--serve", f"mavlink:udpout:127.0.0.1:{helper}",

@@ -64,7 +64,7 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
     procs.append(run)
     tlog = tmp_path / "mavproxy.tlog"
     try:
-        wait_bound(trimd_port)
+        wait_bound(trimd_port, run)
         serve = trimd_port
         if through_mavproxy:
             procs.append(subprocess.Popen(
@@ -74,7 +74,7 @@ def trim(tmp_path: Path, *, through_mavproxy: bool) -> tuple[dict[str, Any], lis
                  "--default-modules=", f"--logfile={tlog}", f"--state-basedir={tmp_path}"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
                 env=env))
-            wait_bound(master_port)
+            wait_bound(master_port, procs[-1])
             serve = master_port
         procs.append(subprocess.Popen(
             [*TRIMD, "sim", "--profile", str(profile), "--payload", PAYLOAD, "--serve",

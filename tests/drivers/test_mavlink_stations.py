@@ -323,7 +323,7 @@ def trim_beside_pilot(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], P
     procs = [run]
     pilot = PilotStation(pilot_port, failsafe_off=True)
     try:
-        wait_bound(trimd_port)
+        wait_bound(trimd_port, run)
         procs.append(subprocess.Popen(
             [*TRIMD, "sim", "--profile", str(profile), "--payload", "10@AftSB", "--serve",
              f"mavlink:udpout:127.0.0.1:{trimd_port}", "--serve",
