@@ -20,12 +20,12 @@ from trimd.app.history import History
 from trimd.app.replay import replay_calibration
 from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
-from trimd.core.band import band_load, band_margin_N
+from trimd.core.band import BAND_SHARE, band_load, band_margin_N, band_target
 from trimd.core.calibration import edges_of
 from trimd.core.errors import UsageError
 from trimd.core.hunting import LIFTING
 from trimd.core.link import Link
-from trimd.core.model import thrust_configuration
+from trimd.core.model import band_at, restoring_matrix, thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import read_profile_text
 from trimd.logs.recorder import TlogRecorder
@@ -33,25 +33,62 @@ from trimd.logs.recorder import TlogRecorder
 SEED = 1
 
 
-def test_the_band_load_cancels_its_moments_and_says_when_the_slots_cannot_take_it(
+def test_the_band_aim_has_each_lifting_thruster_push_half_its_first_microsecond(
         bluerov: Profile, sabertooth: Profile) -> None:
-    """The load aims W − B at the margin (heavy for the upper edges, buoyant for the lower
-    ones), at slots whose x and y moments cancel: weights for a vehicle lighter than
-    that, floats' lift for one heavier."""
-    for profile, w_minus_b, upward in ((bluerov, -1.3, True), (bluerov, 2.0, True),
-                                       (sabertooth, -8.0, True), (bluerov, -1.3, False),
-                                       (bluerov, 0.1, False), (sabertooth, 8.0, False)):
-        load = band_load(profile, w_minus_b, upward)
+    """Held level, the vehicle :func:`band_target` aims at is held by each lifting
+    thruster with half the thrust of its first µs beyond its band's edge on that side (the
+    Sabertooth's three, whose Z, K and M fix each one's thrust; the Heavy's four, whose
+    least-norm allocation does), not merely by their sum."""
+    for profile in (bluerov, sabertooth):
+        T = thrust_configuration(profile.thrusters)
+        lifting = [i for i in range(len(profile.thrusters)) if abs(T[2, i]) >= LIFTING]
+        v = profile.nominal_voltage_V
+        for upward in (True, False):
+            aim = band_target(profile, upward)
+            tau = restoring_matrix(0.0, 0.0)[:, :3] @ aim
+            f = np.linalg.lstsq(T[2:5][:, lifting], tau[2:5], rcond=None)[0]
+            first = []
+            for i in lifting:
+                low, high = band_at(profile.thrusters[i].curve, v)
+                pwm = high + 1 if (T[2, i] < 0) == upward else low - 1
+                first.append(float(thrust_from_pwm(profile.thrusters[i].curve, pwm, v)))
+            assert f == pytest.approx(BAND_SHARE * np.array(first), rel=1e-9), profile.name
+            assert aim[0] == pytest.approx(band_margin_N(profile, upward) * (1 if upward
+                                                                            else -1))
+
+
+def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
+        bluerov: Profile, sabertooth: Profile) -> None:
+    """The load turns the vehicle held level into the aim, W − B and both net moments:
+    weights where it is too light, floats' lift where too heavy, on whichever side the
+    moments need them."""
+    for profile, q, upward in ((bluerov, (-1.3, 0.0, 0.0), True),
+                               (bluerov, (2.0, 0.01, -0.02), True),
+                               (sabertooth, (-8.0, 1.5, -0.7), True),
+                               (bluerov, (-1.3, -0.03, 0.0), False),
+                               (bluerov, (0.1, 0.0, 0.02), False),
+                               (sabertooth, (8.0, -2.0, 0.4), False)):
+        load = band_load(profile, q, upward)
         forces = np.array([f for _, f in load.pieces])
         where = np.array([profile.slot(s).position_m for s, _ in load.pieces])
-        aim = band_margin_N(profile, upward) * (1 if upward else -1)
-        assert load.margin_N == pytest.approx(aim) and aim * (1 if upward else -1) > 0
-        assert forces.sum() == pytest.approx(aim - w_minus_b)
-        assert np.all(np.sign(forces) == np.sign(forces.sum()))
-        assert np.allclose(forces @ where[:, :2], 0.0, atol=1e-9)
-        assert load.moment_Nm == pytest.approx((0.0, 0.0), abs=1e-9)
+        aim = band_target(profile, upward)
+        assert load.aim == pytest.approx(tuple(aim)) and load.margin_N == load.aim[0]
+        assert forces.sum() == pytest.approx(aim[0] - q[0])
+        made = forces @ where[:, :2]
+        assert made + load.miss_Nm == pytest.approx(aim[1:] - np.array(q[1:]), abs=1e-9)
+        assert np.abs(load.miss_Nm).max() < 1e-3         # a piece is worth a mN·m
+        for s, f in load.pieces:
+            slot = profile.slot(s)
+            assert f <= slot.max_weight_kg * profile.gravity_m_s2 + 1e-9
+            assert -f <= slot.max_float_kg * profile.gravity_m_s2 + 1e-9
+    # moments known to ± 0.3 N·m only: one piece fewer, the moments missed by ≤ σ/3
+    exact, known = (band_load(bluerov, (-3.72, -0.39, 0.10), True, sd)
+                    for sd in ((0.5, 0.0, 0.0), (0.5, 0.3, 0.3)))
+    assert len(known.pieces) < len(exact.pieces), (exact, known)
+    assert sum(f for _, f in known.pieces) == pytest.approx(sum(f for _, f in exact.pieces))
+    assert 0.0 < np.abs(known.miss_Nm).max() <= 0.1 + 1e-9, known
     with pytest.raises(UsageError, match="weight slots take"):
-        band_load(bluerov, -500.0)
+        band_load(bluerov, (-500.0, 0.0, 0.0))
 
 
 @pytest.mark.slow
@@ -130,13 +167,15 @@ def test_trimd_calibrate_band_says_what_to_hang_and_checks_it(
     out, err = capsys.readouterr()
     done = json.loads(out)
     assert code == 1 and not done["accepted"], (out, err)
-    assert ("upper band edges it should be heavy at +0.13 N (its W − B is known to ± 0.48 N "
-            "only") in err
-    assert "the load may miss it" in err and "): hang 0.147 kg" in err and "W-amid-ctr" in err
-    assert "lower band edges it should be buoyant at -0.16 N" in err, err
-    assert "take 0.147 kg (its weight in water) at slot W-mid-ctr and 0.246 kg" in err, err
+    assert ("x, y net moments -0.39, +0.10 N·m; for each vertical thruster to hunt at its upper "
+            "band edge it should be heavy at +0.13 N, +0.00, +0.00 N·m (its W − B is known to "
+            "± 0.48 N only") in err
+    assert "the load may miss it" in err
+    assert "the slots missing those moments by +0.003, +0.000 N·m: hang 0.077 kg" in err
+    assert "lower band edge it should be buoyant at -0.16 N" in err, err
+    assert "take 0.077 kg (its weight in water) at slot W-front-port and 0.316 kg" in err, err
     first, _ = done["experiments_run"]
-    assert not first["accepted"] and "W-amid-ctr" in first["label"], first
+    assert not first["accepted"] and "W-front-ctr" in first["label"], first
     assert "the known weight" in first["message"], first["message"]
     with History(tmp_path / "trimd.db") as h:
         stored = [r.values["accepted"] for r in h.experiments("bluerov2-heavy")]

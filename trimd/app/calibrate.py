@@ -295,8 +295,8 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
     ``db`` (None: not stored) as soon as it is made.
     With ``band_pct`` (the loads' 1σ [%]) and no ``weights``, a band calibration: its two
-    loads are :func:`~trimd.core.band.band_load` of the first hold's W − B, upward then
-    downward (module docstring).
+    loads are :func:`~trimd.core.band.band_load` of the first hold's W − B and net
+    moments, upward then downward (module docstring).
     ``hung`` False before the first load aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
@@ -352,28 +352,30 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
 
 def _band_series(first: HoldSamples, profile: Profile, uncertainty_pct: float
                  ) -> tuple[tuple[Load, ...], tuple[str, ...]]:
-    """The band calibration's series, chosen from the ``first`` hold's W − B (with the
-    profile's calibration): the load for the upper edges, then the one for the lower
-    edges (either left out when the vehicle is there already: a load of less than a
-    gram); and what each is for, for the operator."""
+    """The band calibration's series, chosen from the ``first`` hold's W − B and x, y net
+    moments (with the profile's calibration): the load for the upper edges, then the one
+    for the lower edges (either left out when the vehicle is there already: a load of
+    less than a gram); and what each is for, for the operator."""
     fit = estimate_segment(first, profile)
-    sd = math.sqrt(fit.q_cov[0, 0])
+    q_sd = [math.sqrt(fit.q_cov[k, k]) for k in range(3)]
+    sd = q_sd[0]
     g = profile.gravity_m_s2
     loads: list[Load] = []
     texts: list[str] = []
     for upward in (True, False):
-        load = band_load(profile, float(fit.q[0]), upward)
+        load = band_load(profile, fit.q[:3], upward, q_sd)
         side, state = ("upper", "heavy") if upward else ("lower", "buoyant")
         text = (
-            f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N; for its vertical "
-            f"thrusters to hunt at their {side} band edges it should be {state} at "
-            f"{load.margin_N:+.2f} N"
+            f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N, x, y net moments "
+            f"{fit.q[1]:+.2f}, {fit.q[2]:+.2f} N·m; for each vertical thruster to hunt at "
+            f"its {side} band edge it should be {state} at {load.margin_N:+.2f} N, "
+            f"{load.aim[1]:+.2f}, {load.aim[2]:+.2f} N·m"
             + (f" (its W − B is known to ± {sd:.2f} N only, more than the band's "
                f"{abs(load.margin_N):.2f} N: the load may miss it; a calibration first, "
                "e.g. the verify hold after `trimd ballast apply`, narrows it)"
                if sd > abs(load.margin_N) else "")
-            + (", the slots leaving {:+.3f}, {:+.3f} N·m of x, y moment".format(
-                *load.moment_Nm) if max(map(abs, load.moment_Nm)) > 1e-6 else "") + ": ")
+            + (", the slots missing those moments by {:+.3f}, {:+.3f} N·m".format(
+                *load.miss_Nm) if max(map(abs, load.miss_Nm)) > 1e-6 else "") + ": ")
         hung = tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
                      for slot, f in load.pieces if round(f / g, 3))
         if hung:

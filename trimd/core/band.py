@@ -7,13 +7,16 @@ the holds' hunting spikes show the edges themselves (:mod:`trimd.core.hunting`).
 trimmed vehicle is buoyant by whatever its ballast left: held level its vertical
 thrusters push down, beyond their lower edges or at them. A trim of the untrimmed
 vehicle, heavy with its new payload, has them push up, beyond the upper edges, which
-nothing showed. The upper band load makes the vehicle heavy by :func:`band_margin_N`,
-half what the lifting thrusters' first µs beyond their upward edges would lift, so that
-each of them lifts its share from within that µs: it hunts at its upper edge. The lower
-band load makes it buoyant by the margin of the downward edges, so that they hunt at
-their lower edges. Each load hangs at weight slots (floats at float slots, whichever
-the vehicle needs) whose x and y moments cancel, so that the hold's roll and pitch
-demands stay as they were.
+nothing showed. The upper band load makes the vehicle what :func:`band_target` aims at:
+heavy by :func:`band_margin_N`, half what the lifting thrusters' first µs beyond their
+upward edges would lift, with the net moments that have each of them lift half its own
+first µs, so that each, not only their sum, works from within that µs: it hunts at its
+upper edge. The lower band load makes it buoyant by the margin of the downward edges,
+likewise. Each load is weights at weight slots and floats at float slots, from what the
+first hold read of the vehicle's W − B and x, y net moments: a trimmed vehicle's moments
+are what its ballast left, and on the Sabertooth (three vertical thrusters, 0.9 m from
+its centre) they are several times what one thruster's first µs turns it by
+(docs/method.md §7).
 """
 
 from __future__ import annotations
@@ -21,20 +24,26 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
+from numpy.typing import ArrayLike
+from scipy.optimize import Bounds, LinearConstraint, milp
 
 from trimd.core.errors import UsageError
 from trimd.core.hunting import LIFTING
 from trimd.core.model import band_at, thrust_configuration, thrust_from_pwm
-from trimd.core.profile import BallastSlot, Profile
+from trimd.core.profile import Profile
+from trimd.core.types import FloatArray
 
-__all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N"]
+__all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N", "band_target"]
 
-#: The share of the lifting thrusters' first-µs thrust the band load aims the vehicle's
-#: W − B at: the middle of the window in which each lifts from within that µs.
+#: The share of the lifting thrusters' first-µs thrust the band load aims each of them at:
+#: the middle of the window in which each moves the vehicle from within that µs.
 BAND_SHARE = 0.5
-#: The cost of 1 N·m of net moment the slots cannot cancel, against 1 N·m of load lever.
+#: The band load's costs (:func:`band_load`), against 1 N of load at the vehicle's centre:
+#: a piece, 1 N·m of net moment missed within a third of its 1σ and beyond that (a piece
+#: is worth 1 mN·m beyond).
+_PIECE_COST = 1e5
 _MOMENT_COST = 1e3
+_BEYOND_COST = 1e8
 
 
 @dataclass(frozen=True)
@@ -45,22 +54,57 @@ class BandLoad:
     ----------
     pieces : (slot name, net downward force in water [N]; negative: a float's lift), the
         slots' order, none of zero.
-    margin_N : the W − B [N] the loaded vehicle aims at (:func:`band_margin_N`; negative
-        for the lower edges: buoyant).
-    moment_Nm : the x and y net moments [N·m] the load adds (zero when the slots can
-        cancel them).
+    aim : the q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b] [N, N·m] the loaded vehicle aims
+        at (:func:`band_target`).
+    miss_Nm : the x and y net moments [N·m] by which the load misses that aim (zero when
+        the slots can make it).
     """
 
     pieces: tuple[tuple[str, float], ...]
-    margin_N: float
-    moment_Nm: tuple[float, float]
+    aim: tuple[float, float, float]
+    miss_Nm: tuple[float, float]
+
+    @property
+    def margin_N(self) -> float:
+        """The W − B [N] the loaded vehicle aims at (negative for the lower edges:
+        buoyant)."""
+        return self.aim[0]
+
+
+def band_target(profile: Profile, upward: bool = True) -> FloatArray:
+    """q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b] [N, N·m], body FRD, of the vehicle that,
+    held level, each lifting thruster (its thrust at least
+    :data:`~trimd.core.hunting.LIFTING` vertical) holds with :data:`BAND_SHARE` of what it
+    lifts (``upward``; else pushes down) with the first µs beyond its dead band's edge on
+    that side, at the profile's nominal voltage: the thrusters' shares of the net moments
+    as well as of W − B, so that each of them, not only their sum, works from within that
+    µs.
+
+    Examples
+    --------
+    >>> from trimd.core.profile_yaml import load_profile
+    >>> [round(float(x), 2) for x in band_target(load_profile("sabertooth-dh2"))]
+    [1.74, -0.52, 0.0]
+    """
+    T = thrust_configuration(profile.thrusters)
+    v = profile.nominal_voltage_V
+    f = np.zeros(len(profile.thrusters))
+    for i, t in enumerate(profile.thrusters):
+        if abs(T[2, i]) < LIFTING:
+            continue
+        low, high = band_at(t.curve, v)
+        lifts_forward = T[2, i] < 0            # FRD: lifting is −z
+        pwm = high + 1 if lifts_forward == upward else low - 1
+        f[i] = BAND_SHARE * float(thrust_from_pwm(t.curve, pwm, v))
+    tau = T @ f
+    q = np.array([-tau[2], tau[4], -tau[3]])      # level: Z = −q₀, K = −q₂, M = q₁
+    return np.where(np.abs(q) > 1e-12 * np.abs(q).max(), q, 0.0)   # no −0.00 for people
 
 
 def band_margin_N(profile: Profile, upward: bool = True) -> float:
-    """:data:`BAND_SHARE` of what the lifting thrusters (their thrust at least
-    :data:`~trimd.core.hunting.LIFTING` vertical) lift (``upward``; else push down) with
-    the first µs beyond their dead bands' edges on that side, at the profile's nominal
-    voltage [N]: the |W − B| at which each moves the vehicle from within that µs.
+    """|W − B| [N] of :func:`band_target`: :data:`BAND_SHARE` of what the lifting
+    thrusters lift (``upward``; else push down) with the first µs beyond their dead bands'
+    edges on that side.
 
     Examples
     --------
@@ -69,55 +113,55 @@ def band_margin_N(profile: Profile, upward: bool = True) -> float:
     >>> round(band_margin_N(heavy), 2), round(band_margin_N(heavy, upward=False), 2)
     (0.13, 0.16)
     """
-    T = thrust_configuration(profile.thrusters)
-    v = profile.nominal_voltage_V
-    push = 0.0
-    for i, t in enumerate(profile.thrusters):
-        if abs(T[2, i]) < LIFTING:
-            continue
-        low, high = band_at(t.curve, v)
-        lifts_forward = T[2, i] < 0            # FRD: lifting is −z
-        pwm = high + 1 if lifts_forward == upward else low - 1
-        push += abs(float(thrust_from_pwm(t.curve, pwm, v)) * T[2, i])
-    return float(BAND_SHARE * push)
+    return abs(float(band_target(profile, upward)[0]))
 
 
-def band_load(profile: Profile, w_minus_b_N: float, upward: bool = True) -> BandLoad:
-    """The load that makes a vehicle of ``w_minus_b_N`` [N] (a level hold's estimate, with
-    the vehicle's calibration) heavy by :func:`band_margin_N` (``upward``; else buoyant
-    by the downward margin): net down force at weight slots (floats' lift at float slots
-    when the vehicle needs lift) whose x and y moments cancel where they can, else least,
-    the slots nearest the vehicle's centre first (scipy's ``linprog``). UsageError when
-    the slots cannot take it."""
-    margin = band_margin_N(profile, upward) * (1.0 if upward else -1.0)
-    need = margin - w_minus_b_N
-    sign = 1.0 if need > 0 else -1.0
+def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
+              q_sd: ArrayLike = (0.0, 0.0, 0.0)) -> BandLoad:
+    """The load that makes a vehicle of ``q`` = [W − B, W·x_g − B·x_b, W·y_g − B·y_b]
+    [N, N·m] (a level hold's estimate, with the vehicle's calibration; ``q_sd`` its 1σ)
+    into :func:`band_target` (``upward``; else the downward one): net down force at weight
+    slots and lift at float slots. Chosen by scipy's ``milp``, in order: the fewest pieces
+    that make W − B and the moments to within a third of their 1σ (no gram of foam for a
+    moment the hold knows to a few hundredths of a N·m; a miss of σ/3 adds a twentieth to
+    the moments' error), or beyond it by less than 1 mN·m; then the least miss; then
+    the least load, the slots nearest the vehicle's centre first. Where the slots cannot
+    make the moments, the least miss. UsageError when the slots cannot take the load's
+    W − B."""
+    aim = band_target(profile, upward)
+    now = np.asarray(q, dtype=float)[:3]
+    need = aim - now
     g = profile.gravity_m_s2
-
-    def cap(slot: BallastSlot) -> float:
-        """What ``slot`` takes of the load's kind [N]."""
-        return (slot.max_weight_kg if sign > 0 else slot.max_float_kg) * g
-
-    slots = [s for s in profile.slots if cap(s) > 0]
-    capacity = sum(cap(s) for s in slots)
-    if not slots or capacity < abs(need):
-        kind = "weight" if sign > 0 else "float"
-        raise UsageError(f"the band hold needs {abs(need):.2f} N of {kind} (the vehicle "
-                         f"at {w_minus_b_N:+.2f} N, the band at {margin:+.2f} N): its "
+    slots = profile.slots
+    caps = np.array([[s.max_weight_kg * g for s in slots], [s.max_float_kg * g for s in slots]])
+    capacity = float(caps[0 if need[0] > 0 else 1].sum())
+    if capacity < abs(need[0]):
+        kind = "weight" if need[0] > 0 else "float"
+        raise UsageError(f"the band hold needs {abs(need[0]):.2f} N of {kind} (the vehicle "
+                         f"at {now[0]:+.2f} N, the band at {aim[0]:+.2f} N): its "
                          f"{kind} slots take {capacity:.2f} N", "trimd calibrate --band")
     P = np.array([s.position_m for s in slots])
     n = len(slots)
-    # w ≥ 0 per slot [N] and the moments' parts the slots leave, m⁺ − m⁻ (x, y)
-    cost = np.r_[np.abs(P[:, 0]) + np.abs(P[:, 1]), np.full(4, _MOMENT_COST)]
-    A_eq = np.zeros((3, n + 4))
-    A_eq[0, :n] = 1.0
-    A_eq[1, :n], A_eq[1, n:n + 2] = P[:, 0], (1.0, -1.0)
-    A_eq[2, :n], A_eq[2, n + 2:] = P[:, 1], (1.0, -1.0)
-    bounds = [(0.0, cap(s)) for s in slots]
-    found = linprog(cost, A_eq=A_eq, b_eq=[abs(need), 0.0, 0.0],
-                    bounds=bounds + [(0.0, None)] * 4, method="highs")
-    w = np.asarray(found.x[:n]) * sign
-    pieces = tuple((s.name, float(f)) for s, f in zip(slots, w, strict=True)
-                   if abs(f) > 1e-9 * max(1.0, abs(need)))
-    moment = (float(P[:, 0] @ w), float(P[:, 1] @ w))
-    return BandLoad(pieces, margin, moment)
+    # x = [weight's force, float's lift (n each, ≥ 0) [N], slot used (n, 0/1), the x and
+    # y moments' misses within 1σ (±, 4) and beyond it (±, 4) [N·m]]
+    lever = 1.0 + np.abs(P[:, 0]) + np.abs(P[:, 1])
+    cost = np.r_[lever, lever, np.full(n, _PIECE_COST), np.full(4, _MOMENT_COST),
+                 np.full(4, _BEYOND_COST)]
+    miss = np.kron(np.eye(2), [1.0, -1.0])
+    lay = np.vstack([np.ones(n), P[:, 0], P[:, 1]])
+    makes = np.hstack([lay, -lay, np.zeros((3, n)), np.vstack([np.zeros(4), miss]),
+                       np.vstack([np.zeros(4), miss])])
+    used = np.hstack([np.eye(n), np.eye(n), -np.diag(caps.max(axis=0)), np.zeros((n, 8))])
+    sd = np.repeat(np.abs(np.asarray(q_sd, dtype=float)[1:3]) / 3.0, 2)
+    bounds = Bounds(np.zeros(3 * n + 8),
+                    np.r_[caps.ravel(), np.ones(n), sd, np.full(4, np.inf)])
+    found = milp(cost, constraints=[LinearConstraint(makes, need, need),
+                                    LinearConstraint(used, -np.inf, 0.0)],
+                 integrality=np.r_[np.zeros(2 * n), np.ones(n), np.zeros(8)], bounds=bounds)
+    x = np.asarray(found.x)
+    w = x[:n] - x[n:2 * n]
+    m = x[3 * n:3 * n + 4] + x[3 * n + 4:]
+    tiny = 1e-9 * max(1.0, float(np.abs(need).max()))
+    pieces = tuple((s.name, float(f)) for s, f in zip(slots, w, strict=True) if abs(f) > tiny)
+    return BandLoad(pieces, (float(aim[0]), float(aim[1]), float(aim[2])),
+                    (float(m[0] - m[1]), float(m[2] - m[3])))
