@@ -81,12 +81,14 @@ def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
             slot = profile.slot(s)
             assert f <= slot.max_weight_kg * profile.gravity_m_s2 + 1e-9
             assert -f <= slot.max_float_kg * profile.gravity_m_s2 + 1e-9
-    # moments known to ± 0.3 N·m only: one piece fewer, the moments missed by ≤ σ/3
+    # moments known to ± 0.3 N·m only: moved by 0.39·(1 − 0.3²/0.39²) ≈ 0.16 along x,
+    # nothing along y (0.10 is within 1σ), to within σ/3, with fewer pieces
     exact, known = (band_load(bluerov, (-3.72, -0.39, 0.10), True, sd)
                     for sd in ((0.5, 0.0, 0.0), (0.5, 0.3, 0.3)))
+    made = sum(f * np.array(bluerov.slot(s).position_m[:2]) for s, f in known.pieces)
+    assert made == pytest.approx((0.39 - 0.3**2 / 0.39, 0.0), abs=0.1 + 1e-9), known
     assert len(known.pieces) < len(exact.pieces), (exact, known)
     assert sum(f for _, f in known.pieces) == pytest.approx(sum(f for _, f in exact.pieces))
-    assert 0.0 < np.abs(known.miss_Nm).max() <= 0.1 + 1e-9, known
     with pytest.raises(UsageError, match="weight slots take"):
         band_load(bluerov, (-500.0, 0.0, 0.0))
 
@@ -132,8 +134,8 @@ def test_the_band_holds_show_the_edges_of_the_trimmed_vehicles_vertical_thruster
     done = asyncio.run(calibrate_with_weights(opener, bluerov, (), hang, db=None,
                                               vehicle="rov", wall_clock=False, record=record,
                                               band_pct=1.0))
-    assert len(loads) == 2 and "upper band edges" in asked[0], asked
-    assert "lower band edges" in asked[1] and "take " in asked[1], asked
+    assert len(loads) == 2 and "upper band edge " in asked[0], asked
+    assert "lower band edge " in asked[1] and "take " in asked[1], asked
     T = thrust_configuration(bluerov.thrusters)
     lifting = [i for i in range(len(bluerov.thrusters)) if abs(T[2, i]) >= LIFTING]
     true_offsets = trial.vehicle.offset.band_offsets_us
@@ -167,13 +169,15 @@ def test_trimd_calibrate_band_says_what_to_hang_and_checks_it(
     out, err = capsys.readouterr()
     done = json.loads(out)
     assert code == 1 and not done["accepted"], (out, err)
-    assert ("x, y net moments -0.39, +0.10 N·m; for each vertical thruster to hunt at its upper "
-            "band edge it should be heavy at +0.13 N, +0.00, +0.00 N·m (its W − B is known to "
-            "± 0.48 N only") in err
+    assert ("x, y net moments -0.39 ± 0.06, +0.10 ± 0.11 N·m; for each vertical thruster to "
+            "hunt at its upper band edge it should be heavy at +0.13 N, +0.00, +0.00 N·m (its "
+            "W − B is known to ± 0.48 N only") in err, err
     assert "the load may miss it" in err
-    assert "the slots missing those moments by +0.003, +0.000 N·m: hang 0.077 kg" in err
+    # x moved by nearly all its 0.39 N·m (6σ), y (within 1σ) left
+    assert ("the load leaving the moments +0.012, -0.097 N·m off it: hang 0.393 kg (its weight "
+            "in water) at slot W-front-ctr, clear") in err, err
     assert "lower band edge it should be buoyant at -0.16 N" in err, err
-    assert "take 0.077 kg (its weight in water) at slot W-front-port and 0.316 kg" in err, err
+    assert "take 0.393 kg (its weight in water) at slot W-front-ctr off; hang 0.367 kg" in err
     first, _ = done["experiments_run"]
     assert not first["accepted"] and "W-front-ctr" in first["label"], first
     assert "the known weight" in first["message"], first["message"]

@@ -367,14 +367,15 @@ def _band_series(first: HoldSamples, profile: Profile, uncertainty_pct: float
         side, state = ("upper", "heavy") if upward else ("lower", "buoyant")
         text = (
             f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N, x, y net moments "
-            f"{fit.q[1]:+.2f}, {fit.q[2]:+.2f} N·m; for each vertical thruster to hunt at "
+            f"{fit.q[1]:+.2f} ± {q_sd[1]:.2f}, {fit.q[2]:+.2f} ± {q_sd[2]:.2f} N·m; for each "
+            "vertical thruster to hunt at "
             f"its {side} band edge it should be {state} at {load.margin_N:+.2f} N, "
             f"{load.aim[1]:+.2f}, {load.aim[2]:+.2f} N·m"
             + (f" (its W − B is known to ± {sd:.2f} N only, more than the band's "
                f"{abs(load.margin_N):.2f} N: the load may miss it; a calibration first, "
                "e.g. the verify hold after `trimd ballast apply`, narrows it)"
                if sd > abs(load.margin_N) else "")
-            + (", the slots missing those moments by {:+.3f}, {:+.3f} N·m".format(
+            + (", the load leaving the moments {:+.3f}, {:+.3f} N·m off it".format(
                 *load.miss_Nm) if max(map(abs, load.miss_Nm)) > 1e-6 else "") + ": ")
         hung = tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
                      for slot, f in load.pieces if round(f / g, 3))

@@ -38,12 +38,14 @@ __all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N", "band_target"
 #: The share of the lifting thrusters' first-µs thrust the band load aims each of them at:
 #: the middle of the window in which each moves the vehicle from within that µs.
 BAND_SHARE = 0.5
-#: The band load's costs (:func:`band_load`), against 1 N of load at the vehicle's centre:
-#: a piece, 1 N·m of net moment missed within a third of its 1σ and beyond that (a piece
-#: is worth 1 mN·m beyond).
-_PIECE_COST = 1e5
-_MOMENT_COST = 1e3
-_BEYOND_COST = 1e8
+#: The band load's costs (:func:`band_load`), against 1 N of load at the vehicle's centre
+#: (whose 1 % is 0.01 N of the experiment's error): a piece (≈ 50 g of load); 1 N·m of
+#: net moment missed within a third of its 1σ (a miss the hold's ± allows, which a piece
+#: is worth only where that σ is ≳ 0.15 N·m: on the Sabertooth, not on a Heavy); and
+#: beyond that (a bound).
+_PIECE_COST = 0.5
+_MOMENT_COST = 10.0
+_BEYOND_COST = 1e6
 
 
 @dataclass(frozen=True)
@@ -56,8 +58,8 @@ class BandLoad:
         slots' order, none of zero.
     aim : the q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b] [N, N·m] the loaded vehicle aims
         at (:func:`band_target`).
-    miss_Nm : the x and y net moments [N·m] by which the load misses that aim (zero when
-        the slots can make it).
+    miss_Nm : the x and y net moments [N·m] by which the loaded vehicle, as the hold read
+        it, misses that aim (within their 1σ, or what the slots cannot make).
     """
 
     pieces: tuple[tuple[str, float], ...]
@@ -121,16 +123,22 @@ def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
     """The load that makes a vehicle of ``q`` = [W − B, W·x_g − B·x_b, W·y_g − B·y_b]
     [N, N·m] (a level hold's estimate, with the vehicle's calibration; ``q_sd`` its 1σ)
     into :func:`band_target` (``upward``; else the downward one): net down force at weight
-    slots and lift at float slots. Chosen by scipy's ``milp``, in order: the fewest pieces
-    that make W − B and the moments to within a third of their 1σ (no gram of foam for a
-    moment the hold knows to a few hundredths of a N·m; a miss of σ/3 adds a twentieth to
-    the moments' error), or beyond it by less than 1 mN·m; then the least miss; then
-    the least load, the slots nearest the vehicle's centre first. Where the slots cannot
-    make the moments, the least miss. UsageError when the slots cannot take the load's
-    W − B."""
+    slots and lift at float slots, chosen by scipy's ``milp``. W − B exactly; the moments
+    moved toward the aim by their distance d from it shrunk by (1 − σ²/d²)⁺ (the positive
+    part of James and Stein's estimator: nearly all of a distance many σ long, none of one
+    within 1σ, as a trimmed vehicle's small moments read with the profile alone may be:
+    the load then leaves them), to within a third of that 1σ (which adds a twentieth to
+    their error; where the slots cannot, the least miss); at the least cost of load (its
+    pieces' uncertainty is a share of their weight: no big weight against a big float),
+    pieces (no gram of foam for a moment the hold knows to a few hundredths of a N·m) and
+    miss (:data:`_PIECE_COST`), the slots nearest the vehicle's centre first. UsageError
+    when the slots cannot take the load's W − B."""
     aim = band_target(profile, upward)
     now = np.asarray(q, dtype=float)[:3]
-    need = aim - now
+    known = np.abs(np.asarray(q_sd, dtype=float)[:3])
+    need = aim - now            # the moments' part shrunk by (1 − σ²/d²)⁺
+    d = need[1:]
+    need[1:] = d * np.maximum(1.0 - known[1:]**2 / np.maximum(d**2, 1e-300), 0.0)
     g = profile.gravity_m_s2
     slots = profile.slots
     caps = np.array([[s.max_weight_kg * g for s in slots], [s.max_float_kg * g for s in slots]])
@@ -152,7 +160,7 @@ def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
     makes = np.hstack([lay, -lay, np.zeros((3, n)), np.vstack([np.zeros(4), miss]),
                        np.vstack([np.zeros(4), miss])])
     used = np.hstack([np.eye(n), np.eye(n), -np.diag(caps.max(axis=0)), np.zeros((n, 8))])
-    sd = np.repeat(np.abs(np.asarray(q_sd, dtype=float)[1:3]) / 3.0, 2)
+    sd = np.repeat(known[1:] / 3.0, 2)
     bounds = Bounds(np.zeros(3 * n + 8),
                     np.r_[caps.ravel(), np.ones(n), sd, np.full(4, np.inf)])
     found = milp(cost, constraints=[LinearConstraint(makes, need, need),
@@ -160,8 +168,8 @@ def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
                  integrality=np.r_[np.zeros(2 * n), np.ones(n), np.zeros(8)], bounds=bounds)
     x = np.asarray(found.x)
     w = x[:n] - x[n:2 * n]
-    m = x[3 * n:3 * n + 4] + x[3 * n + 4:]
     tiny = 1e-9 * max(1.0, float(np.abs(need).max()))
     pieces = tuple((s.name, float(f)) for s, f in zip(slots, w, strict=True) if abs(f) > tiny)
+    miss = aim[1:] - now[1:] - P[:, :2].T @ w
     return BandLoad(pieces, (float(aim[0]), float(aim[1]), float(aim[2])),
-                    (float(m[0] - m[1]), float(m[2] - m[3])))
+                    (float(miss[0]), float(miss[1])))
