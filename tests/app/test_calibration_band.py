@@ -89,6 +89,9 @@ def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
     assert made == pytest.approx((0.39 - 0.3**2 / 0.39, 0.0), abs=0.1 + 1e-9), known
     assert len(known.pieces) < len(exact.pieces), (exact, known)
     assert sum(f for _, f in known.pieces) == pytest.approx(sum(f for _, f in exact.pieces))
+    for upward in (True, False):           # a vehicle at its aim already: nothing to hang
+        there = band_load(sabertooth, band_target(sabertooth, upward), upward, (1.0, 0.5, 0.5))
+        assert there.pieces == () and there.miss_Nm == pytest.approx((0.0, 0.0), abs=1e-9)
     with pytest.raises(UsageError, match="weight slots take"):
         band_load(bluerov, (-500.0, 0.0, 0.0))
 
