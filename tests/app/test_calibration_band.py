@@ -18,9 +18,9 @@ from trimd.app.calibrate import Load, calibrate_with_weights
 from trimd.app.connect import open_link
 from trimd.app.history import History
 from trimd.app.replay import replay_calibration
+from trimd.ballast.band import BAND_SHARE, band_load, band_margin_N, band_target
 from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
-from trimd.core.band import BAND_SHARE, band_load, band_margin_N, band_target
 from trimd.core.calibration import edges_of
 from trimd.core.errors import UsageError
 from trimd.core.hunting import LIFTING
@@ -94,6 +94,15 @@ def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
         assert there.pieces == () and there.miss_Nm == pytest.approx((0.0, 0.0), abs=1e-9)
     with pytest.raises(UsageError, match="weight slots take"):
         band_load(bluerov, (-500.0, 0.0, 0.0))
+
+
+def test_the_band_loads_search_prints_nothing_on_standard_output(
+        bluerov: Profile, capfd: pytest.CaptureFixture[str]) -> None:
+    """HiGHS prints a debug line from C to descriptor 1 on some searches (HiGHS issue
+    2783), which would land among ``trimd calibrate --json``'s output: this search made it
+    print before the band load went through :func:`trimd.ballast.highs.solve`."""
+    load = band_load(bluerov, (1.4685, 0.4102, -0.3283), False, (0.2413, 0.0566, 0.0431))
+    assert load.pieces and capfd.readouterr().out == ""
 
 
 @pytest.mark.slow

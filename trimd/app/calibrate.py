@@ -10,7 +10,7 @@ history like those of ``ballast apply`` and a verify hold
 vertical thrusters cross their dead band, whose edges the fit then sees. The band
 calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its two steps
 after the first hold: the load that makes the vehicle just heavy enough for its vertical
-thrusters to hunt at the upper edges of their bands (:mod:`trimd.core.band`), which the
+thrusters to hunt at the upper edges of their bands (:mod:`trimd.ballast.band`), which the
 second hold then shows, then the one that makes it just buoyant enough for the lower
 edges, which the third shows.
 
@@ -37,7 +37,7 @@ from typing import Never
 from trimd.app.history import History
 from trimd.app.history.calibration import store_experiment
 from trimd.app.session import Presenter, Recorder, Session
-from trimd.core.band import band_load
+from trimd.ballast.band import band_load
 from trimd.core.calibration import (
     Experiment,
     Outcome,
@@ -295,7 +295,7 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
     ``db`` (None: not stored) as soon as it is made.
     With ``band_pct`` (the loads' 1σ [%]) and no ``weights``, a band calibration: its two
-    loads are :func:`~trimd.core.band.band_load` of the first hold's W − B and net
+    loads are :func:`~trimd.ballast.band.band_load` of the first hold's W − B and net
     moments, upward then downward (module docstring).
     ``hung`` False before the first load aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import Bounds, LinearConstraint, milp
 
+from trimd.ballast.highs import solve
 from trimd.core.errors import UsageError
 from trimd.core.hunting import LIFTING
 from trimd.core.model import band_at, thrust_configuration, thrust_from_pwm
@@ -46,6 +46,8 @@ BAND_SHARE = 0.5
 _PIECE_COST = 0.5
 _MOMENT_COST = 10.0
 _BEYOND_COST = 1e6
+#: The branch-and-bound nodes a band load's search may take (a few slots: tens).
+_NODES = 10_000
 
 
 @dataclass(frozen=True)
@@ -120,19 +122,20 @@ def band_margin_N(profile: Profile, upward: bool = True) -> float:
 
 def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
               q_sd: ArrayLike = (0.0, 0.0, 0.0)) -> BandLoad:
-    """The load that makes a vehicle of ``q`` = [W − B, W·x_g − B·x_b, W·y_g − B·y_b]
-    [N, N·m] (a level hold's estimate, with the vehicle's calibration; ``q_sd`` its 1σ)
-    into :func:`band_target` (``upward``; else the downward one): net down force at weight
-    slots and lift at float slots, chosen by scipy's ``milp``. W − B exactly; the moments
-    moved toward the aim by their distance d from it shrunk by (1 − σ²/d²)⁺ (the positive
-    part of James and Stein's estimator: nearly all of a distance many σ long, none of one
-    within 1σ, as a trimmed vehicle's small moments read with the profile alone may be:
-    the load then leaves them), to within a third of that 1σ (which adds a twentieth to
-    their error; where the slots cannot, the least miss); at the least cost of load (its
+    """The load that makes a vehicle of ``q`` = [W − B, W·x_g − B·x_b, W·y_g − B·y_b] [N, N·m]
+    (a level hold's estimate, with the vehicle's calibration; ``q_sd`` its 1σ) into
+    :func:`band_target` (``upward``; else the downward one): net down force at weight
+    slots and lift at float slots, chosen by scipy's ``milp``
+    (:func:`~trimd.ballast.highs.solve`). W − B exactly; the moments moved toward the
+    aim by their distance d from it shrunk by (1 − σ²/d²)⁺ (the positive part of James
+    and Stein's estimator: nearly all of a distance many σ long, none of one within 1σ,
+    as a trimmed vehicle's small moments read with the profile alone may be: the load
+    then leaves them), to within a third of that 1σ (which adds a twentieth to their
+    error; where the slots cannot, the least miss); at the least cost of load (its
     pieces' uncertainty is a share of their weight: no big weight against a big float),
-    pieces (no gram of foam for a moment the hold knows to a few hundredths of a N·m) and
-    miss (:data:`_PIECE_COST`), the slots nearest the vehicle's centre first. UsageError
-    when the slots cannot take the load's W − B."""
+    pieces (no gram of foam for a moment the hold knows to a few hundredths of a N·m)
+    and miss (:data:`_PIECE_COST`), the slots nearest the vehicle's centre first.
+    UsageError when the slots cannot take the load's W − B."""
     aim = band_target(profile, upward)
     now = np.asarray(q, dtype=float)[:3]
     known = np.abs(np.asarray(q_sd, dtype=float)[:3])
@@ -161,11 +164,13 @@ def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
                        np.vstack([np.zeros(4), miss])])
     used = np.hstack([np.eye(n), np.eye(n), -np.diag(caps.max(axis=0)), np.zeros((n, 8))])
     sd = np.repeat(known[1:] / 3.0, 2)
-    bounds = Bounds(np.zeros(3 * n + 8),
-                    np.r_[caps.ravel(), np.ones(n), sd, np.full(4, np.inf)])
-    found = milp(cost, constraints=[LinearConstraint(makes, need, need),
-                                    LinearConstraint(used, -np.inf, 0.0)],
-                 integrality=np.r_[np.zeros(2 * n), np.ones(n), np.zeros(8)], bounds=bounds)
+    # W − B and the moments made (as two inequalities each), a piece only on a used slot
+    A = np.vstack([makes, -makes, used])
+    found = solve(cost, A, np.r_[need, -need, np.zeros(n)],
+                  np.r_[caps.ravel(), np.ones(n), sd, np.full(4, np.inf)],
+                  np.r_[np.zeros(2 * n), np.ones(n), np.zeros(8)].astype(int), _NODES)
+    if found.x is None:          # feasible by the misses' slack: only a node limit stops it
+        raise UsageError(f"no band load found ({found.message})", "trimd calibrate --band")
     x = np.asarray(found.x)
     w = x[:n] - x[n:2 * n]
     tiny = 1e-9 * max(1.0, float(np.abs(need).max()))
