@@ -154,14 +154,14 @@ def band_load(profile: Profile, q: ArrayLike, upward: bool = True,
     P = np.array([s.position_m for s in slots])
     n = len(slots)
     # x = [weight's force, float's lift (n each, ≥ 0) [N], slot used (n, 0/1), the x and
-    # y moments' misses within 1σ (±, 4) and beyond it (±, 4) [N·m]]
+    # y moments' misses within a third of their 1σ (±, 4) and beyond it (±, 4) [N·m]]
     lever = 1.0 + np.abs(P[:, 0]) + np.abs(P[:, 1])
     cost = np.r_[lever, lever, np.full(n, _PIECE_COST), np.full(4, _MOMENT_COST),
                  np.full(4, _BEYOND_COST)]
-    miss = np.kron(np.eye(2), [1.0, -1.0])
+    signed = np.kron(np.eye(2), [1.0, -1.0])         # a miss's + and − parts per axis
     lay = np.vstack([np.ones(n), P[:, 0], P[:, 1]])
-    makes = np.hstack([lay, -lay, np.zeros((3, n)), np.vstack([np.zeros(4), miss]),
-                       np.vstack([np.zeros(4), miss])])
+    makes = np.hstack([lay, -lay, np.zeros((3, n)), np.vstack([np.zeros(4), signed]),
+                       np.vstack([np.zeros(4), signed])])
     used = np.hstack([np.eye(n), np.eye(n), -np.diag(caps.max(axis=0)), np.zeros((n, 8))])
     sd = np.repeat(known[1:] / 3.0, 2)
     # W − B and the moments made (as two inequalities each), a piece only on a used slot
