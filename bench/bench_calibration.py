@@ -74,10 +74,12 @@ from bench.bench_sim_coverage import (
 )
 from bench.size import size, sized_profile
 from tests.helpers import SimTrim, sim_apply_experiment, sim_float_reference, sim_trim
-from trimd.app.calibrate import CalibrationRun, KnownWeight, Load, calibrate_with_weights
+from trimd.app.calibrate import calibrate_with_weights
+from trimd.app.calibration_loads import CalibrationRun, KnownWeight, Load
 from trimd.app.connect import open_link
 from trimd.app.history import History
 from trimd.app.history.calibration import calibrated_profile, store_experiment
+from trimd.ballast.band import unhunted
 from trimd.core.calibration import Experiment, prior, update
 from trimd.core.calibration import calibrate as recalibrate
 from trimd.core.calibration_json import experiment_from_dict
@@ -87,6 +89,7 @@ from trimd.core.hunting import LIFTING
 from trimd.core.learnt import DETERMINED
 from trimd.core.link import Link
 from trimd.core.map_posterior import ThrustMapPosterior, posterior
+from trimd.core.output_hist import spikes_seen
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.core.types import FloatArray
@@ -338,7 +341,20 @@ def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
                                                   band_pct=1.0))
     except (EstimationError, LinkError, UsageError) as exc:
         return f"failed: {exc}"
-    return " + ".join(_verdict(o.accepted) for o in done.outcomes)
+    return " + ".join(f"{_verdict(o.accepted)} ({'up' if up else 'down'}, "
+                      f"{_edges_shown(exp, profile, up)})"
+                      for o, exp, up in zip(done.outcomes, done.experiments, done.sides,
+                                            strict=True))
+
+
+def _edges_shown(exp: Experiment, profile: Profile, upward: bool) -> str:
+    """How many of the lifting thrusters' edges on its side the band experiment's second
+    hold showed, of how many."""
+    lifting = len(unhunted(profile, [], upward))
+    after = exp.after.outputs
+    missed = lifting if after is None else len(unhunted(profile, spikes_seen(after, profile),
+                                                        upward))
+    return f"{lifting - missed}/{lifting} edges"
 
 
 def _verdict(accepted: bool) -> str:

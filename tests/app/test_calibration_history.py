@@ -22,12 +22,12 @@ from tests.helpers import carried, sim_float, sim_trim
 from trimd.app.after_trim import AfterTrim
 from trimd.app.apply import apply_ballast
 from trimd.app.calibrate import (
-    KnownWeight,
     calibrate_with_weights,
     hold_from_record,
     hold_record,
     recorded_hold_s,
 )
+from trimd.app.calibration_loads import KnownWeight
 from trimd.app.connect import open_link
 from trimd.app.headless import HeadlessPresenter
 from trimd.app.history import SCHEMA_VERSION, History

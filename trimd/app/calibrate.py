@@ -8,11 +8,12 @@ vehicle's calibration so far (and the series' earlier experiments) and stored in
 history like those of ``ballast apply`` and a verify hold
 (:mod:`trimd.app.history.calibration`). A weight and a float at each corner make the
 vertical thrusters cross their dead band, whose edges the fit then sees. The band
-calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its two steps
-after the first hold: the load that makes the vehicle just heavy enough for its vertical
-thrusters to hunt at the upper edges of their bands (:mod:`trimd.ballast.band`), which the
-second hold then shows, then the one that makes it just buoyant enough for the lower
-edges, which the third shows.
+calibration (``trimd calibrate --band``, for a trimmed vehicle) chooses its loads from
+the holds as it goes (:mod:`trimd.app.calibrate_band`): the load that makes the vehicle
+just heavy enough for its vertical thrusters to hunt at the upper edges of their bands
+(:mod:`trimd.ballast.band`), which the next hold then shows, aimed again while a hold
+misses a thruster's edge, then the same for the lower edges, just buoyant enough. What a
+calibration hangs and the experiment each change makes: :mod:`trimd.app.calibration_loads`.
 
 Each hold is a session of its own on the link opened again (the verify hold's
 procedure: the profile's first hold, level), so the vehicle is released while the weight
@@ -30,36 +31,32 @@ from __future__ import annotations
 
 import math
 from collections.abc import Awaitable, Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Never
 
+from trimd.app.calibrate_band import BAND_TRIES, band_series
+from trimd.app.calibration_loads import (
+    CalibrationRun,
+    KnownWeight,
+    Load,
+    calibration_experiment,
+    swap_text,
+)
 from trimd.app.history import History
 from trimd.app.history.calibration import store_experiment
 from trimd.app.session import Presenter, Recorder, Session
-from trimd.ballast.band import band_load
-from trimd.core.calibration import (
-    Experiment,
-    Outcome,
-    PieceChange,
-    ThrustMapPosterior,
-    ballast_change,
-    calibration_hold,
-    prior,
-    update,
-)
+from trimd.core.calibration import Experiment, Outcome, ThrustMapPosterior, prior, update
 from trimd.core.errors import DataError, EstimationError, UsageError
 from trimd.core.estimate import HoldSamples
 from trimd.core.events import Phase
 from trimd.core.link import Link
 from trimd.core.procedure import Procedure
 from trimd.core.profile import Profile
-from trimd.core.segment import estimate_segment
 
-__all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "CalibrationRun", "KnownWeight", "Load",
-           "calibrate_with_weights", "calibration_experiment", "check_against_profile",
-           "checked_hold_s", "hold_from_record", "hold_record", "level_hold_procedure",
-           "light_weight_advice", "recorded_hold_s", "swap_text"]
+__all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "calibrate_with_weights", "checked_hold_s",
+           "hold_from_record", "hold_record", "level_hold_procedure", "light_weight_advice",
+           "recorded_hold_s"]
 
 #: The two holds of a one-weight calibration as recordings before the series named them.
 _OLD_HOLDS = ("before", "after")
@@ -71,38 +68,6 @@ MIN_HOLD_S = 10.0
 #: mm-equivalent and caught a 10 % heavier weight in 32 of 60; one of 18.2 kg (1.5 %) at
 #: 0.77 and in 59 of 60 (docs/method.md §7).
 LIGHT_SHARE = 0.01
-#: 1σ of the height of the centre of gravity's net moment [N·m] assumed for the level
-#: fit's q, which enters only through the two holds' small difference in attitude.
-_M_Z_STD = 1.0
-
-
-@dataclass(frozen=True)
-class KnownWeight:
-    """A weight hung for a calibration: its net downward force in water as ``kg``
-    [kgf; negative: a float's lift], at ballast slot ``slot``, known to
-    ``uncertainty_pct`` [%, 1σ]."""
-
-    kg: float
-    slot: str
-    uncertainty_pct: float = 1.0
-
-
-#: The weights hung together for one hold of a series (usually one).
-Load = tuple[KnownWeight, ...]
-
-
-@dataclass(frozen=True, eq=False)
-class CalibrationRun:
-    """A deliberate calibration's experiments in order, what became of each, the
-    vehicle's calibration after them, the profile they were made with, and why the series
-    stopped early ("" when it ran to its end)."""
-
-    experiments: tuple[Experiment, ...]
-    outcomes: tuple[Outcome, ...]
-    posterior: ThrustMapPosterior
-    profile: Profile
-    stopped: str = ""
-
 
 def level_hold_procedure(profile: Profile, *, confirmed: bool, hold_s: float | None = None
                          ) -> Procedure[Never, HoldSamples]:
@@ -233,52 +198,6 @@ async def _level_hold(open_link: Callable[[], Awaitable[Link]], profile: Profile
     return result.verification
 
 
-def _change(profile: Profile, weight: KnownWeight, count: int) -> PieceChange:
-    """``count`` (±1) of the known ``weight`` at its slot."""
-    return PieceChange(profile.slot(weight.slot).name, f"{weight.kg:g} kg", count,
-                       weight.kg * profile.gravity_m_s2, weight.uncertainty_pct)
-
-
-def _load_text(load: Load, profile: Profile) -> str:
-    return " + ".join(f"{w.kg:g} kg at {profile.slot(w.slot).name}" for w in load)
-
-
-def calibration_experiment(before: HoldSamples, after: HoldSamples, profile: Profile,
-                           hung: Load, removed: Load | None = None) -> Experiment:
-    """The experiment of the level holds ``before`` and ``after``, between which
-    ``removed`` was taken off (None: nothing) and ``hung`` hung."""
-    change = tuple(_change(profile, w, -1) for w in removed or ()) + tuple(
-        _change(profile, w, 1) for w in hung)
-    fit = estimate_segment(before, profile)
-    q_cov = fit.q_cov.copy()
-    q_cov[3, 3] += _M_Z_STD**2
-    q_after = fit.q + ballast_change(profile, change)[0]
-    moved = f"{_load_text(removed, profile)} → " if removed else ""
-    return Experiment(f"calibrate {moved}{_load_text(hung, profile)}",
-                      calibration_hold(before, profile, fit.q),
-                      calibration_hold(after, profile, q_after), change, fit.q, q_cov)
-
-
-def check_against_profile(experiments: Sequence[Experiment], profile: Profile,
-                          stopped: str = "") -> CalibrationRun:
-    """``experiments`` checked in order against the profile's own thrust map (its
-    calibration, else the prior) and each other, stored nowhere."""
-    post, outcomes = profile.thrust_map or prior(profile), []
-    for exp in experiments:
-        post, outcome = update(post, exp, profile)
-        outcomes.append(outcome)
-    return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile, stopped)
-
-
-def swap_text(hung: Load, removed: Load | None, profile: Profile) -> str:
-    """What the operator does before the next hold: take ``removed`` off, hang ``hung``."""
-    def what(load: Load) -> str:
-        return " and ".join((f"{w.kg:g} kg (its weight in water)" if w.kg > 0
-                             else f"the float of {-w.kg:g} kgf lift")
-                            + f" at slot {profile.slot(w.slot).name}" for w in load)
-    off = f"take {what(removed)} off; " if removed else ""
-    return f"{off}hang {what(hung)}, clear of the thrusters, then confirm"
-
 
 async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profile: Profile,
                                  weights: Sequence[Load], hung: Callable[[str, Load], bool],
@@ -287,16 +206,17 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
                                  = None, wall_clock: bool = True,
                                  record: Callable[[dict[str, object]], Recorder | None]
                                  | None = None, hold_s: float | None = None,
-                                 band_pct: float | None = None) -> CalibrationRun:
+                                 band_pct: float | None = None, band_tries: int = BAND_TRIES
+                                 ) -> CalibrationRun:
     """A level hold, then per load of ``weights``: ``hung(text, load)`` (the operator takes
     the previous load off, hangs this one and says so), a level hold, and the experiment
     of the two holds checked against the calibration so far, ``profile``'s thrust map
     (the vehicle's stored calibration: :func:`~trimd.app.history.calibration.
     calibrated_profile`; none: the prior), and stored under ``vehicle`` in the history
     ``db`` (None: not stored) as soon as it is made.
-    With ``band_pct`` (the loads' 1σ [%]) and no ``weights``, a band calibration: its two
-    loads are :func:`~trimd.ballast.band.band_load` of the first hold's W − B and net
-    moments, upward then downward (module docstring).
+    With ``band_pct`` (the loads' 1σ [%]) and no ``weights``, a band calibration
+    (:func:`~trimd.app.calibrate_band.band_series`, at most ``band_tries`` holds per
+    side): its loads chosen from the holds as it goes (module docstring).
     ``hung`` False before the first load aborts with UsageError; later it stops the
     series with the experiments made so far (said in :attr:`CalibrationRun.stopped`).
     ``record`` gives each hold's recorder from what its recording says of it
@@ -317,69 +237,37 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     shown = list(presenters or [])
     band = band_pct is not None
 
-    def level_hold(k: int) -> Awaitable[HoldSamples]:
+    def level_hold(k: int, series: tuple[Load, ...]) -> Awaitable[HoldSamples]:
         return _level_hold(open_link, profile, shown, wall_clock, f"level hold {k + 1}",
-                           record(hold_record(k, weights, hold_s, band)) if record else None,
+                           record(hold_record(k, series, hold_s, band)) if record else None,
                            hold_s)
 
+    def learn(exp: Experiment, post: ThrustMapPosterior
+              ) -> tuple[ThrustMapPosterior, Outcome]:
+        if db is None:
+            return update(post, exp, profile)
+        with History(db) as history:     # a rejected experiment leaves the calibration
+            return store_experiment(history, vehicle, profile, exp, post)
+
     post = profile.thrust_map or prior(profile)
-    holds = [await level_hold(0)]
-    texts: Sequence[str] = [""] * len(weights)
     if band_pct is not None and not weights:
-        weights, texts = _band_series(holds[0], profile, band_pct)
+        return await band_series(level_hold, learn, hung, profile, post, band_pct, band_tries)
+    series = tuple(weights)
+    holds = [await level_hold(0, series)]
     experiments: list[Experiment] = []
     outcomes: list[Outcome] = []
-    for k, load in enumerate(weights):
-        removed = weights[k - 1] if k else None
-        if not hung(texts[k] + swap_text(load, removed, profile), load):
+    for k, load in enumerate(series):
+        removed = series[k - 1] if k else None
+        if not hung(swap_text(load, removed, profile), load):
             if not k:
                 raise UsageError("calibration aborted: the weight was not hung",
                                  "trimd calibrate")
             return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile,
-                                  f"stopped by the operator after {k} of {len(weights)} "
+                                  f"stopped by the operator after {k} of {len(series)} "
                                   "weights")
-        holds.append(await level_hold(k + 1))
+        holds.append(await level_hold(k + 1, series))
         exp = calibration_experiment(holds[-2], holds[-1], profile, load, removed)
-        if db is None:
-            post, outcome = update(post, exp, profile)
-        else:  # a rejected experiment leaves the calibration as it was
-            with History(db) as history:
-                post, outcome = store_experiment(history, vehicle, profile, exp, post)
+        post, outcome = learn(exp, post)
         experiments.append(exp)
         outcomes.append(outcome)
     return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile)
-
-
-def _band_series(first: HoldSamples, profile: Profile, uncertainty_pct: float
-                 ) -> tuple[tuple[Load, ...], tuple[str, ...]]:
-    """The band calibration's series, chosen from the ``first`` hold's W − B and x, y net
-    moments (with the profile's calibration): the load for the upper edges, then the one
-    for the lower edges (either left out when the vehicle is there already: a load of
-    less than a gram); and what each is for, for the operator."""
-    fit = estimate_segment(first, profile)
-    q_sd = [math.sqrt(fit.q_cov[k, k]) for k in range(3)]
-    sd = q_sd[0]
-    g = profile.gravity_m_s2
-    loads: list[Load] = []
-    texts: list[str] = []
-    for upward in (True, False):
-        load = band_load(profile, fit.q[:3], upward, q_sd)
-        side, state = ("upper", "heavy") if upward else ("lower", "buoyant")
-        text = (
-            f"the vehicle held level at W − B {fit.q[0]:+.2f} ± {sd:.2f} N, x, y net moments "
-            f"{fit.q[1]:+.2f} ± {q_sd[1]:.2f}, {fit.q[2]:+.2f} ± {q_sd[2]:.2f} N·m; for each "
-            "vertical thruster to hunt at "
-            f"its {side} band edge it should be {state} at {load.margin_N:+.2f} N, "
-            f"{load.aim[1]:+.2f}, {load.aim[2]:+.2f} N·m"
-            + (f" (its W − B is known to ± {sd:.2f} N only, more than the band's "
-               f"{abs(load.margin_N):.2f} N: the load may miss it; a calibration first, "
-               "e.g. the verify hold after `trimd ballast apply`, narrows it)"
-               if sd > abs(load.margin_N) else "")
-            + (", the load leaving the moments {:+.3f}, {:+.3f} N·m off it".format(
-                *load.miss_Nm) if max(map(abs, load.miss_Nm)) > 1e-6 else "") + ": ")
-        hung = tuple(KnownWeight(round(f / g, 3), slot, uncertainty_pct)  # to the gram
-                     for slot, f in load.pieces if round(f / g, 3))
-        if hung:
-            loads.append(hung)
-            texts.append(text)
-    return tuple(loads), tuple(texts)

@@ -12,14 +12,12 @@ from collections.abc import Sequence
 
 import yaml
 
-from trimd.app.calibrate import (
+from trimd.app.calibrate import hold_from_record, level_hold_procedure, recorded_hold_s
+from trimd.app.calibration_loads import (
     CalibrationRun,
     Load,
     calibration_experiment,
     check_against_profile,
-    hold_from_record,
-    level_hold_procedure,
-    recorded_hold_s,
 )
 from trimd.app.float_check import float_from_settings
 from trimd.app.results import AnyPresenter, AnyResult, Finding
@@ -128,7 +126,7 @@ async def replay_calibration(paths: Sequence[str], name: str | None) -> Calibrat
             raise DataError(f"{path}: not a recording of a calibration's level hold (trimd "
                             "calibrate records one per hold)")
         index, weights = hold_from_record(d, path)
-        if k and series and weights != series:   # a band calibration's first: none yet
+        if k and series and weights[:len(series)] != series:  # a band series grows
             raise DataError(f"{paths[0]} and {path} record different weights: not holds of "
                             "one calibration")
         if index != k:

@@ -21,6 +21,7 @@ its centre) they are several times what one thruster's first µs turns it by
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,12 +29,12 @@ from numpy.typing import ArrayLike
 
 from trimd.ballast.highs import solve
 from trimd.core.errors import UsageError
-from trimd.core.hunting import LIFTING
+from trimd.core.hunting import LIFTING, EdgeObservation
 from trimd.core.model import band_at, thrust_configuration, thrust_from_pwm
 from trimd.core.profile import Profile
 from trimd.core.types import FloatArray
 
-__all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N", "band_target"]
+__all__ = ["BAND_SHARE", "BandLoad", "band_load", "band_margin_N", "band_target", "unhunted"]
 
 #: The share of the lifting thrusters' first-µs thrust the band load aims each of them at:
 #: the middle of the window in which each moves the vehicle from within that µs.
@@ -75,6 +76,26 @@ class BandLoad:
         return self.aim[0]
 
 
+def _band_sides(profile: Profile, upward: bool) -> dict[int, bool]:
+    """Lifting thruster (index: its thrust at least :data:`~trimd.core.hunting.LIFTING`
+    vertical) → whether the edge at which it lifts (``upward``; else pushes down) lies above
+    neutral (FRD: a thruster lifts with its thrust along −z)."""
+    T = thrust_configuration(profile.thrusters)
+    return {i: bool(T[2, i] < 0) == upward for i in range(len(profile.thrusters))
+            if abs(T[2, i]) >= LIFTING}
+
+
+def unhunted(profile: Profile, spikes: Sequence[EdgeObservation], upward: bool = True
+             ) -> tuple[int, ...]:
+    """The lifting thrusters (indices, the profile's order) that a band hold's hunting
+    ``spikes`` (:func:`~trimd.core.hunting.hunting_spikes`) do not show at the edge at
+    which they lift (``upward``; else push down): those whose edge that hold did not
+    read."""
+    shown = {(o.thruster, o.positive) for o in spikes}
+    return tuple(i for i, above in _band_sides(profile, upward).items()
+                 if (i, above) not in shown)
+
+
 def band_target(profile: Profile, upward: bool = True) -> FloatArray:
     """q = [W − B, W·x_g − B·x_b, W·y_g − B·y_b] [N, N·m], body FRD, of the vehicle that,
     held level, each lifting thruster (its thrust at least
@@ -93,13 +114,10 @@ def band_target(profile: Profile, upward: bool = True) -> FloatArray:
     T = thrust_configuration(profile.thrusters)
     v = profile.nominal_voltage_V
     f = np.zeros(len(profile.thrusters))
-    for i, t in enumerate(profile.thrusters):
-        if abs(T[2, i]) < LIFTING:
-            continue
-        low, high = band_at(t.curve, v)
-        lifts_forward = T[2, i] < 0            # FRD: lifting is −z
-        pwm = high + 1 if lifts_forward == upward else low - 1
-        f[i] = BAND_SHARE * float(thrust_from_pwm(t.curve, pwm, v))
+    for i, above in _band_sides(profile, upward).items():
+        curve = profile.thrusters[i].curve
+        low, high = band_at(curve, v)
+        f[i] = BAND_SHARE * float(thrust_from_pwm(curve, high + 1 if above else low - 1, v))
     tau = T @ f
     q = np.array([-tau[2], tau[4], -tau[3]])      # level: Z = −q₀, K = −q₂, M = q₁
     return np.where(np.abs(q) > 1e-12 * np.abs(q).max(), q, 0.0)   # no −0.00 for people

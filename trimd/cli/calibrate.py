@@ -2,9 +2,10 @@
 deliberate calibration of the thrust map (:mod:`trimd.app.calibrate`; docs/method.md §7):
 a level hold, the operator hangs a known weight at a known slot, a second level hold; with
 more ``--mass``, the operator swaps the weight for the next before each further hold
-(``--mass A+B`` hangs two at once). ``--band`` on a trimmed vehicle: trimd chooses the one
-load after the first hold, the one that makes its vertical thrusters hunt at the upper
-edges of their dead bands (docs/method.md §7). Each
+(``--mass A+B`` hangs two at once). ``--band`` on a trimmed vehicle: trimd chooses the loads
+from the holds, those that make its vertical thrusters hunt at the upper, then the lower
+edges of their dead bands, aimed again while a hold misses a thruster's edge
+(:mod:`trimd.app.calibrate_band`, docs/method.md §7). Each
 experiment is checked and stored in the vehicle's trim history as soon as it is made, and
 every later session of the vehicle uses it. Each hold is recorded (``-calibrate-1``,
 ``-calibrate-2``, … in the log's name); ``trimd calibrate --replay HOLD1 HOLD2 …``
@@ -20,14 +21,9 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from trimd.app.calibrate import (
-    CalibrationRun,
-    KnownWeight,
-    Load,
-    calibrate_with_weights,
-    checked_hold_s,
-    light_weight_advice,
-)
+from trimd.app.calibrate import calibrate_with_weights, checked_hold_s, light_weight_advice
+from trimd.app.calibrate_band import BAND_TRIES
+from trimd.app.calibration_loads import CalibrationRun, KnownWeight, Load
 from trimd.app.connect import open_link
 from trimd.app.files import default_record_path
 from trimd.app.history.calibration import calibrated_profile
@@ -68,8 +64,9 @@ def register(sub: Subcommands) -> None:
                    help="instead of --mass, on a trimmed vehicle: after the first level "
                    "hold trimd says what to hang (and where) to make the vehicle just heavy "
                    "enough for its vertical thrusters to hunt at the upper edges of their "
-                   "dead bands, which the second hold shows, then what to swap it for to "
-                   "make it just buoyant enough for the lower edges, which the third shows: "
+                   "dead bands, which the next hold shows (a load aimed again while a hold "
+                   f"misses a thruster's edge, up to {BAND_TRIES} holds), then what to swap "
+                   "it for to make it just buoyant enough for the lower edges, likewise: "
                    "the edges a later trim of the vehicle works beyond (docs/method.md §7)")
     p.add_argument("--uncertainty-pct", type=float, default=1.0,
                    help="1σ of the weight in water [%%] (default 1)")
@@ -147,8 +144,8 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    if not args.yes and not _ask(f"{max(len(weights), 1) + 1} level holds: let trimd command the "
-                                 "vehicle?"):
+    holds = (f"3 to {2 * BAND_TRIES + 1}" if args.band else f"{len(weights) + 1}")
+    if not args.yes and not _ask(f"{holds} level holds: let trimd command the vehicle?"):
         return None
     vehicle = vehicle_of(args, profile.name)
     db = None if args.no_history else Path(db_path(args))
