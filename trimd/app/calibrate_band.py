@@ -38,7 +38,7 @@ from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 from trimd.core.types import FloatArray
 
-__all__ = ["BAND_TRIES", "band_series", "hunted_text"]
+__all__ = ["BAND_TRIES", "band_series"]
 
 #: The most level holds per band side: the first load's, and a load aimed again from each
 #: hold that did not show every lifting thruster's edge.
@@ -109,11 +109,12 @@ def _missed(held: HoldSamples, profile: Profile, upward: bool) -> tuple[int, ...
                                             profile), upward)
 
 
-def hunted_text(profile: Profile, missed: tuple[int, ...], upward: bool) -> str:
+def _hunted_text(profile: Profile, missed: tuple[int, ...], upward: bool) -> str:
     """Which thrusters the last hold did not see hunting at their band edges, for people."""
     names = ", ".join(profile.thrusters[i].name for i in missed)
+    band = "its dead band" if len(missed) == 1 else "their dead bands"
     return (f"the last hold did not show {names} hunting at the {'upper' if upward else 'lower'}"
-            " edge of its dead band: the load aimed again; ")
+            f" edge of {band}: the load aimed again; ")
 
 
 def _aimed(latest: HoldSamples, on: Load, missed: tuple[int, ...], known: Profile,
@@ -130,7 +131,7 @@ def _aimed(latest: HoldSamples, on: Load, missed: tuple[int, ...], known: Profil
     sd = q_sd[0]
     what = "without its load " if on else ""
     text = (
-        (hunted_text(known, missed, upward) if missed else "")
+        (_hunted_text(known, missed, upward) if missed else "")
         + f"the vehicle held level {what}at W − B {q[0]:+.2f} ± {sd:.2f} N, x, y net moments "
         f"{q[1]:+.2f} ± {q_sd[1]:.2f}, {q[2]:+.2f} ± {q_sd[2]:.2f} N·m; for each vertical "
         f"thruster to hunt at its {side} band edge it should be {state} at "

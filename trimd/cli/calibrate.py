@@ -144,7 +144,7 @@ def _live(args: argparse.Namespace) -> CalibrationRun | None:
     if not args.yes and not sys.stdin.isatty():
         raise ProfileError("headless without a terminal cannot ask for confirmation: "
                            "pass --yes to let trimd command the vehicle")
-    holds = (f"3 to {2 * BAND_TRIES + 1}" if args.band else f"{len(weights) + 1}")
+    holds = f"up to {2 * BAND_TRIES + 1}" if args.band else f"{len(weights) + 1}"
     if not args.yes and not _ask(f"{holds} level holds: let trimd command the vehicle?"):
         return None
     vehicle = vehicle_of(args, profile.name)
