@@ -8,6 +8,7 @@ import asyncio
 import json
 from collections.abc import Awaitable
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,11 +20,11 @@ from trimd.app.calibration_loads import Load
 from trimd.app.connect import open_link
 from trimd.app.history import History
 from trimd.app.replay import replay_calibration
-from trimd.ballast.band import BAND_SHARE, band_load, band_margin_N, band_target
+from trimd.ballast.band import BAND_SHARE, band_load, band_margin_N, band_target, unhunted
 from trimd.ballast.propose import Proposal
 from trimd.cli.main import main
 from trimd.core.errors import UsageError
-from trimd.core.hunting import LIFTING
+from trimd.core.hunting import LIFTING, EdgeObservation
 from trimd.core.link import Link
 from trimd.core.model import band_at, restoring_matrix, thrust_configuration, thrust_from_pwm
 from trimd.core.output_hist import spikes_seen
@@ -56,6 +57,28 @@ def test_the_band_aim_has_each_lifting_thruster_push_half_its_first_microsecond(
             assert f == pytest.approx(BAND_SHARE * np.array(first), rel=1e-9), profile.name
             assert aim[0] == pytest.approx(band_margin_N(profile, upward) * (1 if upward
                                                                             else -1))
+
+
+def test_a_band_hold_misses_the_lifting_thrusters_without_a_spike_on_the_loads_side(
+        sabertooth: Profile) -> None:
+    """:func:`unhunted`: of the Sabertooth's three lifting thrusters, those whose hold shows
+    no hunting spike at the edge at which they lift (the upper load) or push down (the
+    lower): a spike on the other side, or of a horizontal thruster, does not count."""
+    T = thrust_configuration(sabertooth.thrusters)
+    lifting = [i for i in range(len(sabertooth.thrusters)) if abs(T[2, i]) >= LIFTING]
+    horizontal = next(i for i in range(len(sabertooth.thrusters)) if i not in lifting)
+    assert len(lifting) == 3
+    first, second, third = lifting
+
+    def spike(i: int, lifts: bool) -> EdgeObservation:
+        above = (T[2, i] < 0) == lifts      # FRD: a thruster lifts with its thrust along −z
+        return EdgeObservation(i, above, 1550.0, 1549.5, 0.0, 0.5, 1.0)
+
+    spikes = [spike(first, True), spike(second, False), spike(horizontal, True)]
+    assert unhunted(sabertooth, spikes, upward=True) == (second, third)
+    assert unhunted(sabertooth, spikes, upward=False) == (first, third)
+    assert unhunted(sabertooth, [], upward=True) == tuple(lifting)
+    assert unhunted(sabertooth, [spike(i, True) for i in lifting], upward=True) == ()
 
 
 def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
@@ -95,6 +118,17 @@ def test_the_band_load_makes_the_aim_and_says_when_the_slots_cannot_take_it(
         assert there.pieces == () and there.miss_Nm == pytest.approx((0.0, 0.0), abs=1e-9)
     with pytest.raises(UsageError, match="weight slots take"):
         band_load(bluerov, (-500.0, 0.0, 0.0))
+
+
+def test_a_band_load_search_stopped_without_a_load_says_so(
+        bluerov: Profile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A search that ends without any load (only the node limit can: the misses' slack
+    keeps the problem feasible) is a UsageError naming the solver's reason, not a
+    traceback."""
+    monkeypatch.setattr("trimd.ballast.band.solve", lambda *_args: SimpleNamespace(
+        x=None, message="Node limit reached."))
+    with pytest.raises(UsageError, match=r"no band load found \(Node limit reached"):
+        band_load(bluerov, (-1.3, 0.0, 0.0))
 
 
 def test_the_band_loads_search_prints_nothing_on_standard_output(

@@ -66,6 +66,11 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
     outcomes: list[Outcome] = []
     sides: list[bool] = []
     on: Load = ()
+
+    def run(stopped: str = "") -> CalibrationRun:
+        return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile, stopped,
+                              tuple(sides))
+
     for upward in (True, False):
         missed: tuple[int, ...] = ()
         for _ in range(tries):
@@ -77,9 +82,7 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
                 if not series:
                     raise UsageError("calibration aborted: the weight was not hung",
                                      "trimd calibrate")
-                return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile,
-                                      f"stopped by the operator after {len(series)} "
-                                      "band loads", tuple(sides))
+                return run(f"stopped by the operator after {len(series)} band loads")
             series.append(load)
             holds.append(await hold(len(series), tuple(series)))
             exp = calibration_experiment(holds[-2], holds[-1], profile, load, on or None)
@@ -88,16 +91,14 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
             outcomes.append(outcome)
             sides.append(upward)
             if not outcome.accepted:     # the next load would be aimed from a wrong one
-                return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile,
-                                      "the band series stopped at the experiment that "
-                                      "disagreed: check that what is hung is what trimd "
-                                      "asked for, then calibrate again", tuple(sides))
+                return run("the band series stopped at the experiment that disagreed: "
+                           "check that what is hung is what trimd asked for, then "
+                           "calibrate again")
             on = load
             missed = _missed(holds[-1], profile, upward)
             if not missed:
                 break
-    return CalibrationRun(tuple(experiments), tuple(outcomes), post, profile, "",
-                          tuple(sides))
+    return run()
 
 
 def _missed(held: HoldSamples, profile: Profile, upward: bool) -> tuple[int, ...]:
