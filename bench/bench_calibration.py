@@ -284,7 +284,7 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
     hold of the vehicle as trimmed to one of it ballasted), then also the float reference
     of the ballasted vehicle (that hold and a float:
     :func:`tests.helpers.sim_float_reference`), then also the band calibration of the
-    ballasted vehicle (:func:`banded`): its first experiment, the upper edges', then both;
+    ballasted vehicle (:func:`banded`): its upper edges' experiments, then all;
     the dives ``seed + (first + k)·NOISE`` of the same vehicle, never the trim's own;
     what became of each."""
     vehicle = f"truth_seed={seed},{options}"
@@ -303,8 +303,9 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
         told.append(f"{what} {_verdict(outcome.accepted)}")
         learnt.append(calibrated_profile(db, "bench", profile))
     before = len(_experiments(db))
-    told.append(f"band {banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)}")
-    upper = recalibrate(_experiments(db)[:before + 1], profile).posterior
+    text, ups = banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)
+    told.append(f"band {text}")
+    upper = recalibrate(_experiments(db)[:before + ups], profile).posterior
     return (learnt[0], learnt[1], replace(profile, thrust_map=upper),
             calibrated_profile(db, "bench", profile)), ", ".join(told)
 
@@ -317,11 +318,14 @@ def _experiments(db: Path) -> list[Experiment | FloatReference]:
 
 
 def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str, db: Path
-           ) -> str:
+           ) -> tuple[str, int]:
     """The band calibration (``trimd calibrate --band``) of the simulated vehicle of
     ``seed`` with ``ballasted`` aboard and ``profile`` (the vehicle's calibration in the
     history ``db``), its holds the dives ``seed + (first + k)·NOISE``, its experiments
-    (the upper edges', then the lower edges') stored in ``db``: what became of each."""
+    (the upper edges', then the lower edges', each side's load aimed again while a hold
+    misses an edge) stored in ``db``: what became of each, its side and how many of the
+    lifting thrusters' edges on that side its second hold showed; and how many were the
+    upper edges'."""
     loads: list[Load] = []
 
     def opener() -> Awaitable[Link]:
@@ -340,11 +344,11 @@ def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
                                                   vehicle="bench", wall_clock=False,
                                                   band_pct=1.0))
     except (EstimationError, LinkError, UsageError) as exc:
-        return f"failed: {exc}"
+        return f"failed: {exc}", 0
     return " + ".join(f"{_verdict(o.accepted)} ({'up' if up else 'down'}, "
                       f"{_edges_shown(exp, profile, up)})"
                       for o, exp, up in zip(done.outcomes, done.experiments, done.sides,
-                                            strict=True))
+                                            strict=True)), sum(done.sides)
 
 
 def _edges_shown(exp: Experiment, profile: Profile, upward: bool) -> str:
