@@ -185,6 +185,7 @@ def test_the_band_holds_show_the_edges_of_the_trimmed_vehicles_vertical_thruster
     # seed 1: the upper side took three holds, the lower two (docs/method.md §7)
     assert sides == [True] * 3 + [False] * 2 and len(loads) == len(sides), asked
     assert "upper band edge " in asked[0] and "take " not in asked[0], asked
+    assert "W − B -1.36 ± 0.47 N" in asked[0], asked
     lower = sides.index(False)
     assert "lower band edge " in asked[lower] and "take " in asked[lower], asked
     # seed 1: the first upper load missed two thrusters' edges, the second one

@@ -33,7 +33,7 @@ from trimd.ballast.band import band_load, unhunted
 from trimd.core.calibration import Experiment, Outcome, ThrustMapPosterior, ballast_change
 from trimd.core.errors import UsageError
 from trimd.core.estimate import HoldSamples
-from trimd.core.hunting import hunting_spikes
+from trimd.core.output_hist import spikes_seen
 from trimd.core.profile import Profile
 from trimd.core.segment import estimate_segment
 from trimd.core.types import FloatArray
@@ -95,19 +95,12 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
                            "check that what is hung is what trimd asked for, then "
                            "calibrate again")
             on = load
-            missed = _missed(holds[-1], profile, upward)
+            after = exp.after.outputs      # the hold's outputs, as the calibration reads them
+            missed = () if after is None else unhunted(profile, spikes_seen(after, profile),
+                                                       upward)
             if not missed:
                 break
     return run()
-
-
-def _missed(held: HoldSamples, profile: Profile, upward: bool) -> tuple[int, ...]:
-    """The lifting thrusters whose edge on the band side ``held`` did not show."""
-    if held.outputs is None:
-        return ()
-    out = held.outputs
-    return unhunted(profile, hunting_spikes(out.pwm_us, float(np.mean(out.voltage_V)),
-                                            profile), upward)
 
 
 def _hunted_text(profile: Profile, missed: tuple[int, ...], upward: bool) -> str:
