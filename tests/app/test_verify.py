@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from tests.helpers import SimTrim, carried, equilibrium_holds, sim_trim, sim_verify
+from trimd.app.report import undecided_advice
 from trimd.ballast.check import SlotLoad
 from trimd.ballast.propose import Proposal, proposal_to_dict
 from trimd.ballast.verify import Verification
@@ -24,6 +25,7 @@ from trimd.cli.main import main
 from trimd.core.estimate import estimate_static
 from trimd.core.estimate_json import estimate_to_dict
 from trimd.core.events import Phase
+from trimd.core.floating import Z95 as FLOAT_Z95
 from trimd.core.profile import Profile
 from trimd.core.profile_yaml import load_profile
 from trimd.drivers.sim.payload import mass_properties
@@ -89,6 +91,14 @@ def test_verify_hold_tells_a_wrongly_installed_ballast(sabertooth: Profile) -> N
     wrong = verify_on_sim(trim, payload, seed, "", proposal.slots, on_vehicle=mirrored)
     assert not wrong.as_predicted and not wrong.level, wrong.message
     assert "NOT as predicted" in wrong.message and "W·y_g − B·y_b off by" in wrong.message
+    # level but undecided (its 95 % wider than the tolerance): the operator is told what to
+    # do; decided, or not level (a correction follows), nothing more
+    assert right.undecided == (Z95 * max(right.roll_std_deg, right.pitch_std_deg) > 0.25)
+    advice = undecided_advice(right)
+    assert (advice is not None) == right.undecided
+    assert undecided_advice(replace(right, roll_std_deg=0.1, pitch_std_deg=0.1)) is None
+    narrow = replace(wrong, roll_std_deg=0.1, pitch_std_deg=0.1)
+    assert undecided_advice(wrong) is None and not narrow.undecided
 
 
 def test_run_verify_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str],
@@ -131,9 +141,17 @@ def test_run_verify_from_the_history(tmp_path: Path, capsys: pytest.CaptureFixtu
                   for s in result["proposal"]["slots"])
     link = f"sim:payload=10@AftSB+{carried(slots, sabertooth.gravity_m_s2)}"
     assert main(["run", "--link", link, "--verify", *common]) == 0
-    *_, v, correction = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    out, err = capsys.readouterr()
+    *_, v, correction = [json.loads(x) for x in out.splitlines()]
     assert v["type"] == "verification" and v["as_predicted"], v
     assert correction["type"] == "correction" and correction["needed"] is (not v["level"])
+    # level, but its 95 % interval wider than the tolerance: what to do is said (stderr,
+    # beside the JSON); this hold's is (± 0.8° in pitch against 0.25°)
+    known = FLOAT_Z95 * max(v["trim_std_deg"])
+    assert v["level"] and known > sabertooth.level_tol_deg, v
+    assert (f"level, but undecided: the passive roll and pitch are known to ±{known:.2f}° "
+            "at 95 %, wider than the level tolerance ±0.25°") in err, err
+    assert "trimd float --correct" in err and "trimd calibrate --band" in err
     assert main(["history", "--db", db, "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)
     vehicle = listed["vehicles"][0]

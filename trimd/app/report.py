@@ -25,7 +25,7 @@ _Z95 = 1.959964
 
 __all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
            "format_correction", "format_estimate", "format_float", "format_proposal",
-           "format_result", "format_verification"]
+           "format_result", "format_verification", "undecided_advice"]
 
 
 def format_estimate(est: StaticEstimate) -> str:
@@ -145,6 +145,18 @@ def format_float(r: FloatResult) -> str:
             f"error in both; settled after {r.settle_s:.1f} s; depth changed "
             f"{r.depth_change_m:+.2f} m ({r.depth_rate_m_s:+.3f} m/s while collecting, "
             "positive down)")
+
+
+def undecided_advice(v: Verification) -> str | None:
+    """What the operator can do when a verify hold found the vehicle level but cannot tell
+    (:attr:`Verification.undecided`); None when it can."""
+    if not v.undecided:
+        return None
+    known = _Z95 * max(v.roll_std_deg, v.pitch_std_deg)
+    return (f"level, but undecided: the passive roll and pitch are known to ±{known:.2f}° at "
+            f"95 %, wider than the level tolerance ±{v.level_tol_deg:g}°: float (trimd float "
+            "--correct) measures it without the thrust map; trimd calibrate --band teaches "
+            "trimd this vehicle's dead-band edges and narrows later holds")
 
 
 def format_correction(c: Correction | None, source: str = "the verify hold") -> str:

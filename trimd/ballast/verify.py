@@ -29,6 +29,7 @@ from scipy.special import ndtri  # scipy.stats' norm.ppf, without its 1 s import
 
 from trimd.ballast.check import MIN_GM_M, SlotLoad, Trim, check_trim, equilibrium_attitude
 from trimd.core.estimate import HoldSamples, StaticEstimate, spikes_of, with_observed_bands
+from trimd.core.floating import Z95
 from trimd.core.jsonsafe import json_number
 from trimd.core.profile import Profile
 from trimd.core.segment import SegmentEstimate, estimate_segment
@@ -83,6 +84,14 @@ class Verification:
     def level(self) -> bool:
         """The measured passive trim is within the level tolerance on both axes."""
         return max(abs(self.roll_deg), abs(self.pitch_deg)) <= self.level_tol_deg
+
+    @property
+    def undecided(self) -> bool:
+        """Level, but the 95 % interval of the passive trim on an axis reaches beyond the
+        level tolerance: the hold cannot tell level from not (on a trimmed vehicle mostly the
+        thrust map at the dead bands, which a calibration narrows: docs/method.md §7)."""
+        widest = Z95 * max(self.roll_std_deg, self.pitch_std_deg)
+        return self.level and bool(np.isfinite(widest)) and widest > self.level_tol_deg
 
     @property
     def message(self) -> str:

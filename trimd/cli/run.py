@@ -24,7 +24,7 @@ from trimd.app.headless import HeadlessPresenter, StdinConfirm, stop_on_signals
 from trimd.app.history.calibration import calibrated_profile
 from trimd.app.history.installed import current_installed
 from trimd.app.jsonlines import print_result
-from trimd.app.report import format_correction, format_result
+from trimd.app.report import format_correction, format_result, undecided_advice
 from trimd.app.results import AnyPresenter, AnyResult
 from trimd.app.session import Session
 from trimd.app.trim import TrimRequest, trim_session
@@ -213,9 +213,13 @@ def _start(args: argparse.Namespace, *, truth: bool) -> int:
 def _correction(args: argparse.Namespace, after: AfterTrim, result: AnyResult
                 ) -> Correction | None:
     """After a verify hold: its correction (:meth:`AfterTrim.correct`) printed, or that
-    none is needed; None for a trim, or (with a warning) when it cannot be proposed."""
+    none is needed; None for a trim, or (with a warning) when it cannot be proposed. A
+    hold that found the vehicle level but cannot tell gets a note of what to do."""
     if not isinstance(result.verification, Verification) or args.target is None:
         return None
+    advice = undecided_advice(result.verification)
+    if advice:
+        print(f"trimd: note: {advice}", file=sys.stderr)
     try:
         correction = after.correct(result.verification, args.target)
     except TrimdError as exc:

@@ -11,6 +11,7 @@ from rich.text import Text
 from textual.widgets import Static
 
 from trimd.app.apply import Applied
+from trimd.app.report import undecided_advice
 from trimd.ballast.correct import Correction
 from trimd.ballast.verify import Verification
 from trimd.core.floating import FloatResult, Verdict
@@ -74,8 +75,10 @@ class NextSteps(Static):
         else:
             first = Text("verified: NOT as predicted", style="bold red")
         if correction is None:
+            advice = undecided_advice(v) if isinstance(v, Verification) else None
             self._say(first, Text.assemble(("y", "bold reverse"), " verify again · ",
-                                           ("f", "bold reverse"), " float again"))
+                                           ("f", "bold reverse"), " float again"),
+                      *([Text(advice, style="yellow")] if advice else []))
             return
         p = correction.proposal
         self._say(first, Text("correction: " + ("; ".join(c.text for c in p.changes)
