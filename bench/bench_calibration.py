@@ -122,6 +122,8 @@ FLOAT_PCT = 5.0
 #: (None: none stated) and each net moment [mm-equivalent].
 TARGETS: dict[str, tuple[float | None, float]] = {"bluerov2-heavy": (0.1, 0.3),
                                                   "sabertooth-dh2": (None, 0.1)}
+#: The rows of the calibrated trims after the loop's experiments (:func:`referenced`).
+LOOP = ("+ apply", "+ apply + float", "+ apply + float + band up", "+ apply + float + band")
 #: The wrong-weight calibration's true weight / declared weight.
 HEAVIER = 1.1
 #: The noise seed of a calibration's k-th hold: seed + k·NOISE (another dive).
@@ -212,6 +214,7 @@ class Seed:
     standardised: tuple[float, ...] = ()
     looped: tuple[Run, ...] = ()
     reference: str = ""
+    unshown: tuple[str, ...] = ()
 
 
 def known_weight(profile: Profile) -> KnownWeight:
@@ -275,7 +278,7 @@ def judged_trim(profile: Profile, payload: str, seed: int, options: str,
 
 
 def referenced(profile: Profile, payload: str, seed: int, options: str, trial: SimTrim,
-               db: Path, first: int) -> tuple[tuple[Profile, ...], str]:
+               db: Path, first: int) -> tuple[tuple[Profile, ...], str, tuple[str, ...]]:
     """The calibrated profile after what the loop after ``trial`` teaches, each stored in
     the history ``db`` beside the calibration there and the calibration recomputed from
     them all, as every later trim of the vehicle gets it
@@ -286,13 +289,13 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
     :func:`tests.helpers.sim_float_reference`), then also the band calibration of the
     ballasted vehicle (:func:`banded`): its upper edges' experiments, then all;
     the dives ``seed + (first + k)·NOISE`` of the same vehicle, never the trim's own;
-    what became of each."""
+    what became of each; the band calibration's sides that ended with an edge unshown."""
     vehicle = f"truth_seed={seed},{options}"
     made = sim_float_reference(trial, payload, seed + first * NOISE,
                                seed + (first + 1) * NOISE, vehicle, FLOAT_EXCURSION_M)
     if made.reference is None:
         same = calibrated_profile(db, "bench", profile)
-        return (same,) * 4, made.reason
+        return (same,) * 4, made.reason, ()
     exp = sim_apply_experiment(trial, payload, made.reference.hold,
                                seed + (first + 2) * NOISE, vehicle)
     learnt: list[Profile] = []
@@ -303,11 +306,11 @@ def referenced(profile: Profile, payload: str, seed: int, options: str, trial: S
         told.append(f"{what} {_verdict(outcome.accepted)}")
         learnt.append(calibrated_profile(db, "bench", profile))
     before = len(_experiments(db))
-    text, ups = banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)
+    text, ups, unshown = banded(learnt[-1], made.payload, seed, first + 3, vehicle, db)
     told.append(f"band {text}")
     upper = recalibrate(_experiments(db)[:before + ups], profile).posterior
     return (learnt[0], learnt[1], replace(profile, thrust_map=upper),
-            calibrated_profile(db, "bench", profile)), ", ".join(told)
+            calibrated_profile(db, "bench", profile)), ", ".join(told), unshown
 
 
 def _experiments(db: Path) -> list[Experiment | FloatReference]:
@@ -318,14 +321,14 @@ def _experiments(db: Path) -> list[Experiment | FloatReference]:
 
 
 def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str, db: Path
-           ) -> tuple[str, int]:
+           ) -> tuple[str, int, tuple[str, ...]]:
     """The band calibration (``trimd calibrate --band``) of the simulated vehicle of
     ``seed`` with ``ballasted`` aboard and ``profile`` (the vehicle's calibration in the
     history ``db``), its holds the dives ``seed + (first + k)·NOISE``, its experiments
     (the upper edges', then the lower edges', each side's load aimed again while a hold
     misses an edge) stored in ``db``: what became of each, its side and how many of the
-    lifting thrusters' edges on that side its second hold showed; and how many were the
-    upper edges'."""
+    lifting thrusters' edges on that side its second hold showed; how many were the upper
+    edges'; and the sides ("upper", "lower") whose last hold still missed an edge."""
     loads: list[Load] = []
 
     def opener() -> Awaitable[Link]:
@@ -344,21 +347,26 @@ def banded(profile: Profile, ballasted: str, seed: int, first: int, vehicle: str
                                                   vehicle="bench", wall_clock=False,
                                                   band_pct=1.0))
     except (EstimationError, LinkError, UsageError) as exc:
-        return f"failed: {exc}", 0
-    return " + ".join(f"{_verdict(o.accepted)} ({'up' if up else 'down'}, "
-                      f"{_edges_shown(exp, profile, up)})"
-                      for o, exp, up in zip(done.outcomes, done.experiments, done.sides,
-                                            strict=True)), sum(done.sides)
+        return f"failed: {exc}", 0, ()
+    edges = [_edges_shown(exp, profile, up) for exp, up in zip(done.experiments, done.sides,
+                                                                strict=True)]
+    text = " + ".join(f"{_verdict(o.accepted)} ({'up' if up else 'down'}, {shown}/{of} edges)"
+                      for o, up, (shown, of) in zip(done.outcomes, done.sides, edges,
+                                                    strict=True))
+    last_missed = {up: shown < of for up, (shown, of) in zip(done.sides, edges, strict=True)}
+    unshown = tuple(side for up, side in ((True, "upper"), (False, "lower"))
+                    if last_missed.get(up, False))
+    return text, sum(done.sides), unshown
 
 
-def _edges_shown(exp: Experiment, profile: Profile, upward: bool) -> str:
+def _edges_shown(exp: Experiment, profile: Profile, upward: bool) -> tuple[int, int]:
     """How many of the lifting thrusters' edges on its side the band experiment's second
-    hold showed, of how many."""
+    hold showed, and how many lifting thrusters there are."""
     lifting = len(unhunted(profile, [], upward))
     after = exp.after.outputs
     missed = lifting if after is None else len(unhunted(profile, spikes_seen(after, profile),
                                                         upward))
-    return f"{lifting - missed}/{lifting} edges"
+    return lifting - missed, lifting
 
 
 def _verdict(accepted: bool) -> str:
@@ -390,11 +398,12 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         after, after_share, _ = judged_trim(calibrated, payload, seed, options)
         looped: tuple[Run, ...] = ()
         reference = ""
+        unshown: tuple[str, ...] = ()
         if with_float():
             loop_db = Path(tmp) / "loop.db"     # the wrong weight's check: as before
             shutil.copyfile(db, loop_db)
-            profiles, reference = referenced(profile, payload, seed, options, trial, loop_db,
-                                             len(weights) + 4)
+            profiles, reference, unshown = referenced(profile, payload, seed, options, trial,
+                                                      loop_db, len(weights) + 4)
             looped = tuple(judged_trim(p, payload, seed, options)[0] for p in profiles)
             last = profiles[-1]
             looped += tuple(judged_trim(last, payload, seed, options, lambda _v, g=g: replace(
@@ -404,7 +413,7 @@ def run(name: str, payload: str, seed: int, options: str, hold_s: float | None =
         out = Seed(seed, before, after, "learnt" if learnt == len(weights) else
                    f"{learnt} of {len(weights)} learnt", min(o.sigma for o in good.outcomes),
                    narrowed, shares=(before_share, after_share),
-                   looped=looped, reference=reference,
+                   looped=looped, reference=reference, unshown=unshown,
                    known=tuple(judged_trim(calibrated, payload, seed, options, lambda _v, g=g:
                                            replace(calibrated, thrust_map=pinned(
                                                post, truth, GROUPS[g][1](profile))))[0]
@@ -481,15 +490,18 @@ def report(seeds: list[Seed], profile: Profile) -> list[str]:
         lines += _figures(f"calibrated, {GROUPS[g][0]} true", [s.known[k] for s in pairs],
                           profile)
     if with_float():
-        for k, label in enumerate(("+ apply", "+ apply + float", "+ apply + float + band up",
-                                   "+ apply + float + band", *(
-                                       f"+ the loop, {GROUPS[g][0]} true"
-                                       for g in known_groups()))):
+        for k, label in enumerate((*LOOP, *(f"+ the loop, {GROUPS[g][0]} true"
+                                            for g in known_groups()))):
             lines += _figures(f"calibrated {label}", [s.looped[k] for s in pairs
                                                       if s.looped], profile)
         lines.append("  the loop's experiments: " + ", ".join(
             f"{n} {v}" for v, n in Counter(s.reference for s in pairs).most_common()))
-        lines.append("  " + _worst([(s.seed, s.looped[3]) for s in pairs if s.looped]))
+        whole = LOOP.index("+ apply + float + band")
+        lines.append("  " + _worst([(s.seed, s.looped[whole]) for s in pairs if s.looped]))
+        lines.append("  band series ending with an edge unshown: " + "; ".join(
+            f"{side} side, seeds " + (", ".join(str(s.seed) for s in pairs
+                                                if side in s.unshown) or "none")
+            for side in ("upper", "lower")))
     wb = "—" if target_wb is None else f"{target_wb:.3g} N"
     lines.append(f"  issue 24's targets (rms, calibrated): W − B {wb}, each net moment "
                  f"{target_m:.3g} mm-equivalent; coverage 90–99 %")
