@@ -213,6 +213,7 @@ def test_the_band_holds_show_the_edges_of_the_trimmed_vehicles_vertical_thruster
     again = asyncio.run(replay_calibration([str(tmp_path / f"hold{k}.tlog")
                                             for k in range(len(loads) + 1)], None))
     assert [o.message for o in again.outcomes] == [o.message for o in done.outcomes]
+    assert again.sides == done.sides
 
 
 def test_trimd_calibrate_band_says_what_to_hang_and_checks_it(
@@ -238,6 +239,7 @@ def test_trimd_calibrate_band_says_what_to_hang_and_checks_it(
     assert "band edge" not in err.split("clear of the thrusters")[1], err   # one load only
     first, = done["experiments_run"]
     assert not first["accepted"] and "W-front-ctr" in first["label"], first
+    assert first["band_edges_side"] == "upper", first
     assert "the known weight" in first["message"], first["message"]
     assert "check that what is hung is what trimd asked for" in done["stopped"], done
     with History(tmp_path / "trimd.db") as h:

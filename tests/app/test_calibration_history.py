@@ -26,6 +26,7 @@ from trimd.app.calibrate import (
     hold_from_record,
     hold_record,
     recorded_hold_s,
+    recorded_sides,
 )
 from trimd.app.calibration_loads import KnownWeight
 from trimd.app.connect import open_link
@@ -278,3 +279,11 @@ def test_a_malformed_calibration_hold_record_is_named_not_a_traceback() -> None:
     for length in ("long", True, -60.0, 5.0, float("inf")):
         with pytest.raises(DataError, match="x: "):
             recorded_hold_s({**hold_record(0, series), "hold_s": length}, "x")
+    # a band series' sides (True: the upper edges'), the first hold's experiments' few
+    banded = hold_record(2, series, band=True, sides=(True, False))
+    assert recorded_sides(banded, 2, "x") == (True, False)
+    assert recorded_sides(banded, 1, "x") == (True,)
+    assert recorded_sides(hold_record(2, series), 2, "x") == ()  # not said: recorded before
+    for sides in ([True], ["up", False], "up", [1, 0]):
+        with pytest.raises(DataError, match="x: the recorded band loads' sides are malformed"):
+            recorded_sides({**banded, "sides": sides}, 2, "x")

@@ -56,7 +56,7 @@ from trimd.core.profile import Profile
 
 __all__ = ["LIGHT_SHARE", "MIN_HOLD_S", "calibrate_with_weights", "checked_hold_s",
            "hold_from_record", "hold_record", "level_hold_procedure", "light_weight_advice",
-           "recorded_hold_s"]
+           "recorded_hold_s", "recorded_sides"]
 
 #: The two holds of a one-weight calibration as recordings before the series named them.
 _OLD_HOLDS = ("before", "after")
@@ -89,15 +89,16 @@ def _weight_dict(w: KnownWeight) -> dict[str, object]:
 
 
 def hold_record(index: int, series: Sequence[Load], hold_s: float | None = None,
-                band: bool = False) -> dict[str, object]:
+                band: bool = False, sides: Sequence[bool] = ()) -> dict[str, object]:
     """What a calibration hold's recording says of itself: which hold of the series it is
     (0: before any weight), the series' loads in order (one weight as its dict, several
     as a list of them; a band calibration's first hold, made before its load is chosen:
-    none), whether it is a band calibration and, when the operator chose it, how long
-    each hold collects [s]."""
+    none), whether it is a band calibration, the side of each band load so far (True: the
+    upper edges') and, when the operator chose it, how long each hold collects [s]."""
     return {"hold": index, "weights": [_weight_dict(load[0]) if len(load) == 1 else
                                        [_weight_dict(w) for w in load] for load in series],
             **({"band": True} if band else {}),
+            **({"sides": list(sides)} if sides else {}),
             **({"hold_s": hold_s} if hold_s is not None else {})}
 
 
@@ -141,6 +142,20 @@ def recorded_hold_s(d: dict[str, object], source: str) -> float | None:
         raise DataError(f"{source}: the recorded calibration hold's length is malformed "
                         f"({value!r}; a level hold collects for at least {MIN_HOLD_S:g} s)")
     return float(value)
+
+
+def recorded_sides(d: dict[str, object], loads: int, source: str) -> tuple[bool, ...]:
+    """The side of each of the first ``loads`` band loads from :func:`hold_record`'s dict
+    (True: the upper edges'); () when it does not say (not a band calibration, or recorded
+    before 2026-11-30). DataError naming ``source`` when it says something else."""
+    value = d.get("sides")
+    if value is None:
+        return ()
+    if not (isinstance(value, list) and len(value) >= loads
+            and all(isinstance(v, bool) for v in value)):
+        raise DataError(f"{source}: the recorded band loads' sides are malformed ({value!r}; "
+                        f"one true or false per load, {loads} loads)")
+    return tuple(value[:loads])
 
 
 def _load_of(d: object) -> Load | None:
@@ -237,10 +252,11 @@ async def calibrate_with_weights(open_link: Callable[[], Awaitable[Link]], profi
     shown = list(presenters or [])
     band = band_pct is not None
 
-    def level_hold(k: int, series: tuple[Load, ...]) -> Awaitable[HoldSamples]:
+    def level_hold(k: int, series: tuple[Load, ...], sides: tuple[bool, ...] = ()
+                   ) -> Awaitable[HoldSamples]:
         return _level_hold(open_link, profile, shown, wall_clock, f"level hold {k + 1}",
-                           record(hold_record(k, series, hold_s, band)) if record else None,
-                           hold_s)
+                           record(hold_record(k, series, hold_s, band, sides)) if record
+                           else None, hold_s)
 
     def learn(exp: Experiment, post: ThrustMapPosterior
               ) -> tuple[ThrustMapPosterior, Outcome]:

@@ -44,8 +44,9 @@ __all__ = ["BAND_TRIES", "band_series"]
 #: hold that did not show every lifting thruster's edge.
 BAND_TRIES = 3
 
-#: One hold of the series: its index (0: the first, before any load) and the loads so far.
-Hold = Callable[[int, tuple[Load, ...]], Awaitable[HoldSamples]]
+#: One hold of the series: its index (0: the first, before any load), the loads so far and
+#: their sides (True: the upper edges').
+Hold = Callable[[int, tuple[Load, ...], tuple[bool, ...]], Awaitable[HoldSamples]]
 #: An experiment checked against, and added to, the calibration so far.
 Learn = Callable[[Experiment, ThrustMapPosterior], tuple[ThrustMapPosterior, Outcome]]
 
@@ -60,7 +61,7 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
     load's weights known to ``uncertainty_pct`` [%, 1σ]; at most ``tries`` holds per
     side. An experiment that disagrees with the calibration stops the series: the loads
     after it would be aimed from a vehicle that is not what the hold read."""
-    holds = [await hold(0, ())]
+    holds = [await hold(0, (), ())]
     series: list[Load] = []
     experiments: list[Experiment] = []
     outcomes: list[Outcome] = []
@@ -84,7 +85,7 @@ async def band_series(hold: Hold, learn: Learn, hung: Callable[[str, Load], bool
                                      "trimd calibrate")
                 return run(f"stopped by the operator after {len(series)} band loads")
             series.append(load)
-            holds.append(await hold(len(series), tuple(series)))
+            holds.append(await hold(len(series), tuple(series), (*sides, upward)))
             exp = calibration_experiment(holds[-2], holds[-1], profile, load, on or None)
             post, outcome = learn(exp, post)
             experiments.append(exp)

@@ -9,10 +9,16 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 
 import yaml
 
-from trimd.app.calibrate import hold_from_record, level_hold_procedure, recorded_hold_s
+from trimd.app.calibrate import (
+    hold_from_record,
+    level_hold_procedure,
+    recorded_hold_s,
+    recorded_sides,
+)
 from trimd.app.calibration_loads import (
     CalibrationRun,
     Load,
@@ -110,7 +116,8 @@ async def replay_calibration(paths: Sequence[str], name: str | None) -> Calibrat
     """A deliberate calibration reproduced from the recordings of its level holds, in
     order (:mod:`trimd.app.calibrate`): each hold replayed, the experiments of each two
     consecutive holds with the recorded weights, checked in order against the thrust map
-    the live session had (recorded with it), as the live ones were; stored nowhere.
+    the live session had (recorded with it), as the live ones were, each band load's side
+    as recorded; stored nowhere.
     DataError when the recordings are not the holds of one series in order (a series cut
     short replays as far as its recordings go); EstimationError when a hold does not
     replay to a steady one."""
@@ -133,7 +140,7 @@ async def replay_calibration(paths: Sequence[str], name: str | None) -> Calibrat
             raise DataError(f"{path}: hold {index + 1} of its calibration, given as hold "
                             f"{k + 1}: give the recordings in the order of their holds, the "
                             "one before any weight first")
-        series = weights
+        series, last = weights, d
         profiles.append(replay_profile(path, name)[0])
         result, _ = await replay_session(path, profiles[-1], speed=None, presenters=[],
                                          method="milp")
@@ -146,4 +153,5 @@ async def replay_calibration(paths: Sequence[str], name: str | None) -> Calibrat
                    for k in range(len(holds) - 1)]
     stopped = ("" if len(holds) == len(series) + 1 else
                f"replayed {len(holds) - 1} of the series' {len(series)} weights")
-    return check_against_profile(experiments, profiles[0], stopped)
+    sides = recorded_sides(last, len(experiments), paths[-1])
+    return replace(check_against_profile(experiments, profiles[0], stopped), sides=sides)

@@ -92,6 +92,13 @@ def register(sub: Subcommands) -> None:
     p.set_defaults(func=run)
 
 
+def _sides(done: CalibrationRun) -> tuple[bool | None, ...]:
+    """Each experiment's band side (True: the upper edges'); None throughout where the
+    calibration does not say (a calibration with weights, a replay of older recordings)."""
+    return done.sides if len(done.sides) == len(done.outcomes) else (None,) * len(
+        done.outcomes)
+
+
 def _load(text: str, uncertainty_pct: float) -> Load:
     """``--mass KG@SLOT[+KG@SLOT…]``: the weights hung together for one hold."""
     found = [_MASS.match(item.strip()) for item in text.split("+")]
@@ -187,7 +194,10 @@ def run(args: argparse.Namespace) -> int:
     print_result(args.json, {
         "type": "calibration", "vehicle": vehicle, "accepted": accepted,
         "experiments_run": [{"label": o.label, "accepted": o.accepted, "message": o.message,
-                             "chi2": o.chi2, "sigma": o.sigma} for o in done.outcomes],
+                             "chi2": o.chi2, "sigma": o.sigma,
+                             **({"band_edges_side": "upper" if up else "lower"}
+                                if up is not None else {})}
+                            for o, up in zip(done.outcomes, _sides(done), strict=True)],
         "stopped": done.stopped, "experiments": done.posterior.experiments,
         "gains": [gain_to_dict(g) for g in determined],
         "band_edges": [band_edge_to_dict(b) for b in edges]}, "\n".join(lines))
