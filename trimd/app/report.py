@@ -21,8 +21,6 @@ from trimd.core.floating import Z95, FloatResult
 from trimd.core.profile import InstalledPiece
 from trimd.core.samples import Command, Health, HoldAttitude, Release
 
-_Z95 = 1.959964
-
 __all__ = ["NewCommands", "NewWarnings", "describe_command", "format_applied",
            "format_correction", "format_estimate", "format_float", "format_proposal",
            "format_result", "format_verification", "undecided_advice"]
@@ -82,7 +80,7 @@ def format_proposal(p: Proposal) -> str:
         f"binding           {'; '.join(p.binding) or 'none'}",
         p.message,
     ]
-    known = _Z95 * max(t.roll_std_deg, t.pitch_std_deg)
+    known = Z95 * max(t.roll_std_deg, t.pitch_std_deg)
     if t.stable and p.level_tol_deg > 0 and known > p.level_tol_deg:
         lines.append(f"undecided: the passive roll and pitch are known to ±{known:.2f}° at 95 %,"
                      f" wider than the level tolerance ±{p.level_tol_deg:g}°: after "
@@ -152,7 +150,7 @@ def undecided_advice(v: Verification) -> str | None:
     (:attr:`Verification.undecided`); None when it can."""
     if not v.undecided:
         return None
-    known = _Z95 * max(v.roll_std_deg, v.pitch_std_deg)
+    known = Z95 * max(v.roll_std_deg, v.pitch_std_deg)
     return (f"level, but undecided: the passive roll and pitch are known to ±{known:.2f}° at "
             f"95 %, wider than the level tolerance ±{v.level_tol_deg:g}°: float (trimd float "
             "--correct) measures it without the thrust map; trimd calibrate --band teaches "
