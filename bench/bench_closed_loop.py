@@ -161,13 +161,16 @@ def _true_deg(t: Trial, loads: tuple[SlotLoad, ...]) -> tuple[float, float]:
 
 def verify_check(t: Trial, target: StaticEstimate, since: tuple[SlotLoad, ...],
                  fitted: tuple[SlotLoad, ...]) -> Checked:
-    """A verify hold of ``target`` with ``since`` installed, ``fitted`` on the vehicle; the
-    correction from it when :func:`~trimd.ballast.correct.needs_correction`."""
+    """A verify hold of ``target`` with ``since`` installed, ``fitted`` on the vehicle (its
+    verdict undecided when it finds the vehicle level but its 95 % interval reaches past
+    the tolerance: :attr:`~trimd.ballast.verify.Verification.undecided`); the correction
+    from it when :func:`~trimd.ballast.correct.needs_correction`."""
     hold = sim_verify(t.profile, t.payload, t.seed, t.options, target, since, fitted)
     v = hold.result.verification
     if hold.result.phase is not Phase.DONE or not isinstance(v, Verification):
         return Checked(None, hold.result.reason)
-    held = Hold(v.level, v.as_predicted, _true_deg(t, fitted), hold.t_s)
+    said = None if v.undecided else v.level       # as the operator is told it
+    held = Hold(said, v.as_predicted, _true_deg(t, fitted), hold.t_s)
     if not needs_correction(v):
         return Checked(held)
     return Checked(held, correct=lambda installed: propose_correction(
