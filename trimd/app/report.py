@@ -150,8 +150,8 @@ def undecided_advice(v: Verification) -> str | None:
     (:attr:`Verification.undecided`); None when it can."""
     if not v.undecided:
         return None
-    known = Z95 * max(v.roll_std_deg, v.pitch_std_deg)
-    return (f"level, but undecided: the passive roll and pitch are known to ±{known:.2f}° at "
+    return (f"level, but undecided: the passive roll and pitch are known to "
+            f"±{v.known_95_deg:.2f}° at "
             f"95 %, wider than the level tolerance ±{v.level_tol_deg:g}°: float (trimd float "
             "--correct) measures it without the thrust map; trimd calibrate --band teaches "
             "trimd this vehicle's dead-band edges and narrows later holds")

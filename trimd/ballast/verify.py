@@ -86,11 +86,16 @@ class Verification:
         return max(abs(self.roll_deg), abs(self.pitch_deg)) <= self.level_tol_deg
 
     @property
+    def known_95_deg(self) -> float:
+        """The half-width of the passive trim's 95 % interval on its wider axis [deg]."""
+        return Z95 * max(self.roll_std_deg, self.pitch_std_deg)
+
+    @property
     def undecided(self) -> bool:
         """Level, but the 95 % interval of the passive trim on an axis reaches beyond the
         level tolerance: the hold cannot tell level from not (on a trimmed vehicle mostly the
         thrust map at the dead bands, which a calibration narrows: docs/method.md §7)."""
-        widest = Z95 * max(self.roll_std_deg, self.pitch_std_deg)
+        widest = self.known_95_deg
         return self.level and bool(np.isfinite(widest)) and widest > self.level_tol_deg
 
     @property
